@@ -1,0 +1,224 @@
+//! Image formation: from calibrated radiometry `I0` to the 8-bit frame a camera delivers.
+//!
+//! For a frame taken with exposure `E`, gain `G` (linear) and pixel pitch `p`, each channel value
+//! is (paper Eq. 2, with the pixel-area factor of Sec. 4):
+//!
+//! ```text
+//! I  = I0 · (E/E0) · (G/G0) · (p/p0)²
+//! σ² = (G/G0)·σp²·I + (G/G0)²·σr²          (Eq. 3, affine noise of Foi et al.)
+//! out = round(clamp(I + σ·z, 0, 255)),  z ~ N(0, 1) independent per pixel and channel
+//! ```
+//!
+//! `E0, G0, p0` and the per-channel `σp², σr²` come from a [`Calibration`]. Noise is the Gaussian
+//! approximation of the Poisson–Gaussian model that Eq. 3 describes. The scenario "noise ×N"
+//! multiplies σp² and σr² by N ([`ImageFormation::with_noise_scale`]); DESIGN.md explains why the
+//! variances and not σ.
+//!
+//! The normal samples come from per-tile generators seeded from one draw of the caller's stream,
+//! so a frame is bit-identical whether it is formed on one thread or many, and
+//! [`ImageFormation::standard_normals`] reproduces the exact `z` field a frame used (the
+//! differentiable formation of `joca-nn` consumes it to mirror this one).
+
+mod kernels;
+
+use crate::CameraError;
+use crate::settings::DynamicSettings;
+use joca_core::units::linear_from_db;
+use joca_core::{HdrImage, Rgb8Image};
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+pub use kernels::TILE_ROWS;
+
+/// The physical camera that calibrated brightness and noise (DESIGN.md reference values).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Calibration {
+    /// Pixel pitch p0 of the calibration camera, micrometres.
+    pub pixel_pitch_um: f64,
+    /// Exposure E0 at which `I0` is expressed, seconds.
+    pub exposure_s: f64,
+    /// Gain G0 at which `I0` is expressed, dB.
+    pub gain_db: f64,
+    /// Photon (signal-dependent) noise parameter σp² per RGB channel, DN at gain G0.
+    pub sigma_p2: [f64; 3],
+    /// Read (signal-independent) noise variance σr² per RGB channel, DN² at gain G0.
+    pub sigma_r2: [f64; 3],
+}
+
+impl Calibration {
+    /// Basler Dart daA1280-54uc (AR0134, 3.75 µm) at 5 ms, 10 dB; noise parameters of a FLIR
+    /// IMX172 camera's published calibration (an assumption: the paper's own are unpublished).
+    pub const DEFAULT: Calibration = Calibration {
+        pixel_pitch_um: 3.75,
+        exposure_s: 5e-3,
+        gain_db: 10.0,
+        sigma_p2: [0.24, 0.12, 0.29],
+        sigma_r2: [1.82, 0.91, 3.2],
+    };
+
+    /// Checks that every parameter is physically meaningful.
+    pub fn validate(&self) -> Result<(), CameraError> {
+        let positive = |field: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(CameraError::OutOfRange {
+                    field: field.to_owned(),
+                    value: v,
+                    min: f64::MIN_POSITIVE,
+                    max: f64::INFINITY,
+                    unit: "",
+                })
+            }
+        };
+        positive("calibration.pixel_pitch_um", self.pixel_pitch_um)?;
+        positive("calibration.exposure_s", self.exposure_s)?;
+        if !self.gain_db.is_finite() {
+            return Err(CameraError::NotFinite {
+                field: "calibration.gain_db".into(),
+                value: self.gain_db,
+            });
+        }
+        for (name, values) in [("sigma_p2", self.sigma_p2), ("sigma_r2", self.sigma_r2)] {
+            for v in values {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(CameraError::OutOfRange {
+                        field: format!("calibration.{name}"),
+                        value: v,
+                        min: 0.0,
+                        max: f64::INFINITY,
+                        unit: "",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for Calibration {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The white level of 8-bit output, DN.
+pub const WHITE_LEVEL: f32 = 255.0;
+
+/// Per-frame constants of Eq. 2–3, resolved once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FormationParams {
+    /// `(E/E0)(G/G0)(p/p0)²`.
+    pub intensity_scale: f32,
+    /// Per channel `(G/G0)·σp²·N`: variance per DN of signal.
+    pub photon_var_per_dn: [f32; 3],
+    /// Per channel `(G/G0)²·σr²·N`: signal-independent variance.
+    pub read_var: [f32; 3],
+}
+
+/// Turns calibrated radiometry into camera frames.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImageFormation {
+    calibration: Calibration,
+    noise_scale: f64,
+}
+
+impl ImageFormation {
+    /// Formation with `calibration` and calibrated noise (×1).
+    pub fn new(calibration: Calibration) -> Result<Self, CameraError> {
+        calibration.validate()?;
+        Ok(Self { calibration, noise_scale: 1.0 })
+    }
+
+    /// The same formation with σp² and σr² multiplied by `noise_scale` (scenario "noise ×N").
+    pub fn with_noise_scale(self, noise_scale: f64) -> Result<Self, CameraError> {
+        if !(noise_scale.is_finite() && noise_scale >= 0.0) {
+            return Err(CameraError::OutOfRange {
+                field: "noise_scale".into(),
+                value: noise_scale,
+                min: 0.0,
+                max: f64::INFINITY,
+                unit: "",
+            });
+        }
+        Ok(Self { noise_scale, ..self })
+    }
+
+    /// The calibration.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calibration
+    }
+
+    /// The noise multiplier N.
+    pub fn noise_scale(&self) -> f64 {
+        self.noise_scale
+    }
+
+    /// Eq. 2–3 constants for a frame taken with `settings` by a sensor of pitch `pixel_pitch_um`.
+    pub fn params(&self, settings: DynamicSettings, pixel_pitch_um: f64) -> FormationParams {
+        let c = &self.calibration;
+        let gain_ratio = settings.gain_linear() / linear_from_db(c.gain_db);
+        let area_ratio = (pixel_pitch_um / c.pixel_pitch_um).powi(2);
+        let scale = settings.exposure_s / c.exposure_s * gain_ratio * area_ratio;
+        let n = self.noise_scale;
+        FormationParams {
+            intensity_scale: scale as f32,
+            photon_var_per_dn: c.sigma_p2.map(|v| (gain_ratio * v * n) as f32),
+            read_var: c.sigma_r2.map(|v| (gain_ratio * gain_ratio * v * n) as f32),
+        }
+    }
+
+    /// The 8-bit frame: scale, add noise, clip at 0 and 255, round to the nearest integer.
+    pub fn form(
+        &self,
+        i0: &HdrImage,
+        settings: DynamicSettings,
+        pixel_pitch_um: f64,
+        rng: &mut impl Rng,
+    ) -> Rgb8Image {
+        let params = self.params(settings, pixel_pitch_um);
+        let mut out = Rgb8Image::zeros(i0.width(), i0.height());
+        kernels::form_u8(i0, &params, rng.random(), out.data_mut(), false);
+        out
+    }
+
+    /// [`ImageFormation::form`] with image tiles spread over rayon's thread pool; the result is
+    /// bit-identical to the sequential one.
+    pub fn form_parallel(
+        &self,
+        i0: &HdrImage,
+        settings: DynamicSettings,
+        pixel_pitch_um: f64,
+        rng: &mut impl Rng,
+    ) -> Rgb8Image {
+        let params = self.params(settings, pixel_pitch_um);
+        let mut out = Rgb8Image::zeros(i0.width(), i0.height());
+        kernels::form_u8(i0, &params, rng.random(), out.data_mut(), true);
+        out
+    }
+
+    /// Scale and noise without clipping or quantisation (`I + σ·z`), drawing the same random
+    /// numbers as [`ImageFormation::form`] would from the same stream state.
+    pub fn form_linear(
+        &self,
+        i0: &HdrImage,
+        settings: DynamicSettings,
+        pixel_pitch_um: f64,
+        rng: &mut impl Rng,
+    ) -> HdrImage {
+        let params = self.params(settings, pixel_pitch_um);
+        let mut out = HdrImage::zeros(i0.width(), i0.height());
+        kernels::form_linear(i0, &params, rng.random(), out.data_mut());
+        out
+    }
+
+    /// The standard-normal field `z` (interleaved RGB, one value per pixel channel) that
+    /// [`ImageFormation::form`] uses when its stream yields `noise_seed` as its next `u64`.
+    pub fn standard_normals(width: usize, height: usize, noise_seed: u64) -> Vec<f32> {
+        kernels::standard_normals(width, height, noise_seed)
+    }
+}
+
+#[cfg(test)]
+mod tests;

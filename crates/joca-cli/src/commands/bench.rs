@@ -1,0 +1,91 @@
+//! `joca bench`: speed of joca's components, printed as a table.
+//!
+//! Machines here are noisy, so each figure comes with a ratio against a reference measured in the
+//! same run on the same input.
+
+use anyhow::Result;
+use clap::ValueEnum;
+use joca_camera::{Calibration, DynamicSettings, ImageFormation, WHITE_LEVEL};
+use joca_core::{HdrImage, SeedStreams};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// What to measure.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum Target {
+    /// Image formation (Eq. 2–3) on a 1280×960 RGB frame.
+    Formation,
+}
+
+/// Arguments of `joca bench`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Component to measure.
+    #[arg(value_enum)]
+    target: Target,
+    /// Timed repetitions per row (the best is reported).
+    #[arg(long, default_value_t = 20)]
+    repeats: usize,
+}
+
+/// Runs `joca bench`.
+pub fn run(args: &Args) -> Result<()> {
+    match args.target {
+        Target::Formation => bench_formation(args.repeats.max(1)),
+    }
+}
+
+/// Best wall time of `repeats` runs of `f`, seconds.
+fn best_of(repeats: usize, mut f: impl FnMut()) -> f64 {
+    f(); // warm caches and the allocator
+    (0..repeats)
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn bench_formation(repeats: usize) -> Result<()> {
+    let (w, h) = (1280, 960);
+    let mut i0 = HdrImage::zeros(w, h);
+    for (k, v) in i0.data_mut().iter_mut().enumerate() {
+        *v = ((k * 7919) % 240) as f32 + 0.5;
+    }
+    let formation = ImageFormation::new(Calibration::DEFAULT)?;
+    let settings = DynamicSettings::new(6e-3, 12.0);
+    let streams = SeedStreams::new(0);
+    let mpix = (w * h) as f64 / 1e6;
+
+    let full = best_of(repeats, || {
+        black_box(formation.form(&i0, settings, 2.4, &mut streams.stream("bench")));
+    });
+    let parallel = best_of(repeats, || {
+        black_box(formation.form_parallel(&i0, settings, 2.4, &mut streams.stream("bench")));
+    });
+    let normals = best_of(repeats, || {
+        black_box(ImageFormation::standard_normals(w, h, 42));
+    });
+    // The deterministic part alone: scale, clip, round (what formation costs without noise).
+    let params = formation.params(settings, 2.4);
+    let mut out = vec![0u8; w * h * 3];
+    let deterministic = best_of(repeats, || {
+        for (d, &s) in out.iter_mut().zip(i0.data()) {
+            *d = ((s * params.intensity_scale).clamp(0.0, WHITE_LEVEL) + 0.5) as u8;
+        }
+        black_box(&out);
+    });
+
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!("image formation, {w}x{h} RGB ({mpix:.2} Mpixel), best of {repeats}");
+    println!("{:<44} {:>9} {:>11} {:>9}", "variant", "ms", "Mpixel/s", "vs full");
+    let row = |name: &str, s: f64| {
+        println!("{:<44} {:>9.2} {:>11.1} {:>8.2}x", name, s * 1e3, mpix / s, full / s);
+    };
+    row("full formation, 1 thread", full);
+    row(&format!("full formation, rayon ({threads} threads)"), parallel);
+    row("normal samples only (3 per pixel), 1 thread", normals);
+    row("scale+clip+round only (no noise), 1 thread", deterministic);
+    Ok(())
+}

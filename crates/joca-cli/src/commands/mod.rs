@@ -1,0 +1,21 @@
+//! One module per subcommand: its arguments (`Args`) and its `run`.
+
+pub mod bench;
+pub mod calibrate;
+pub mod form;
+pub mod sensors;
+
+use anyhow::{Result, bail};
+
+/// Parses `WIDTHxHEIGHT` (e.g. `1920x1280`).
+pub fn parse_resolution(text: &str) -> Result<(usize, usize)> {
+    let parts: Vec<&str> = text.split(['x', 'X']).collect();
+    if let [w, h] = parts.as_slice()
+        && let (Ok(w), Ok(h)) = (w.trim().parse::<usize>(), h.trim().parse::<usize>())
+        && w > 0
+        && h > 0
+    {
+        return Ok((w, h));
+    }
+    bail!("expected WIDTHxHEIGHT in pixels, e.g. 1920x1280, got {text:?}")
+}

@@ -1,0 +1,84 @@
+//! Reading and writing images and small config files for the command line.
+
+use anyhow::{Context, Result, bail};
+use joca_camera::Calibration;
+use joca_core::{HdrImage, Rgb8Image};
+use std::path::{Path, PathBuf};
+
+/// Reads a PNG (or any format `image` decodes) as linear `I0` in DN: 8-bit values are taken as
+/// they are, 16-bit values are divided by 257 so that full scale is 255 DN with sub-DN precision.
+pub fn read_linear(path: &Path) -> Result<HdrImage> {
+    let img = image::open(path).with_context(|| format!("cannot read image {}", path.display()))?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let data: Vec<f32> = match img {
+        image::DynamicImage::ImageRgb16(_)
+        | image::DynamicImage::ImageRgba16(_)
+        | image::DynamicImage::ImageLuma16(_)
+        | image::DynamicImage::ImageLumaA16(_) => {
+            img.to_rgb16().into_raw().into_iter().map(|v| f32::from(v) / 257.0).collect()
+        }
+        _ => img.to_rgb8().into_raw().into_iter().map(f32::from).collect(),
+    };
+    Ok(HdrImage::from_vec(w, h, data)?)
+}
+
+/// Reads an 8-bit RGB frame.
+pub fn read_rgb8(path: &Path) -> Result<Rgb8Image> {
+    let img = image::open(path).with_context(|| format!("cannot read image {}", path.display()))?;
+    if !matches!(
+        img,
+        image::DynamicImage::ImageRgb8(_)
+            | image::DynamicImage::ImageRgba8(_)
+            | image::DynamicImage::ImageLuma8(_)
+            | image::DynamicImage::ImageLumaA8(_)
+    ) {
+        bail!(
+            "{} is not an 8-bit image: noise calibration needs the camera's raw 8-bit frames",
+            path.display()
+        );
+    }
+    let rgb = img.to_rgb8();
+    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+    Ok(Rgb8Image::from_vec(w, h, rgb.into_raw())?)
+}
+
+/// Writes an 8-bit RGB frame as PNG, creating the parent directory.
+pub fn write_png(path: &Path, frame: &Rgb8Image) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("cannot create directory {}", parent.display()))?;
+    }
+    let (w, h) = (u32::try_from(frame.width())?, u32::try_from(frame.height())?);
+    image::save_buffer(path, frame.data(), w, h, image::ExtendedColorType::Rgb8)
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The PNG files of a directory, sorted by name.
+pub fn png_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot list directory {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// The `[calibration]` table of a TOML file, as `joca calibrate-noise` prints it.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CalibrationFile {
+    calibration: Calibration,
+}
+
+/// Loads and validates a calibration TOML file; errors name the file and the field.
+pub fn read_calibration(path: &Path) -> Result<Calibration> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read calibration file {}", path.display()))?;
+    let file: CalibrationFile = toml::from_str(&text)
+        .with_context(|| format!("invalid calibration file {}", path.display()))?;
+    file.calibration
+        .validate()
+        .with_context(|| format!("invalid calibration file {}", path.display()))?;
+    Ok(file.calibration)
+}

@@ -1,0 +1,54 @@
+//! `joca` — task-driven joint design of camera hardware, auto-exposure and object detector.
+//!
+//! Each subcommand lives in its own module under `commands/`; this file only declares the
+//! command line and dispatches. Errors are reported with their whole cause chain.
+#![allow(clippy::print_stdout)]
+
+mod commands;
+mod io;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// joca answers "which sensor, lens and mount, with which auto-exposure policy, make my detector
+/// work best?" by jointly optimising camera hardware (genetic algorithm), a neural exposure/gain
+/// controller (DF-Grad) and an object detector through a physically grounded image formation
+/// model: exposure, gain, pixel size, shot and read noise, motion blur, clipping.
+#[derive(Debug, Parser)]
+#[command(name = "joca", version, about, max_term_width = 100)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// List the 43-sensor catalogue (pitch, grid, size; field of view for a focal length).
+    Sensors(commands::sensors::Args),
+    /// Apply image formation (exposure, gain, pixel size, noise, clipping) to a linear image.
+    Form(commands::form::Args),
+    /// Estimate the noise parameters σp², σr² from frames of a static scene (photon transfer).
+    CalibrateNoise(commands::calibrate::Args),
+    /// Measure the speed of joca's components and print a table.
+    Bench(commands::bench::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Sensors(args) => commands::sensors::run(&args),
+        Command::Form(args) => commands::form::run(&args),
+        Command::CalibrateNoise(args) => commands::calibrate::run(&args),
+        Command::Bench(args) => commands::bench::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err}");
+            for cause in err.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,242 @@
+//! The `joca` binary as a user runs it: outputs, and the messages bad input gets.
+#![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
+
+use joca_camera::{Calibration, DynamicSettings, ImageFormation};
+use joca_core::{HdrImage, SeedStreams};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn joca(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_joca")).args(args).output().expect("joca runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn sensors_lists_the_catalogue_and_restricts_it() {
+    let all = joca(&["sensors", "--format", "json"]);
+    assert!(all.status.success(), "{}", stderr(&all));
+    let rows: serde_json::Value = serde_json::from_str(&stdout(&all)).unwrap();
+    assert_eq!(rows.as_array().unwrap().len(), 43);
+
+    let csv = joca(&["sensors", "--format", "csv", "--fits", "1920x1280", "--focal-mm", "2.4"]);
+    let text = stdout(&csv);
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].ends_with("hfov_deg,vfov_deg"));
+    // AR0134 behind 2.4 mm: 2·atan(4.8/4.8) = 90° horizontally.
+    let ar = lines.iter().find(|l| l.contains("AR0134")).unwrap();
+    assert!(ar.contains(",90.00,"), "{ar}");
+    assert!(lines.iter().skip(1).all(|l| {
+        let f: Vec<&str> = l.split(',').collect();
+        f[4].parse::<usize>().unwrap() <= 1920 && f[5].parse::<usize>().unwrap() <= 1280
+    }));
+}
+
+#[test]
+fn bad_values_name_the_flag_and_the_range() {
+    let o = joca(&["sensors", "--focal-mm", "0.5"]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--focal-mm = 0.5 is out of range: allowed 1 to 10 mm"),
+        "{}",
+        stderr(&o)
+    );
+
+    let o = joca(&[
+        "form",
+        "--input",
+        "x.png",
+        "--exposure-ms",
+        "80",
+        "--gain-db",
+        "10",
+        "--sensor",
+        "AR0134",
+        "--out",
+        "y.png",
+    ]);
+    assert!(
+        stderr(&o).contains("--exposure-ms") && stderr(&o).contains("allowed 0.0001 to 0.05 s"),
+        "{}",
+        stderr(&o)
+    );
+
+    let o = joca(&[
+        "form",
+        "--input",
+        "x.png",
+        "--exposure-ms",
+        "5",
+        "--gain-db",
+        "10",
+        "--sensor",
+        "IMX999",
+        "--out",
+        "y.png",
+    ]);
+    assert!(
+        stderr(&o).contains("unknown sensor \"IMX999\"") && stderr(&o).contains("IMX172"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+fn write_png16(path: &Path, width: u32, height: u32, f: impl Fn(u32, u32) -> u16) {
+    let mut buf = image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::new(width, height);
+    for (x, y, p) in buf.enumerate_pixels_mut() {
+        let v = f(x, y);
+        *p = image::Rgb([v, v, v]);
+    }
+    buf.save(path).unwrap();
+}
+
+#[test]
+fn form_applies_exposure_and_reports_unreadable_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("grey.png");
+    // 16-bit value 257·40 = 40 DN.
+    write_png16(&input, 64, 48, |_, _| 257 * 40);
+    let out = dir.path().join("formed.png");
+    // Twice E0 at G0 on the calibration pitch: mean 80 DN.
+    let o = joca(&[
+        "form",
+        "--input",
+        input.to_str().unwrap(),
+        "--exposure-ms",
+        "10",
+        "--gain-db",
+        "10",
+        "--sensor",
+        "AR0134",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&out).unwrap().to_rgb8();
+    let mean = img.as_raw().iter().map(|&v| f64::from(v)).sum::<f64>() / img.as_raw().len() as f64;
+    assert!((mean - 80.0).abs() < 0.5, "{mean}");
+
+    let broken = dir.path().join("broken.png");
+    std::fs::write(&broken, b"not a png").unwrap();
+    let o = joca(&[
+        "form",
+        "--input",
+        broken.to_str().unwrap(),
+        "--exposure-ms",
+        "5",
+        "--gain-db",
+        "10",
+        "--sensor",
+        "AR0134",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("cannot read image") && stderr(&o).contains("broken.png"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_bad_calibration_file_names_the_file_and_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("cal.toml");
+    std::fs::write(&cal, "[calibration]\npixel_pitch_um = 3.75\nexposure_s = 0.005\ngain_db = 10\nsigma_p2 = [0.2, 0.1, 0.3]\nsigma_r2 = [1.0, -1.0, 3.0]\n").unwrap();
+    let o = joca(&[
+        "form",
+        "--input",
+        "x.png",
+        "--exposure-ms",
+        "5",
+        "--gain-db",
+        "10",
+        "--sensor",
+        "AR0134",
+        "--calibration",
+        cal.to_str().unwrap(),
+        "--out",
+        "y.png",
+    ]);
+    let e = stderr(&o);
+    assert!(e.contains("cal.toml") && e.contains("calibration.sigma_r2"), "{e}");
+
+    std::fs::write(&cal, "[calibration]\npixel_pitch = 3.75\n").unwrap();
+    let o = joca(&[
+        "form",
+        "--input",
+        "x.png",
+        "--exposure-ms",
+        "5",
+        "--gain-db",
+        "10",
+        "--sensor",
+        "AR0134",
+        "--calibration",
+        cal.to_str().unwrap(),
+        "--out",
+        "y.png",
+    ]);
+    let e = stderr(&o);
+    assert!(e.contains("cal.toml") && e.contains("unknown field `pixel_pitch`"), "{e}");
+}
+
+#[test]
+fn calibrate_noise_recovers_known_parameters_from_png_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = Calibration {
+        sigma_p2: [0.5, 0.3, 0.7],
+        sigma_r2: [2.0, 1.5, 4.0],
+        ..Calibration::DEFAULT
+    };
+    let formation = ImageFormation::new(truth).unwrap();
+    let mut scene = HdrImage::zeros(320, 240);
+    for y in 0..240 {
+        for x in 0..320 {
+            let v = 250.0 * x as f32 / 319.0;
+            scene.set_pixel(x, y, [v, v, v]);
+        }
+    }
+    let streams = SeedStreams::new(4);
+    for k in 0..6 {
+        let f = formation.form(
+            &scene,
+            DynamicSettings::new(5e-3, 10.0),
+            3.75,
+            &mut streams.indexed("f", k),
+        );
+        image::save_buffer(
+            dir.path().join(format!("f{k}.png")),
+            f.data(),
+            320,
+            240,
+            image::ExtendedColorType::Rgb8,
+        )
+        .unwrap();
+    }
+    let o = joca(&["calibrate-noise", "--frames", dir.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let parse = |key: &str| -> Vec<f64> {
+        let line = text.lines().find(|l| l.starts_with(key)).unwrap();
+        let inner = line.split('[').nth(1).unwrap().trim_end_matches(']');
+        inner.split(',').map(|v| v.trim().parse().unwrap()).collect()
+    };
+    for (got, want) in parse("sigma_p2")
+        .iter()
+        .zip(truth.sigma_p2)
+        .chain(parse("sigma_r2").iter().zip(truth.sigma_r2))
+    {
+        assert!((got / want - 1.0).abs() < 0.10, "{got} vs {want}");
+    }
+
+    let o = joca(&["calibrate-noise", "--frames", "/nonexistent-dir"]);
+    assert!(stderr(&o).contains("/nonexistent-dir"), "{}", stderr(&o));
+}

@@ -1,0 +1,100 @@
+//! What a frame source (the built-in simulator, a recorded dataset) gives the training loop.
+//!
+//! The source does not know about sensors or image formation: it receives a [`PinholeCamera`]
+//! (what the camera design implies geometrically) and a [`FrameRequest`] (when, and for how long
+//! the shutter is open) and returns the calibrated radiometry `I0`, already motion-blurred over
+//! the shutter interval, with ground truth. Exposure scaling, gain, pixel area, noise and
+//! clipping are image formation's job (`joca-camera`), so the same formation serves every source.
+
+use crate::{Annotation, HdrImage};
+use thiserror::Error;
+
+/// A pinhole camera mounted on the vehicle, looking along the vehicle's heading.
+///
+/// Vehicle frame: origin at the vehicle centre on the ground, `x` forward, `y` left, `z` up,
+/// metres. Image frame: `u` to the right, `v` down, pixels, origin at the top-left corner of the
+/// top-left pixel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PinholeCamera {
+    /// Output width in pixels.
+    pub width_px: usize,
+    /// Output height in pixels.
+    pub height_px: usize,
+    /// Focal length in pixels, horizontal.
+    pub fx_px: f64,
+    /// Focal length in pixels, vertical.
+    pub fy_px: f64,
+    /// Principal point, pixels from the left edge.
+    pub cx_px: f64,
+    /// Principal point, pixels from the top edge.
+    pub cy_px: f64,
+    /// Camera centre in the vehicle frame, metres (`vehicle_from_camera` translation).
+    pub mount_m: [f64; 3],
+}
+
+impl PinholeCamera {
+    /// Horizontal field of view, radians.
+    pub fn hfov_rad(&self) -> f64 {
+        2.0 * (self.width_px as f64 / (2.0 * self.fx_px)).atan()
+    }
+
+    /// Vertical field of view, radians.
+    pub fn vfov_rad(&self) -> f64 {
+        2.0 * (self.height_px as f64 / (2.0 * self.fy_px)).atan()
+    }
+}
+
+/// When a frame is taken and how.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameRequest {
+    /// Episode the frame belongs to (fixes map, start pose, illumination, speed profile).
+    pub episode: u64,
+    /// Time of the shutter opening since the episode start, seconds.
+    pub time_s: f64,
+    /// Shutter interval, seconds: motion during it is integrated (motion blur).
+    pub exposure_s: f64,
+    /// Multiplies all motion during the shutter only ("motion blur ×N" scenario); 1 = physical.
+    pub motion_scale: f64,
+}
+
+/// A rendered or loaded frame before image formation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// Calibrated radiometry `I0` in DN, motion-blurred over the shutter interval.
+    pub hdr: HdrImage,
+    /// Ground truth boxes of visible objects, at the shutter midpoint.
+    pub boxes: Vec<Annotation>,
+    /// Objects visible within a 180° horizontal field of view around the heading (the
+    /// denominator of the TP-ratio metric); independent of the camera's own field of view.
+    pub visible_180: u32,
+}
+
+/// Why a source could not deliver a frame.
+#[derive(Debug, Error)]
+pub enum SourceError {
+    /// The request is outside what the source holds (an episode or time that does not exist).
+    #[error("frame request out of range: {reason}")]
+    OutOfRange {
+        /// What was out of range.
+        reason: String,
+    },
+    /// Reading or decoding recorded data failed.
+    #[error("cannot read {path}: {reason}")]
+    Read {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Something that produces calibrated frames for a camera: the built-in simulator or a recorded
+/// dataset. Implementations must be deterministic in (camera, request) and usable from several
+/// threads at once (the training loop renders 1 + 4 images per step).
+pub trait FrameSource: Send + Sync {
+    /// Renders or loads the frame seen by `camera` for `request`.
+    fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError>;
+
+    /// Time between consecutive frames of an episode, seconds.
+    fn frame_interval_s(&self) -> f64;
+}

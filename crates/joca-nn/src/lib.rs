@@ -1,0 +1,72 @@
+//! The deep-learning side of joca, on libtorch through `tch`.
+//!
+//! This is the only crate of the workspace that depends on the deep-learning engine (see
+//! ARCHITECTURE.md): the detector, the NeuralAE adaptive-camera-control network, the
+//! differentiable image formation and the optimisers all live here, so the rest of joca stays
+//! free of framework types.
+//!
+//! For now it exposes the engine's set-up: [`Engine::cpu`] fixes the thread count that every
+//! reproducible run records.
+//!
+//! ```
+//! let engine = joca_nn::Engine::cpu(1);
+//! assert_eq!(engine.threads(), 1);
+//! ```
+#![deny(missing_docs)]
+
+use tch::Device;
+
+/// The device and thread count that every tensor of a run uses.
+#[derive(Debug, Clone, Copy)]
+pub struct Engine {
+    device: Device,
+    threads: usize,
+}
+
+impl Engine {
+    /// A CPU engine with `threads` intra-op threads (libtorch's global setting).
+    ///
+    /// Results are reproducible for a fixed thread count; a different count may change the
+    /// order of floating-point reductions and so the last bits of a result.
+    pub fn cpu(threads: usize) -> Self {
+        let threads = threads.max(1);
+        tch::set_num_threads(i32::try_from(threads).unwrap_or(i32::MAX));
+        Self { device: Device::Cpu, threads }
+    }
+
+    /// The device tensors are placed on.
+    pub fn device(&self) -> Device {
+        self.device
+    }
+
+    /// The number of intra-op threads.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tch::{Kind, Tensor};
+
+    /// The smoke test that proves libtorch is linked and runs: a matrix product and a gradient,
+    /// both checked against values computed by hand.
+    #[test]
+    fn libtorch_computes_a_product_and_its_gradient() {
+        let engine = Engine::cpu(1);
+        let a =
+            Tensor::from_slice(&[1.0f32, 2.0, 3.0, 4.0]).view([2, 2]).to_device(engine.device());
+        let b = Tensor::from_slice(&[5.0f32, 6.0, 7.0, 8.0]).view([2, 2]);
+        let c = a.matmul(&b);
+        let got: Vec<f32> = Vec::try_from(c.flatten(0, 1)).unwrap();
+        assert_eq!(got, vec![19.0, 22.0, 43.0, 50.0]);
+
+        // d/dx sum(x^2) = 2x.
+        let x = Tensor::from_slice(&[1.5f32, -2.0]).set_requires_grad(true);
+        let y = (&x * &x).sum(Kind::Float);
+        y.backward();
+        let grad: Vec<f32> = Vec::try_from(x.grad()).unwrap();
+        assert_eq!(grad, vec![3.0, -4.0]);
+    }
+}

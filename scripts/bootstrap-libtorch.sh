@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Prepares a CPU-only libtorch 2.13.0 for the `tch` crate in `<repo>/.libtorch`.
+#
+# Why this exists: tch 0.26 builds only against libtorch 2.13.0, and the one place our machines can
+# get that is PyPI's `torch==2.13.0` wheel (a CUDA build). Its CPU libraries work without a GPU when
+# `libtorch_cuda.so` is left out, but `libtorch_cpu.so` still needs `libcudart.so.13` and
+# `libcupti.so.13`, which come from `cuda-toolkit[cudart,cupti]==13.0.3`. We extract only what a
+# CPU build links against; nothing is installed into any Python environment.
+#
+# Wheels are cached in ${JOCA_CACHE:-$XDG_CACHE_HOME/joca or ~/.cache/joca}/wheels, so a second
+# checkout on the same machine extracts in seconds without downloading again.
+#
+# Users who already have libtorch 2.13.0 set LIBTORCH and this script does nothing.
+set -euo pipefail
+
+TORCH_VERSION=2.13.0
+CUDA_TOOLKIT_VERSION=13.0.3
+
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+dest="$repo/.libtorch"
+
+if [[ -n "${LIBTORCH:-}" && "${LIBTORCH}" != "$dest" ]]; then
+  echo "bootstrap-libtorch: LIBTORCH=$LIBTORCH is set; using it and skipping the bootstrap."
+  exit 0
+fi
+if [[ -f "$dest/VERSION" && "$(cat "$dest/VERSION")" == "$TORCH_VERSION" ]]; then
+  exit 0
+fi
+
+cache="${JOCA_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/joca}/wheels"
+mkdir -p "$cache"
+python=${PYTHON:-python3}
+if ! command -v "$python" >/dev/null; then
+  echo "bootstrap-libtorch: needs python3 with pip to fetch the libtorch wheel from PyPI" >&2
+  exit 1
+fi
+
+if ! compgen -G "$cache/torch-$TORCH_VERSION-*.whl" >/dev/null; then
+  echo "bootstrap-libtorch: downloading torch==$TORCH_VERSION (~530 MB, once per machine) into $cache"
+  "$python" -m pip download --quiet --no-deps --only-binary=:all: \
+    --platform manylinux_2_28_x86_64 --python-version 3.11 --implementation cp \
+    "torch==$TORCH_VERSION" -d "$cache"
+fi
+if ! compgen -G "$cache/nvidia_cuda_runtime-*.whl" >/dev/null || ! compgen -G "$cache/nvidia_cuda_cupti-*.whl" >/dev/null; then
+  echo "bootstrap-libtorch: downloading cuda-toolkit[cudart,cupti]==$CUDA_TOOLKIT_VERSION (~13 MB)"
+  "$python" -m pip download --quiet --only-binary=:all: \
+    --platform manylinux_2_28_x86_64 --python-version 3.11 --implementation cp \
+    "cuda-toolkit[cudart,cupti]==$CUDA_TOOLKIT_VERSION" -d "$cache"
+fi
+
+tmp="$dest.partial"
+rm -rf "$tmp"
+mkdir -p "$tmp/lib" "$tmp/include"
+echo "bootstrap-libtorch: extracting CPU libraries and headers into $dest"
+"$python" - "$cache" "$tmp" "$TORCH_VERSION" <<'PY'
+import glob, os, shutil, sys, zipfile
+
+cache, out, version = sys.argv[1], sys.argv[2], sys.argv[3]
+torch_whl = sorted(glob.glob(os.path.join(cache, f"torch-{version}-*.whl")))[0]
+# The CPU build needs exactly these shared objects; libtorch_cuda.so is left out on purpose so
+# that torch-sys builds for CPU and the binary runs on machines without a GPU.
+cpu_libs = {"libtorch_cpu.so", "libtorch.so", "libc10.so", "libgomp.so.1"}
+with zipfile.ZipFile(torch_whl) as whl:
+    for info in whl.infolist():
+        name = info.filename
+        if name.startswith("torch/include/") and not name.endswith("/"):
+            target = os.path.join(out, "include", name[len("torch/include/"):])
+        elif name.startswith("torch/lib/") and os.path.basename(name) in cpu_libs:
+            target = os.path.join(out, "lib", os.path.basename(name))
+        else:
+            continue
+        os.makedirs(os.path.dirname(target), exist_ok=True)
+        with whl.open(info) as src, open(target, "wb") as dst:
+            shutil.copyfileobj(src, dst)
+for pattern, wanted in (("nvidia_cuda_runtime-*.whl", "libcudart.so.13"),
+                        ("nvidia_cuda_cupti-*.whl", "libcupti.so.13")):
+    with zipfile.ZipFile(sorted(glob.glob(os.path.join(cache, pattern)))[0]) as whl:
+        member = next(n for n in whl.namelist() if n.endswith("/" + wanted))
+        with whl.open(member) as src, open(os.path.join(out, "lib", wanted), "wb") as dst:
+            shutil.copyfileobj(src, dst)
+PY
+echo "$TORCH_VERSION" >"$tmp/VERSION"
+rm -rf "$dest"
+mv "$tmp" "$dest"
+echo "bootstrap-libtorch: ready ($(du -sh "$dest" | cut -f1))"
