@@ -82,3 +82,24 @@ pub fn read_calibration(path: &Path) -> Result<Calibration> {
         .with_context(|| format!("invalid calibration file {}", path.display()))?;
     Ok(file.calibration)
 }
+
+/// Writes an animated GIF of `frames`, `delay_cs` hundredths of a second apart, looping.
+pub fn write_gif(path: &Path, frames: &[Rgb8Image], delay_cs: u16) -> Result<()> {
+    use image::codecs::gif::{GifEncoder, Repeat};
+    let file =
+        std::fs::File::create(path).with_context(|| format!("cannot write {}", path.display()))?;
+    let mut encoder = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+    encoder.set_repeat(Repeat::Infinite)?;
+    for f in frames {
+        let rgba: Vec<u8> =
+            f.data().chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+        let buffer =
+            image::RgbaImage::from_raw(u32::try_from(f.width())?, u32::try_from(f.height())?, rgba)
+                .context("frame buffer size")?;
+        let delay = image::Delay::from_numer_denom_ms(u32::from(delay_cs) * 10, 1);
+        encoder
+            .encode_frame(image::Frame::from_parts(buffer, 0, 0, delay))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}

@@ -240,3 +240,55 @@ fn calibrate_noise_recovers_known_parameters_from_png_frames() {
     let o = joca(&["calibrate-noise", "--frames", "/nonexistent-dir"]);
     assert!(stderr(&o).contains("/nonexistent-dir"), "{}", stderr(&o));
 }
+
+#[test]
+fn render_writes_frames_ground_truth_and_a_contact_sheet() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = joca(&[
+        "render",
+        "--illumination",
+        "day",
+        "--frames",
+        "3",
+        "--render-scale",
+        "0.05",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["frames/000000.png", "frames/000002.png", "contact_sheet.png", "sequence.gif"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let coco: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("annotations.json")).unwrap())
+            .unwrap();
+    assert_eq!(coco["images"].as_array().unwrap().len(), 3);
+    assert_eq!(coco["categories"].as_array().unwrap().len(), 3);
+    // IMX172 (4000x3000) at 0.05: 200x150.
+    assert_eq!(coco["images"][0]["width"], 200);
+}
+
+#[test]
+fn render_refuses_bad_names_and_impossible_mounts() {
+    let o = joca(&["render", "--illumination", "dusk", "--out", "/tmp/x"]);
+    let e = stderr(&o);
+    assert!(
+        !o.status.success() && e.contains("day") && e.contains("tunnel") && e.contains("cycle"),
+        "{e}"
+    );
+    let o = joca(&["render", "--x", "5", "--out", "/tmp/x"]);
+    assert!(stderr(&o).contains("--x = 5 is out of range: allowed 0 to 2.4 m"), "{}", stderr(&o));
+    let o = joca(&["render", "--focal-mm", "0.2", "--out", "/tmp/x"]);
+    assert!(
+        stderr(&o).contains("--focal-mm") && stderr(&o).contains("1 to 10 mm"),
+        "{}",
+        stderr(&o)
+    );
+    let o = joca(&["render", "--sensor", "nope", "--out", "/tmp/x"]);
+    assert!(
+        stderr(&o).contains("unknown sensor") && stderr(&o).contains("AR0134"),
+        "{}",
+        stderr(&o)
+    );
+}

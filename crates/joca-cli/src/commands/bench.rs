@@ -6,7 +6,8 @@
 use anyhow::Result;
 use clap::ValueEnum;
 use joca_camera::{Calibration, DynamicSettings, ImageFormation, WHITE_LEVEL};
-use joca_core::{HdrImage, SeedStreams};
+use joca_core::{FrameRequest, FrameSource, HdrImage, PinholeCamera, SeedStreams};
+use joca_sim::{Illumination, SimConfig, Simulator, subframe_count};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -15,6 +16,8 @@ use std::time::Instant;
 pub enum Target {
     /// Image formation (Eq. 2–3) on a 1280×960 RGB frame.
     Formation,
+    /// The simulator: sub-frames and motion-blurred frames at 320×240 and 640×480, 1 and 2 threads.
+    Render,
 }
 
 /// Arguments of `joca bench`.
@@ -32,6 +35,7 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     match args.target {
         Target::Formation => bench_formation(args.repeats.max(1)),
+        Target::Render => bench_render(args.repeats.max(1)),
     }
 }
 
@@ -87,5 +91,69 @@ fn bench_formation(repeats: usize) -> Result<()> {
     row(&format!("full formation, rayon ({threads} threads)"), parallel);
     row("normal samples only (3 per pixel), 1 thread", normals);
     row("scale+clip+round only (no noise), 1 thread", deterministic);
+    Ok(())
+}
+
+fn bench_render(repeats: usize) -> Result<()> {
+    let sim =
+        Simulator::new(SimConfig { illumination: Some(Illumination::Day), ..SimConfig::default() });
+    // Frames spread over an episode, so that speeds (and so blur) vary as in training.
+    let times: Vec<f64> = (0..repeats).map(|k| 2.0 + k as f64 * 2.3).collect();
+    let exposure_s = 10e-3;
+    println!(
+        "simulator, day, f = 3.6 mm on IMX172 (81° HFoV), exposure {} ms, {} frames over one episode",
+        exposure_s * 1e3,
+        times.len()
+    );
+    println!(
+        "{:<10} {:>8} {:>12} {:>14} {:>14} {:>11} {:>9}",
+        "output", "threads", "sub/frame", "sub-frames/s", "blurred ms", "frames/s", "2t vs 1t"
+    );
+    for (w, h) in [(320usize, 240usize), (640, 480)] {
+        let camera = PinholeCamera {
+            width_px: w,
+            height_px: h,
+            fx_px: 3.6 * w as f64 / 6.2,
+            fy_px: 3.6 * h as f64 / 4.65,
+            cx_px: w as f64 / 2.0,
+            cy_px: h as f64 / 2.0,
+            mount_m: [0.43, 0.0, 1.65],
+        };
+        let requests: Vec<FrameRequest> = times
+            .iter()
+            .map(|&t| FrameRequest { episode: 1, time_s: t, exposure_s, motion_scale: 1.0 })
+            .collect();
+        let subframes: usize = requests.iter().map(|r| subframe_count(&sim, &camera, r)).sum();
+        let mut one_thread = 0.0;
+        for threads in [1usize, 2] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+            let render_all = || {
+                for r in &requests {
+                    black_box(sim.render(&camera, r).map(|f| f.boxes.len()).unwrap_or(0));
+                }
+            };
+            pool.install(render_all); // warm up
+            let t = Instant::now();
+            pool.install(render_all);
+            let secs = t.elapsed().as_secs_f64();
+            let per_frame = secs / requests.len() as f64;
+            if threads == 1 {
+                one_thread = per_frame;
+            }
+            println!(
+                "{:<10} {:>8} {:>12.1} {:>14.0} {:>14.2} {:>11.1} {:>8.2}x",
+                format!("{w}x{h}"),
+                threads,
+                subframes as f64 / requests.len() as f64,
+                subframes as f64 / secs,
+                per_frame * 1e3,
+                1.0 / per_frame,
+                one_thread / per_frame
+            );
+        }
+    }
+    println!(
+        "(a blurred frame also renders its middle sub-frame once more for ground truth and the sub-frame count)"
+    );
     Ok(())
 }

@@ -1,0 +1,252 @@
+//! `joca render`: frames from the built-in simulator through image formation, with COCO ground
+//! truth, a contact sheet and an animation.
+
+use crate::{draw, io};
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use joca_camera::{
+    AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, ImageFormation,
+    sensor_by_name,
+};
+use joca_core::units::{ms_from_s, s_from_ms};
+use joca_core::{FrameRequest, FrameSource, Rgb8Image, SeedStreams};
+use joca_sim::{Illumination, SimConfig, Simulator, subframe_count};
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Illumination schedule of the episode.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum Light {
+    /// Full daylight.
+    Day,
+    /// Night: lamps, lit windows, vehicle lights.
+    Night,
+    /// Abrupt day ↔ tunnel switches every 4 s.
+    Tunnel,
+    /// Gradual day → night → day over 24 s.
+    Cycle,
+}
+
+impl From<Light> for Illumination {
+    fn from(l: Light) -> Self {
+        match l {
+            Light::Day => Illumination::Day,
+            Light::Night => Illumination::Night,
+            Light::Tunnel => Illumination::Tunnel,
+            Light::Cycle => Illumination::Cycle,
+        }
+    }
+}
+
+/// Arguments of `joca render`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Seed of the city map.
+    #[arg(long, default_value_t = 0)]
+    map_seed: u64,
+    /// Episode of that map (start pose, route, speed profile, sun).
+    #[arg(long, default_value_t = 0)]
+    episode: u64,
+    /// Illumination schedule [default: drawn per episode].
+    #[arg(long, value_enum)]
+    illumination: Option<Light>,
+    /// Catalogue sensor (`joca sensors`).
+    #[arg(long, default_value = "IMX172")]
+    sensor: String,
+    /// Lens focal length, mm (1 to 10).
+    #[arg(long, default_value_t = 3.6)]
+    focal_mm: f64,
+    /// Camera position forward of the vehicle centre, m (0 to 2.4).
+    #[arg(long, default_value_t = 0.43)]
+    x: f64,
+    /// Camera height above the ground, m (1.3 to 1.7).
+    #[arg(long, default_value_t = 1.65)]
+    z: f64,
+    /// Output resolution = sensor pixel grid × this factor.
+    #[arg(long, default_value_t = 0.08)]
+    render_scale: f64,
+    /// Fixed exposure time, ms (0.1 to 50); without it AverageAE controls exposure and gain.
+    #[arg(long, requires = "gain_db")]
+    exposure_ms: Option<f64>,
+    /// Fixed gain, dB (1 to 30), with --exposure-ms.
+    #[arg(long, requires = "exposure_ms")]
+    gain_db: Option<f64>,
+    /// Use AverageAE (the default when no fixed exposure is given).
+    #[arg(long, conflicts_with = "exposure_ms")]
+    auto_exposure: bool,
+    /// Number of frames.
+    #[arg(long, default_value_t = 16)]
+    frames: usize,
+    /// Time of the first frame in the episode, s.
+    #[arg(long, default_value_t = 1.0)]
+    start_s: f64,
+    /// Ego top speed, m/s.
+    #[arg(long, default_value_t = 15.0)]
+    max_speed_mps: f64,
+    /// Motion during the shutter × this factor (the "motion blur ×N" scenarios).
+    #[arg(long, default_value_t = 1.0)]
+    blur_scale: f64,
+    /// Noise variances × this factor (the "noise ×N" scenarios).
+    #[arg(long, default_value_t = 1.0)]
+    noise_scale: f64,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// Runs `joca render`.
+pub fn run(args: &Args) -> Result<()> {
+    let space = DesignSpace::synthetic();
+    let sensor = sensor_by_name(&args.sensor).context("invalid --sensor")?;
+    space.x_m.check("--x", args.x, " m")?;
+    space.z_m.check("--z", args.z, " m")?;
+    space.focal_length_mm.check("--focal-mm", args.focal_mm, " mm")?;
+    if !(args.render_scale > 0.0 && args.render_scale <= 1.0) {
+        bail!("--render-scale = {} is out of range: allowed above 0 up to 1", args.render_scale);
+    }
+    if !(args.blur_scale >= 0.0 && args.blur_scale.is_finite()) {
+        bail!("--blur-scale = {} is out of range: allowed 0 or more", args.blur_scale);
+    }
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let ranges = AccRanges::PAPER;
+    let fixed = match (args.exposure_ms, args.gain_db) {
+        (Some(e), Some(g)) => {
+            ranges.exposure_s.check("--exposure-ms", s_from_ms(e), " s")?;
+            ranges.gain_db.check("--gain-db", g, " dB")?;
+            Some(DynamicSettings::new(s_from_ms(e), g))
+        }
+        _ => None,
+    };
+    let design = CameraDesign {
+        x_m: args.x,
+        z_m: args.z,
+        focal_length_mm: args.focal_mm,
+        sensor_index: sensor.index,
+    };
+    let camera = design.pinhole(args.render_scale);
+    let config = SimConfig {
+        map_seed: args.map_seed,
+        max_speed_mps: args.max_speed_mps,
+        illumination: args.illumination.map(Illumination::from),
+        ..SimConfig::default()
+    };
+    let last = args.start_s + (args.frames - 1) as f64 * config.frame_interval_s;
+    if args.start_s < 0.0 || last > config.episode_s {
+        bail!(
+            "frames from {} s to {last:.1} s fall outside the {} s episode",
+            args.start_s,
+            config.episode_s
+        );
+    }
+    let sim = Simulator::new(config);
+    let formation = ImageFormation::new(Calibration::DEFAULT)?
+        .with_noise_scale(args.noise_scale)
+        .context("invalid --noise-scale")?;
+    let ae = AverageAe::new(ranges);
+    let streams = SeedStreams::new(args.seed);
+    let frames_dir = args.out.join("frames");
+    std::fs::create_dir_all(&frames_dir)
+        .with_context(|| format!("cannot create {}", frames_dir.display()))?;
+
+    let episode = sim.episode(args.episode);
+    println!(
+        "map {} episode {} ({}), {} {}x{} px, f = {} mm (HFoV {:.1}°), mount x = {} m z = {} m",
+        args.map_seed,
+        args.episode,
+        episode.illumination.name(),
+        sensor.name,
+        camera.width_px,
+        camera.height_px,
+        args.focal_mm,
+        design.hfov_rad().to_degrees(),
+        args.x,
+        args.z
+    );
+    println!(
+        "{:>6} {:>7} {:>8} {:>7} {:>9} {:>6} {:>6} {:>5} {:>4}",
+        "frame", "t s", "E ms", "G dB", "mean DN", "speed", "boxes", "180°", "sub"
+    );
+    let mut settings = fixed.unwrap_or(DynamicSettings::new(
+        Calibration::DEFAULT.exposure_s,
+        Calibration::DEFAULT.gain_db,
+    ));
+    let mut images = Vec::new();
+    let mut annotations = Vec::new();
+    let mut shown = Vec::new();
+    for k in 0..args.frames {
+        let t = args.start_s + k as f64 * sim.frame_interval_s();
+        let request = FrameRequest {
+            episode: args.episode,
+            time_s: t,
+            exposure_s: settings.exposure_s,
+            motion_scale: args.blur_scale,
+        };
+        let frame = sim.render(&camera, &request).map_err(|e| anyhow::anyhow!(e))?;
+        let image = formation.form_parallel(
+            &frame.hdr,
+            settings,
+            sensor.pixel_pitch_um,
+            &mut streams.indexed("render-noise", k as u64),
+        );
+        let name = format!("{k:06}.png");
+        io::write_png(&frames_dir.join(&name), &image)?;
+        let sub = subframe_count(&sim, &camera, &request);
+        println!(
+            "{:>6} {:>7.2} {:>8.2} {:>7.1} {:>9.1} {:>6.1} {:>6} {:>5} {:>4}",
+            k,
+            t,
+            ms_from_s(settings.exposure_s),
+            settings.gain_db,
+            image.mean(),
+            episode.ego.speed_at(t),
+            frame.boxes.len(),
+            frame.visible_180,
+            sub
+        );
+        images.push(json!({
+            "id": k + 1, "file_name": format!("frames/{name}"), "width": image.width(), "height": image.height(),
+            "episode": args.episode, "time_s": t, "exposure_s": settings.exposure_s, "gain_db": settings.gain_db,
+            "visible_180": frame.visible_180,
+        }));
+        for a in &frame.boxes {
+            annotations.push(json!({
+                "id": annotations.len() + 1, "image_id": k + 1, "category_id": a.class.coco_id(),
+                "bbox": a.bbox.to_xywh(), "area": a.bbox.area(), "iscrowd": 0,
+            }));
+        }
+        let mut boxed = image.clone();
+        draw::draw_boxes(&mut boxed, &frame.boxes);
+        shown.push(boxed);
+        if fixed.is_none() {
+            settings = ae.step(settings, &image);
+        }
+    }
+    let categories: Vec<_> = joca_core::Class::ALL
+        .iter()
+        .map(|c| json!({"id": c.coco_id(), "name": c.name()}))
+        .collect();
+    let coco = json!({"images": images, "annotations": annotations, "categories": categories});
+    let gt_path = args.out.join("annotations.json");
+    std::fs::write(&gt_path, serde_json::to_string_pretty(&coco)?)
+        .with_context(|| format!("cannot write {}", gt_path.display()))?;
+    let sheet_frames: Vec<Rgb8Image> =
+        shown.iter().step_by(shown.len().div_ceil(16).max(1)).cloned().collect();
+    let sheet = draw::tile(&sheet_frames, 4);
+    io::write_png(&args.out.join("contact_sheet.png"), &sheet)?;
+    io::write_gif(
+        &args.out.join("sequence.gif"),
+        &shown,
+        (sim.frame_interval_s() * 100.0).round() as u16,
+    )?;
+    println!(
+        "wrote {} frames, annotations.json, contact_sheet.png and sequence.gif to {}",
+        args.frames,
+        args.out.display()
+    );
+    Ok(())
+}

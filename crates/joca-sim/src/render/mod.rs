@@ -1,0 +1,325 @@
+//! The rasteriser: one instantaneous view of the city from a pinhole camera.
+//!
+//! Each view is drawn in two passes into a [`Target`], objects first so that the ground is only
+//! shaded where it is seen:
+//! 1. **Objects**, nearest first: every box face that faces the camera is clipped against the
+//!    near plane and rasterised with a z-buffer (holding 1/z, so the depth test needs no
+//!    division); depth and texture coordinates are interpolated perspective-correctly. Faces are
+//!    shaded once each (sun, sky, lamps, head lights at the face centre) and textured per pixel
+//!    where the material has a pattern (facade windows, sign faces).
+//! 2. **Ground and sky**, per pixel: the view ray of a pixel below the horizon meets the ground
+//!    plane at depth `t = z_cam / b` (b = the ray's downward slope), which is constant along an
+//!    image row, so the hit point moves linearly along the row. The city's ground albedo (lanes,
+//!    crossings, sidewalks) is shaded with sun and sky, street-lamp light (a baked light map) and
+//!    the ego vehicle's head lights, wherever the ground is nearer than the object drawn there.
+//!    Rays above the horizon that hit no object see the sky.
+//!
+//! Along with colour the target records, per pixel, which object is visible (the id buffer) and,
+//! per object, how many pixels its camera-facing faces cover before the depth test; ground truth
+//! uses both (visible pixels over covered pixels is the visible fraction).
+
+mod raster;
+
+use crate::city::City;
+use crate::geometry::{OrientedBox, Pose2, V3};
+use crate::lighting::{self, Lighting, RADIANCE_SCALE_DN};
+use crate::objects::{Material, Rgb};
+use joca_core::PinholeCamera;
+use raster::{Shade, Vertex};
+
+/// Closest depth that is drawn, metres.
+pub const NEAR_M: f32 = 0.05;
+/// Objects farther than this from the camera are not drawn, metres.
+pub const DRAW_RANGE_M: f32 = 220.0;
+/// Ground beyond this depth is drawn as sky-coloured haze, metres.
+const GROUND_FAR_M: f32 = 600.0;
+
+/// Where the camera is and what it sees by, for one instant.
+#[derive(Debug, Clone, Copy)]
+pub struct View<'a> {
+    /// Intrinsics and the mount on the vehicle.
+    pub camera: &'a PinholeCamera,
+    /// Ego vehicle pose.
+    pub ego: Pose2,
+    /// Ambient level and sun.
+    pub lighting: Lighting,
+    /// Time of this instant since the episode start, seconds.
+    pub time_s: f64,
+}
+
+/// Colour, depth and object-id buffers of one view.
+#[derive(Debug, Clone)]
+pub struct Target {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Interleaved RGB radiance, calibrated DN.
+    pub colour: Vec<f32>,
+    /// Inverse camera-frame depth (1 / distance along the optical axis), 1/metres; 0 = nothing.
+    pub inv_depth: Vec<f32>,
+    /// Index + 1 of the visible object per pixel (0 = ground or sky).
+    pub id: Vec<u32>,
+    /// Per object index + 1: pixels covered by its camera-facing faces, before occlusion.
+    pub coverage: Vec<u32>,
+}
+
+impl Target {
+    /// Buffers for a `width × height` view of a scene with `objects` objects.
+    pub fn new(width: usize, height: usize, objects: usize) -> Self {
+        Self {
+            width,
+            height,
+            colour: vec![0.0; width * height * 3],
+            inv_depth: vec![0.0; width * height],
+            id: vec![0; width * height],
+            coverage: vec![0; objects + 1],
+        }
+    }
+}
+
+/// The camera's frame in the world.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CameraFrame {
+    pub(crate) origin: V3,
+    pub(crate) forward: V3,
+    pub(crate) right: V3,
+    pub(crate) fx: f32,
+    pub(crate) fy: f32,
+    pub(crate) cx: f32,
+    pub(crate) cy: f32,
+}
+
+impl CameraFrame {
+    pub(crate) fn new(camera: &PinholeCamera, ego: Pose2) -> Self {
+        let m = camera.mount_m;
+        let origin = ego.apply(V3::new(m[0] as f32, m[1] as f32, m[2] as f32));
+        let (s, c) = ego.yaw.sin_cos();
+        Self {
+            origin,
+            forward: V3::new(c, s, 0.0),
+            right: V3::new(s, -c, 0.0),
+            fx: camera.fx_px as f32,
+            fy: camera.fy_px as f32,
+            cx: camera.cx_px as f32,
+            cy: camera.cy_px as f32,
+        }
+    }
+
+    /// Camera coordinates (right, down, forward) of a world point.
+    pub(crate) fn camera_from_world(&self, p: V3) -> V3 {
+        let r = p - self.origin;
+        V3::new(r.dot(self.right), -r.z, r.dot(self.forward))
+    }
+}
+
+/// Position of the ego head lights in the vehicle frame, metres.
+const HEADLIGHT_MOUNT: V3 = V3::new(2.3, 0.0, 0.7);
+
+/// Renders one instant of `city` seen through `view` into `target` (which it clears first).
+pub fn render(city: &City, view: &View<'_>, target: &mut Target) {
+    let cam = CameraFrame::new(view.camera, view.ego);
+    let lamp_pos = view.ego.apply(HEADLIGHT_MOUNT);
+    let heading = cam.forward;
+    target.coverage.iter_mut().for_each(|c| *c = 0);
+    target.inv_depth.iter_mut().for_each(|d| *d = 0.0);
+    target.id.iter_mut().for_each(|i| *i = 0);
+
+    let (tan_h, tan_v) = (
+        (view.camera.width_px as f32 / 2.0) / cam.fx,
+        (view.camera.height_px as f32 / 2.0) / cam.fy,
+    );
+    let mut visible: Vec<(f32, usize)> = Vec::with_capacity(512);
+    for (index, object) in city.objects.iter().enumerate() {
+        let pose = object.position_at(view.time_s);
+        let c = cam.camera_from_world(V3::new(pose.x, pose.y, 1.0));
+        let r = object.radius_m + 1.0;
+        // Sphere-against-frustum rejection (sides, near, range).
+        if c.z < -r || c.z > DRAW_RANGE_M + r {
+            continue;
+        }
+        let slack_h = r * (1.0 + tan_h * tan_h).sqrt();
+        let slack_v = r * (1.0 + tan_v * tan_v).sqrt() + object.radius_m;
+        if c.x.abs() > c.z * tan_h + slack_h || c.y.abs() > c.z * tan_v + slack_v {
+            continue;
+        }
+        visible.push((c.z, index));
+    }
+    // Nearest first: farther surfaces then mostly fail the depth test before being shaded.
+    visible.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    for (_, index) in visible {
+        let id = index as u32 + 1;
+        for (b, material) in city.objects[index].boxes_at(view.time_s) {
+            draw_box(city, view, &cam, lamp_pos, heading, &b, material, id, target);
+        }
+    }
+    ground_and_sky(city, view, &cam, lamp_pos, heading, target);
+}
+
+/// Relative irradiance from the ego head lights on a surface at `p` with normal `n`
+/// (`n = None`: a horizontal ground point, lit at grazing incidence).
+fn headlight(lamp: V3, heading: V3, p: V3, n: Option<V3>) -> f32 {
+    let v = p - lamp;
+    let d2 = v.dot(v).max(1.0);
+    let d = d2.sqrt();
+    let along = v.dot(heading) / d;
+    let cos_half = lighting::EGO_HEADLIGHT_HALF_ANGLE.cos();
+    if along <= cos_half {
+        return 0.0;
+    }
+    // Smooth edge of the beam.
+    let cone = ((along - cos_half) / (1.0 - cos_half) * 3.0).min(1.0);
+    let incidence = match n {
+        Some(n) => (-(v.dot(n)) / d).max(0.0),
+        None => (lamp.z - p.z).max(0.0) / d,
+    };
+    lighting::EGO_HEADLIGHT * cone * incidence / d2
+}
+
+fn ground_and_sky(
+    city: &City,
+    view: &View<'_>,
+    cam: &CameraFrame,
+    lamp: V3,
+    heading: V3,
+    target: &mut Target,
+) {
+    let w = target.width;
+    let light = &view.lighting;
+    let up_irradiance = light.sun_sky([0.0, 0.0, 1.0]);
+    let lights_on = light.lights_on();
+    let k = RADIANCE_SCALE_DN;
+    for y in 0..target.height {
+        let b = (y as f32 + 0.5 - cam.cy) / cam.fy; // downward slope of the ray
+        let row = y * w;
+        let t = if b > 1e-6 { cam.origin.z / b } else { f32::INFINITY };
+        if t > GROUND_FAR_M {
+            let dir_z = -b / (1.0 + b * b).sqrt();
+            let sky = light.sky(dir_z.max(0.0));
+            for x in 0..w {
+                if target.inv_depth[row + x] == 0.0 {
+                    target.colour[(row + x) * 3..(row + x) * 3 + 3].copy_from_slice(&sky);
+                }
+            }
+            continue;
+        }
+        let inv_t = 1.0 / t;
+        for x in 0..w {
+            if target.inv_depth[row + x] >= inv_t {
+                continue; // an object is nearer than the ground here
+            }
+            let a = (x as f32 + 0.5 - cam.cx) / cam.fx;
+            let px = cam.origin.x + t * (cam.forward.x + a * cam.right.x);
+            let py = cam.origin.y + t * (cam.forward.y + a * cam.right.y);
+            let albedo = city.ground_albedo(px, py);
+            let (lamps, head) = if lights_on {
+                (city.lamp_irradiance(px, py), headlight(lamp, heading, V3::new(px, py, 0.0), None))
+            } else {
+                (0.0, 0.0)
+            };
+            let i = (row + x) * 3;
+            for ((out, rho), tint) in
+                target.colour[i..i + 3].iter_mut().zip(albedo).zip(lighting::LAMP_TINT)
+            {
+                *out = k * rho * (up_irradiance + lamps * tint + head);
+            }
+            target.inv_depth[row + x] = inv_t;
+            target.id[row + x] = 0;
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn draw_box(
+    city: &City,
+    view: &View<'_>,
+    cam: &CameraFrame,
+    lamp: V3,
+    heading: V3,
+    b: &OrientedBox,
+    material: Material,
+    id: u32,
+    target: &mut Target,
+) {
+    let (f, l) = b.axes();
+    let up = V3::new(0.0, 0.0, 1.0);
+    let h = b.half;
+    let lights_on = view.lighting.lights_on();
+    let lamp_ground = if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
+    // (normal, half along normal, first in-face axis and half, second (vertical if side) axis).
+    let faces = [
+        (f, h.x, -l, h.y, up, h.z),
+        (-f, h.x, l, h.y, up, h.z),
+        (l, h.y, f, h.x, up, h.z),
+        (-l, h.y, -f, h.x, up, h.z),
+        (up, h.z, f, h.x, l, h.y),
+    ];
+    for (face_index, (n, hn, ua, hu, va, hv)) in faces.into_iter().enumerate() {
+        let centre = b.centre + n * hn;
+        if (cam.origin - centre).dot(n) <= 0.0 {
+            continue; // back face
+        }
+        let top = face_index == 4;
+        // Irradiance at the face centre: sun and sky by orientation, lamps from above (half on
+        // vertical faces), head lights by distance and incidence.
+        let sun_sky = view.lighting.sun_sky([n.x, n.y, n.z]);
+        let lamp_share = if top { 1.0 } else { 0.5 };
+        let head = if lights_on { headlight(lamp, heading, centre, Some(n)) } else { 0.0 };
+        let irradiance: Rgb = std::array::from_fn(|ch| {
+            sun_sky + lamp_share * lamp_ground * lighting::LAMP_TINT[ch] + head
+        });
+        let shade = shade_for(material, face_index, &irradiance, lights_on);
+        // Corners counter-clockwise seen from outside, with texture coordinates in metres
+        // (u along the face, v upwards from its bottom edge for side faces).
+        let corners = [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+        let verts: [Vertex; 4] = corners.map(|(su, sv)| {
+            let p = centre + ua * (su * hu) + va * (sv * hv);
+            let c = cam.camera_from_world(p);
+            Vertex { cam: c, u: (su + 1.0) * hu, v: (sv + 1.0) * hv }
+        });
+        raster::draw_polygon(&verts, cam, &shade, id, target);
+    }
+}
+
+fn shade_for(material: Material, face_index: usize, e: &Rgb, lights_on: bool) -> Shade {
+    let k = RADIANCE_SCALE_DN;
+    let lit = |rho: Rgb| -> Rgb { std::array::from_fn(|c| k * rho[c] * e[c]) };
+    match material {
+        Material::Flat(rho) => Shade::Constant(lit(rho)),
+        Material::Lamp if !lights_on => Shade::Constant(lit([0.5; 3])),
+        Material::Lamp | Material::Emissive(_) => {
+            let radiance =
+                if let Material::Emissive(r) = material { r } else { crate::objects::LAMP };
+            let r = lit([0.1; 3]);
+            Shade::Constant(std::array::from_fn(|c| radiance[c] + r[c]))
+        }
+        Material::Sign(kind) => {
+            if face_index == 0 {
+                Shade::Sign {
+                    kind,
+                    white: lit([0.75; 3]),
+                    red: lit([0.55, 0.04, 0.04]),
+                    blue: lit([0.04, 0.12, 0.5]),
+                    yellow: lit([0.7, 0.55, 0.05]),
+                    dark: lit([0.05; 3]),
+                }
+            } else {
+                Shade::Constant(lit(crate::objects::METAL))
+            }
+        }
+        Material::Facade { wall, glass, pitch_u_m, pitch_v_m, lit_seed } => {
+            if face_index == 4 {
+                Shade::Constant(lit(wall.map(|v| v * 0.6)))
+            } else {
+                Shade::Facade {
+                    wall: lit(wall),
+                    glass: lit(glass),
+                    glow: lighting::WINDOW_GLOW,
+                    inv_pitch_u: 1.0 / pitch_u_m,
+                    inv_pitch_v: 1.0 / pitch_v_m,
+                    seed: lit_seed.wrapping_add(face_index as u32 * 7919),
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,281 @@
+//! Triangle rasterisation with a z-buffer: near-plane clipping, edge functions, perspective-
+//! correct depth and texture coordinates, and the per-pixel material patterns.
+
+use super::{CameraFrame, NEAR_M, Target};
+use crate::city::fast_floor;
+use crate::geometry::V3;
+use crate::objects::Rgb;
+
+/// A polygon corner in camera coordinates with its texture coordinates (metres on the face).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Vertex {
+    pub(crate) cam: V3,
+    pub(crate) u: f32,
+    pub(crate) v: f32,
+}
+
+/// How the pixels of one face are coloured (radiance already includes the face's lighting).
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Shade {
+    Constant(Rgb),
+    Facade { wall: Rgb, glass: Rgb, glow: Rgb, inv_pitch_u: f32, inv_pitch_v: f32, seed: u32 },
+    Sign { kind: u8, white: Rgb, red: Rgb, blue: Rgb, yellow: Rgb, dark: Rgb },
+}
+
+impl Shade {
+    #[inline]
+    fn at(&self, u: f32, v: f32) -> Rgb {
+        match *self {
+            Shade::Constant(c) => c,
+            Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed } => {
+                let (cu, cv) = (u * inv_pitch_u, v * inv_pitch_v);
+                let (iu, iv) = (fast_floor(cu), fast_floor(cv));
+                let (fu, fv) = (cu - iu as f32, cv - iv as f32);
+                if cv > 0.3 && (0.2..0.8).contains(&fu) && (0.28..0.82).contains(&fv) {
+                    let lit = cell_hash(iu, iv, seed) < 0.3;
+                    if lit {
+                        [glass[0] + glow[0], glass[1] + glow[1], glass[2] + glow[2]]
+                    } else {
+                        glass
+                    }
+                } else {
+                    wall
+                }
+            }
+            Shade::Sign { kind, white, red, blue, yellow, dark } => {
+                // Plate coordinates in [-0.5, 0.5]², t upwards.
+                let (s, t) = (u / 0.7 - 0.5, v / 0.7 - 0.5);
+                let r = (s * s + t * t).sqrt();
+                match kind {
+                    0 => {
+                        // Prohibition: red ring, white centre.
+                        if r < 0.31 {
+                            white
+                        } else if r < 0.45 {
+                            red
+                        } else {
+                            dark
+                        }
+                    }
+                    1 => {
+                        // Mandatory: blue disc with a white upward arrow.
+                        let shaft = s.abs() < 0.06 && (-0.28..0.08).contains(&t);
+                        let head = (0.08..0.3).contains(&t) && s.abs() < (0.3 - t) * 0.8;
+                        if r < 0.45 { if shaft || head { white } else { blue } } else { dark }
+                    }
+                    2 => {
+                        // Warning: red-bordered white triangle, point up.
+                        let outer = t > -0.42 && s.abs() < (0.45 - t) * 0.58;
+                        let inner = t > -0.3 && s.abs() < (0.3 - t) * 0.58;
+                        if inner {
+                            white
+                        } else if outer {
+                            red
+                        } else {
+                            dark
+                        }
+                    }
+                    _ => {
+                        // Priority road: yellow diamond with a white border.
+                        let d = s.abs() + t.abs();
+                        if d < 0.3 {
+                            yellow
+                        } else if d < 0.45 {
+                            white
+                        } else {
+                            dark
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn cell_hash(x: i32, y: i32, seed: u32) -> f32 {
+    let mut h = (x as u32).wrapping_mul(0x27d4_eb2d) ^ (y as u32).wrapping_mul(0x1656_67b1) ^ seed;
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x85eb_ca6b);
+    h ^= h >> 13;
+    (h >> 8) as f32 / (1u32 << 24) as f32
+}
+
+/// Clips a convex polygon against the near plane and rasterises it.
+pub(crate) fn draw_polygon(
+    verts: &[Vertex],
+    cam: &CameraFrame,
+    shade: &Shade,
+    id: u32,
+    target: &mut Target,
+) {
+    let mut clipped: [Vertex; 8] = [verts[0]; 8];
+    let mut n = 0;
+    for i in 0..verts.len() {
+        let a = verts[i];
+        let b = verts[(i + 1) % verts.len()];
+        let (ina, inb) = (a.cam.z >= NEAR_M, b.cam.z >= NEAR_M);
+        if ina {
+            clipped[n] = a;
+            n += 1;
+        }
+        if ina != inb {
+            let s = (NEAR_M - a.cam.z) / (b.cam.z - a.cam.z);
+            clipped[n] = Vertex {
+                cam: a.cam + (b.cam - a.cam) * s,
+                u: a.u + (b.u - a.u) * s,
+                v: a.v + (b.v - a.v) * s,
+            };
+            n += 1;
+        }
+    }
+    if n < 3 {
+        return;
+    }
+    let mut projected = [Projected::default(); 8];
+    for (p, v) in projected.iter_mut().zip(&clipped[..n]) {
+        *p = Projected::new(v, cam);
+    }
+    convex(&projected[..n], shade, id, target);
+}
+
+/// A vertex in screen space with the quantities that interpolate linearly there.
+#[derive(Debug, Clone, Copy, Default)]
+struct Projected {
+    x: f64,
+    y: f64,
+    inv_z: f64,
+    u_over_z: f64,
+    v_over_z: f64,
+}
+
+impl Projected {
+    fn new(v: &Vertex, cam: &CameraFrame) -> Self {
+        let inv_z = 1.0 / f64::from(v.cam.z);
+        Self {
+            x: f64::from(cam.cx) + f64::from(cam.fx) * f64::from(v.cam.x) * inv_z,
+            y: f64::from(cam.cy) + f64::from(cam.fy) * f64::from(v.cam.y) * inv_z,
+            inv_z,
+            u_over_z: f64::from(v.u) * inv_z,
+            v_over_z: f64::from(v.v) * inv_z,
+        }
+    }
+}
+
+/// `q(x, y) = a·x + b·y + c` through three screen points.
+#[derive(Debug, Clone, Copy)]
+struct Plane {
+    a: f64,
+    b: f64,
+    c: f64,
+}
+
+impl Plane {
+    fn through(p: [&Projected; 3], q: impl Fn(&Projected) -> f64, area2: f64) -> Self {
+        let [p0, p1, p2] = p;
+        let (q0, q1, q2) = (q(p0), q(p1), q(p2));
+        let a = ((q1 - q0) * (p2.y - p0.y) - (q2 - q0) * (p1.y - p0.y)) / area2;
+        let b = ((q2 - q0) * (p1.x - p0.x) - (q1 - q0) * (p2.x - p0.x)) / area2;
+        Self { a, b, c: q0 - a * p0.x - b * p0.y }
+    }
+
+    fn at(&self, x: f64, y: f64) -> f64 {
+        self.a * x + self.b * y + self.c
+    }
+}
+
+/// Rasterises a convex polygon, sampling at pixel centres. Each row's covered span is solved
+/// from the edge inequalities (no per-pixel inside test), and 1/z, u/z, v/z are planes in
+/// screen space, so a pixel costs one reciprocal and a depth test. Set-up is in f64 so that
+/// polygons reaching far outside the image (close to the camera) stay watertight.
+fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
+    let n = p.len();
+    // Signed double area, and the fan triangle with the largest area for the planes.
+    let mut area = 0.0;
+    let mut best = (0.0f64, 1usize);
+    for k in 1..n - 1 {
+        let a =
+            (p[k].x - p[0].x) * (p[k + 1].y - p[0].y) - (p[k + 1].x - p[0].x) * (p[k].y - p[0].y);
+        area += a;
+        if a.abs() > best.0.abs() {
+            best = (a, k);
+        }
+    }
+    if best.0.abs() < 1e-9 {
+        return;
+    }
+    let sign = area.signum();
+    // Edge i: A·x + B·y + C ≥ 0 inside.
+    let mut edges = [(0.0f64, 0.0f64, 0.0f64); 8];
+    for i in 0..n {
+        let (a, b) = (&p[i], &p[(i + 1) % n]);
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        edges[i] = (-dy * sign, dx * sign, (dy * a.x - dx * a.y) * sign);
+    }
+    let tri = [&p[0], &p[best.1], &p[best.1 + 1]];
+    let iz = Plane::through(tri, |v| v.inv_z, best.0);
+    let textured = !matches!(shade, Shade::Constant(_));
+    let (uz, vz) = if textured {
+        (Plane::through(tri, |v| v.u_over_z, best.0), Plane::through(tri, |v| v.v_over_z, best.0))
+    } else {
+        (Plane { a: 0.0, b: 0.0, c: 0.0 }, Plane { a: 0.0, b: 0.0, c: 0.0 })
+    };
+    let constant = if let Shade::Constant(c) = shade { *c } else { [0.0; 3] };
+    let (w, h) = (target.width as f64, target.height as f64);
+    let y_min = p.iter().map(|v| v.y).fold(f64::INFINITY, f64::min);
+    let y_max = p.iter().map(|v| v.y).fold(f64::NEG_INFINITY, f64::max);
+    let y0 = (y_min - 0.5).ceil().max(0.0);
+    let y1 = (y_max - 0.5).floor().min(h - 1.0);
+    if y0 > y1 {
+        return;
+    }
+    let mut covered = 0u32;
+    for y in y0 as usize..=y1 as usize {
+        let yc = y as f64 + 0.5;
+        let (mut lo, mut hi) = (0.5f64, w - 0.5);
+        let mut empty = false;
+        for &(a, b, c) in &edges[..n] {
+            let rest = b * yc + c;
+            if a > 0.0 {
+                lo = lo.max(-rest / a);
+            } else if a < 0.0 {
+                hi = hi.min(-rest / a);
+            } else if rest < 0.0 {
+                empty = true;
+            }
+        }
+        if empty || lo > hi {
+            continue;
+        }
+        let x0 = (lo - 0.5).ceil().max(0.0) as usize;
+        let x1 = ((hi - 0.5).floor().min(w - 1.0)) as isize;
+        if (x1 as f64) < x0 as f64 {
+            continue;
+        }
+        let x1 = x1 as usize;
+        covered += (x1 + 1 - x0) as u32;
+        let xc = x0 as f64 + 0.5;
+        let mut inv_z = iz.at(xc, yc) as f32;
+        let d_inv_z = iz.a as f32;
+        let (mut u, mut v) = (uz.at(xc, yc) as f32, vz.at(xc, yc) as f32);
+        let (du, dv) = (uz.a as f32, vz.a as f32);
+        let row = y * target.width;
+        for x in x0..=x1 {
+            let i = row + x;
+            if inv_z > target.inv_depth[i] {
+                target.inv_depth[i] = inv_z;
+                target.id[i] = id;
+                let rgb = if textured {
+                    let z = 1.0 / inv_z;
+                    shade.at(u * z, v * z)
+                } else {
+                    constant
+                };
+                target.colour[i * 3..i * 3 + 3].copy_from_slice(&rgb);
+            }
+            inv_z += d_inv_z;
+            u += du;
+            v += dv;
+        }
+    }
+    target.coverage[id as usize] += covered;
+}

@@ -1,0 +1,499 @@
+//! The simulator as a [`FrameSource`]: episodes, shutter-integrated motion blur, ground truth.
+
+use crate::city::{City, CityConfig};
+use crate::ego::EgoTrajectory;
+use crate::geometry::{OrientedBox, V3};
+use crate::lighting::{Illumination, Lighting};
+use crate::render::{self, CameraFrame, Target, View};
+use joca_core::rng::SeedStreams;
+use joca_core::{
+    Annotation, BBox, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError,
+};
+use rand::Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// Most sub-frames averaged for one blurred frame. About one sub-frame per pixel of the largest
+/// image-space displacement during the shutter is used; beyond this cap (31 px of travel) the
+/// blur of the fastest points is rendered as discrete copies 1–2 px apart, which a detector sees
+/// as the same streak.
+pub const MAX_SUBFRAMES: usize = 31;
+/// Sub-frames accumulated per work unit; fixed so that the summation order, and so every bit of
+/// the result, does not depend on the thread count.
+const SUBFRAMES_PER_CHUNK: usize = 4;
+
+/// Which objects count as visible (ground truth and the 180° count).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VisibilityRules {
+    /// Farthest object that counts, metres from the camera (horizontal).
+    pub max_range_m: f32,
+    /// Smallest visible share of an object's camera-facing surface (id-buffer pixels over the
+    /// pixels its front faces cover without occlusion; for the 180° count, the share of sample
+    /// points on the object that a ray from the eye reaches unoccluded).
+    pub min_visible_fraction: f32,
+    /// Smallest box width and height in pixels.
+    pub min_box_px: f32,
+}
+
+impl Default for VisibilityRules {
+    fn default() -> Self {
+        Self { max_range_m: 100.0, min_visible_fraction: 0.15, min_box_px: 4.0 }
+    }
+}
+
+/// Simulator settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimConfig {
+    /// Seed of the city map.
+    pub map_seed: u64,
+    /// City generation parameters.
+    pub city: CityConfig,
+    /// Length of an episode, seconds.
+    pub episode_s: f64,
+    /// Time between frames, seconds.
+    pub frame_interval_s: f64,
+    /// Ego top speed, m/s.
+    pub max_speed_mps: f64,
+    /// Illumination of every episode, or `None` to draw one of the four per episode.
+    pub illumination: Option<Illumination>,
+    /// Visibility rules for ground truth.
+    pub visibility: VisibilityRules,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            map_seed: 0,
+            city: CityConfig::default(),
+            episode_s: 60.0,
+            frame_interval_s: 0.1,
+            max_speed_mps: 15.0,
+            illumination: None,
+            visibility: VisibilityRules::default(),
+        }
+    }
+}
+
+/// What stays fixed within an episode.
+#[derive(Debug, Clone)]
+pub struct Episode {
+    /// The ego vehicle's route and speed.
+    pub ego: EgoTrajectory,
+    /// Illumination schedule.
+    pub illumination: Illumination,
+    /// Schedule offset, seconds.
+    pub phase_s: f64,
+    /// Direction towards the sun.
+    pub sun_dir: [f32; 3],
+}
+
+/// The built-in driving simulator.
+#[derive(Debug)]
+pub struct Simulator {
+    config: SimConfig,
+    city: City,
+    episodes: Mutex<HashMap<u64, Arc<Episode>>>,
+}
+
+impl Simulator {
+    /// Builds the city of `config.map_seed`.
+    pub fn new(config: SimConfig) -> Self {
+        let streams = SeedStreams::new(config.map_seed);
+        let city = City::generate(&config.city, &mut streams.stream("city"));
+        Self { config, city, episodes: Mutex::new(HashMap::new()) }
+    }
+
+    /// A simulator over a given city (e.g. a hand-built test scene).
+    pub fn with_city(config: SimConfig, city: City) -> Self {
+        Self { config, city, episodes: Mutex::new(HashMap::new()) }
+    }
+
+    /// Replaces episode `index` with a scripted one.
+    pub fn set_episode(&self, index: u64, episode: Episode) {
+        let mut cache = self.episodes.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        cache.insert(index, Arc::new(episode));
+    }
+
+    /// The city.
+    pub fn city(&self) -> &City {
+        &self.city
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// Episode `index` (created on first use; deterministic in map seed and index).
+    pub fn episode(&self, index: u64) -> Arc<Episode> {
+        let mut cache = self.episodes.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        cache
+            .entry(index)
+            .or_insert_with(|| {
+                let mut rng = SeedStreams::new(self.config.map_seed).indexed("episode", index);
+                let illumination = self.config.illumination.unwrap_or_else(|| {
+                    Illumination::ALL[rng.random_range(0..Illumination::ALL.len())]
+                });
+                let phase_s = rng.random_range(0.0..24.0);
+                let azimuth: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+                // Sun 45–55° above the horizon: white paper on the ground reads 203–225 DN.
+                let elevation: f32 = rng.random_range(45f32.to_radians()..55f32.to_radians());
+                let sun_dir = [
+                    elevation.cos() * azimuth.cos(),
+                    elevation.cos() * azimuth.sin(),
+                    elevation.sin(),
+                ];
+                let ego = EgoTrajectory::generate(
+                    &self.city,
+                    self.config.episode_s + 1.0,
+                    self.config.max_speed_mps,
+                    &mut rng,
+                );
+                Arc::new(Episode { ego, illumination, phase_s, sun_dir })
+            })
+            .clone()
+    }
+
+    fn view<'a>(&self, episode: &Episode, camera: &'a PinholeCamera, time_s: f64) -> View<'a> {
+        View {
+            camera,
+            ego: episode.ego.pose_at(time_s),
+            lighting: Lighting {
+                ambient: episode.illumination.ambient(time_s, episode.phase_s),
+                sun_dir: episode.sun_dir,
+            },
+            time_s,
+        }
+    }
+
+    fn render_at(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        time_s: f64,
+        target: &mut Target,
+    ) {
+        render::render(&self.city, &self.view(episode, camera, time_s), target);
+    }
+
+    /// Number of sub-frames for a shutter from `t0` to `t1`, from the image-space travel of the
+    /// scene seen in `mid`: about one per pixel of the largest displacement, odd (so the middle
+    /// one falls on the shutter midpoint), at most [`MAX_SUBFRAMES`].
+    fn subframes(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        t0: f64,
+        t1: f64,
+        mid: &Target,
+    ) -> usize {
+        if t1 <= t0 {
+            return 1;
+        }
+        let c0 = CameraFrame::new(camera, episode.ego.pose_at(t0));
+        let c1 = CameraFrame::new(camera, episode.ego.pose_at(t1));
+        let cm = CameraFrame::new(camera, episode.ego.pose_at(0.5 * (t0 + t1)));
+        let project = |c: &CameraFrame, p: V3| -> Option<(f32, f32)> {
+            let q = c.camera_from_world(p);
+            (q.z > render::NEAR_M).then(|| (c.cx + c.fx * q.x / q.z, c.cy + c.fy * q.y / q.z))
+        };
+        let mut travel = 0.0f32;
+        let mut measure = |a: Option<(f32, f32)>, b: Option<(f32, f32)>| {
+            if let (Some(a), Some(b)) = (a, b) {
+                travel = travel.max(((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt());
+            }
+        };
+        // Static scene: unproject a sparse grid of the middle view, reproject at both ends.
+        let step = 6;
+        for y in (step / 2..mid.height).step_by(step) {
+            for x in (step / 2..mid.width).step_by(step) {
+                let inv_z = mid.inv_depth[y * mid.width + x];
+                if inv_z <= 0.0 {
+                    continue;
+                }
+                let z = 1.0 / inv_z;
+                let a = (x as f32 + 0.5 - cm.cx) / cm.fx;
+                let b = (y as f32 + 0.5 - cm.cy) / cm.fy;
+                let p = cm.origin + cm.forward * z + cm.right * (a * z) + V3::new(0.0, 0.0, -b * z);
+                measure(project(&c0, p), project(&c1, p));
+            }
+        }
+        // Moving objects in view: their own motion too.
+        let mut seen: Vec<u32> = mid.id.iter().copied().filter(|&i| i > 0).collect();
+        seen.sort_unstable();
+        seen.dedup();
+        for id in seen {
+            let object = &self.city.objects[id as usize - 1];
+            if object.motion.is_static() {
+                continue;
+            }
+            for part in &object.parts {
+                let p0 = object.position_at(t0).apply(part.offset);
+                let p1 = object.position_at(t1).apply(part.offset);
+                measure(project(&c0, p0), project(&c1, p1));
+            }
+        }
+        let n = (travel.ceil() as usize).clamp(1, MAX_SUBFRAMES);
+        n | 1
+    }
+
+    /// The average of `n` sub-frames spread evenly over the shutter `[t0, t0 + shutter]`; the
+    /// middle one is `mid`, already rendered.
+    fn blurred(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        t0: f64,
+        shutter: f64,
+        n: usize,
+        mid: &Target,
+    ) -> Vec<f32> {
+        if n == 1 {
+            return mid.colour.clone();
+        }
+        let (w, h) = (camera.width_px, camera.height_px);
+        let objects = self.city.objects.len();
+        let middle = n / 2;
+        let times: Vec<f64> = (0..n).map(|k| t0 + (k as f64 + 0.5) / n as f64 * shutter).collect();
+        // Each chunk sums its sub-frames in order; chunks are then summed in order, so the
+        // result does not depend on how many threads did the work.
+        let chunk_sums: Vec<Vec<f32>> = times
+            .par_chunks(SUBFRAMES_PER_CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| {
+                let mut sum = vec![0.0f32; w * h * 3];
+                let mut target = Target::new(w, h, objects);
+                for (j, &t) in chunk.iter().enumerate() {
+                    let colour = if c * SUBFRAMES_PER_CHUNK + j == middle {
+                        &mid.colour
+                    } else {
+                        self.render_at(episode, camera, t, &mut target);
+                        &target.colour
+                    };
+                    sum.iter_mut().zip(colour).for_each(|(s, &v)| *s += v);
+                }
+                sum
+            })
+            .collect();
+        let mut acc = vec![0.0f32; w * h * 3];
+        for sum in &chunk_sums {
+            acc.iter_mut().zip(sum).for_each(|(a, &s)| *a += s);
+        }
+        let inv = 1.0 / n as f32;
+        acc.iter_mut().for_each(|v| *v *= inv);
+        acc
+    }
+
+    /// Ground truth of the middle sub-frame: tight boxes of visible classed objects.
+    fn annotations(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        time_s: f64,
+        mid: &Target,
+    ) -> Vec<Annotation> {
+        let rules = self.config.visibility;
+        let mut stats: HashMap<u32, (u32, [usize; 4])> = HashMap::new();
+        for y in 0..mid.height {
+            for x in 0..mid.width {
+                let id = mid.id[y * mid.width + x];
+                if id == 0 {
+                    continue;
+                }
+                let e = stats.entry(id).or_insert((0, [x, y, x, y]));
+                e.0 += 1;
+                e.1 = [e.1[0].min(x), e.1[1].min(y), e.1[2].max(x), e.1[3].max(y)];
+            }
+        }
+        let cam = CameraFrame::new(camera, episode.ego.pose_at(time_s));
+        let mut out: Vec<(u32, Annotation)> = stats
+            .into_iter()
+            .filter_map(|(id, (count, b))| {
+                let object = &self.city.objects[id as usize - 1];
+                let class = object.class?;
+                let pos = object.position_at(time_s);
+                let (dx, dy) = (pos.x - cam.origin.x, pos.y - cam.origin.y);
+                if (dx * dx + dy * dy).sqrt() > rules.max_range_m {
+                    return None;
+                }
+                let coverage = mid.coverage[id as usize].max(count);
+                if (count as f32) < rules.min_visible_fraction * coverage as f32 {
+                    return None;
+                }
+                let bbox =
+                    BBox::new(b[0] as f32, b[1] as f32, (b[2] + 1) as f32, (b[3] + 1) as f32);
+                if bbox.width() < rules.min_box_px || bbox.height() < rules.min_box_px {
+                    return None;
+                }
+                Some((id, Annotation { bbox, class }))
+            })
+            .collect();
+        out.sort_by_key(|(id, _)| *id);
+        out.into_iter().map(|(_, a)| a).collect()
+    }
+
+    /// Objects visible within a 180° horizontal field around the heading, from an eye at the
+    /// vehicle centre 1.5 m up: within range, and with at least the minimum share of sample
+    /// points on the object reachable by an unoccluded ray. Independent of the camera design.
+    pub fn visible_180(&self, episode: &Episode, time_s: f64) -> u32 {
+        let rules = self.config.visibility;
+        let ego = episode.ego.pose_at(time_s);
+        let eye = V3::new(ego.x, ego.y, 1.5);
+        let (fx, fy) = (ego.yaw.cos(), ego.yaw.sin());
+        struct Occ {
+            owner: usize,
+            bearing: f32,
+            half_angle: f32,
+            near: f32,
+            boxes: Vec<OrientedBox>,
+        }
+        let reach = rules.max_range_m + 30.0;
+        let mut occluders = Vec::new();
+        for (index, object) in self.city.objects.iter().enumerate() {
+            let p = object.position_at(time_s);
+            let (dx, dy) = (p.x - eye.x, p.y - eye.y);
+            let d = (dx * dx + dy * dy).sqrt();
+            if d - object.radius_m > reach {
+                continue;
+            }
+            let half_angle = if d > object.radius_m {
+                (object.radius_m / d).asin()
+            } else {
+                std::f32::consts::PI
+            };
+            occluders.push(Occ {
+                owner: index,
+                bearing: dy.atan2(dx),
+                half_angle,
+                near: d - object.radius_m,
+                boxes: object.boxes_at(time_s).map(|(b, _)| b).collect(),
+            });
+        }
+        let mut count = 0;
+        for occ in occluders.iter() {
+            let object = &self.city.objects[occ.owner];
+            if object.class.is_none() {
+                continue;
+            }
+            let p = object.position_at(time_s);
+            let (dx, dy) = (p.x - eye.x, p.y - eye.y);
+            let d = (dx * dx + dy * dy).sqrt();
+            if d > rules.max_range_m || dx * fx + dy * fy <= 0.0 {
+                continue;
+            }
+            let blockers: Vec<&Occ> = occluders
+                .iter()
+                .filter(|o| {
+                    o.owner != occ.owner
+                        && o.near < d
+                        && angle_diff(o.bearing, occ.bearing).abs() < o.half_angle + occ.half_angle
+                })
+                .collect();
+            let samples = sample_points(&occ.boxes);
+            let free = samples
+                .iter()
+                .filter(|&&s| {
+                    let v = s - eye;
+                    let len = v.norm();
+                    let dir = v * (1.0 / len);
+                    !blockers
+                        .iter()
+                        .any(|o| o.boxes.iter().any(|b| b.ray_hit(eye, dir, len - 0.05).is_some()))
+                })
+                .count();
+            if free as f32 >= rules.min_visible_fraction * samples.len() as f32 && free > 0 {
+                count += 1;
+            }
+        }
+        count
+    }
+}
+
+fn angle_diff(a: f32, b: f32) -> f32 {
+    let d = (a - b).rem_euclid(std::f32::consts::TAU);
+    if d > std::f32::consts::PI { d - std::f32::consts::TAU } else { d }
+}
+
+/// Sample points on an object: each part's centre and, for its largest part, the eight corners
+/// pulled 20 % towards the centre.
+fn sample_points(boxes: &[OrientedBox]) -> Vec<V3> {
+    let mut points: Vec<V3> = boxes.iter().map(|b| b.centre).collect();
+    if let Some(big) = boxes.iter().max_by(|a, b| {
+        (a.half.x * a.half.y * a.half.z).total_cmp(&(b.half.x * b.half.y * b.half.z))
+    }) {
+        let (f, l) = big.axes();
+        for sx in [-0.8f32, 0.8] {
+            for sy in [-0.8f32, 0.8] {
+                for sz in [-0.8f32, 0.8] {
+                    points.push(
+                        big.centre
+                            + f * (sx * big.half.x)
+                            + l * (sy * big.half.y)
+                            + V3::new(0.0, 0.0, sz * big.half.z),
+                    );
+                }
+            }
+        }
+    }
+    points
+}
+
+impl FrameSource for Simulator {
+    fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError> {
+        if !(request.time_s >= 0.0 && request.time_s <= self.config.episode_s) {
+            return Err(SourceError::OutOfRange {
+                reason: format!(
+                    "time {} s outside the episode (0 to {} s)",
+                    request.time_s, self.config.episode_s
+                ),
+            });
+        }
+        if !(request.exposure_s >= 0.0
+            && request.exposure_s.is_finite()
+            && request.motion_scale >= 0.0)
+        {
+            return Err(SourceError::OutOfRange {
+                reason: format!(
+                    "exposure {} s and motion scale {} must be finite and non-negative",
+                    request.exposure_s, request.motion_scale
+                ),
+            });
+        }
+        let episode = self.episode(request.episode);
+        let (w, h) = (camera.width_px, camera.height_px);
+        let t0 = request.time_s;
+        let shutter = request.exposure_s * request.motion_scale;
+        let t1 = t0 + shutter;
+        let t_mid = t0 + 0.5 * shutter;
+
+        let mut mid = Target::new(w, h, self.city.objects.len());
+        self.render_at(&episode, camera, t_mid, &mut mid);
+        let n = self.subframes(&episode, camera, t0, t1, &mid);
+        // Ground truth and the 180° count run beside the sub-frame renders.
+        let ((boxes, visible_180), colour) = rayon::join(
+            || (self.annotations(&episode, camera, t_mid, &mid), self.visible_180(&episode, t_mid)),
+            || self.blurred(&episode, camera, t0, shutter, n, &mid),
+        );
+        let hdr = HdrImage::from_vec(w, h, colour)
+            .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
+        Ok(Frame { hdr, boxes, visible_180 })
+    }
+
+    fn frame_interval_s(&self) -> f64 {
+        self.config.frame_interval_s
+    }
+}
+
+/// The number of sub-frames the simulator would average for `request` (for benchmarks and
+/// tests).
+pub fn subframe_count(sim: &Simulator, camera: &PinholeCamera, request: &FrameRequest) -> usize {
+    let episode = sim.episode(request.episode);
+    let shutter = request.exposure_s * request.motion_scale;
+    let t_mid = request.time_s + 0.5 * shutter;
+    let mut mid = Target::new(camera.width_px, camera.height_px, sim.city.objects.len());
+    sim.render_at(&episode, camera, t_mid, &mut mid);
+    sim.subframes(&episode, camera, request.time_s, request.time_s + shutter, &mid)
+}
