@@ -30,6 +30,8 @@ enum Command {
     Form(commands::form::Args),
     /// Estimate the noise parameters σp², σr² from frames of a static scene (photon transfer).
     CalibrateNoise(commands::calibrate::Args),
+    /// Score COCO-format detections against ground truth (the 12 numbers pycocotools prints).
+    Metrics(commands::metrics::Args),
     /// Render frames from the built-in driving simulator, with ground truth and a contact sheet.
     Render(commands::render::Args),
     /// Measure the speed of joca's components and print a table.
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
         Command::Sensors(args) => commands::sensors::run(&args),
         Command::Form(args) => commands::form::run(&args),
         Command::CalibrateNoise(args) => commands::calibrate::run(&args),
+        Command::Metrics(args) => commands::metrics::run(&args),
         Command::Render(args) => commands::render::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
     };

@@ -292,3 +292,34 @@ fn render_refuses_bad_names_and_impossible_mounts() {
         stderr(&o)
     );
 }
+
+#[test]
+fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
+    let fixture =
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../joca-metrics/tests/fixtures/random_a.json");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fixture).unwrap()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (gt, dt) = (dir.path().join("gt.json"), dir.path().join("dt.json"));
+    std::fs::write(&gt, v["gt"].to_string()).unwrap();
+    std::fs::write(&dt, v["dt"].to_string()).unwrap();
+    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = stdout(&o).lines().next().unwrap().to_owned();
+    let want = format!("{:.3}", v["stats"][0].as_f64().unwrap());
+    assert!(
+        first.contains("IoU=0.50:0.95 | area=   all | maxDets=100") && first.ends_with(&want),
+        "{first}"
+    );
+
+    std::fs::write(&dt, r#"[{"image_id": 1, "category_id": 1, "bbox": [1, 2, 3], "score": 0.5}]"#)
+        .unwrap();
+    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    assert!(
+        stderr(&o).contains("dt.json")
+            && stderr(&o).contains("detection 0")
+            && stderr(&o).contains("bbox"),
+        "{}",
+        stderr(&o)
+    );
+}

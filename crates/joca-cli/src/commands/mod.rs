@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod calibrate;
 pub mod form;
+pub mod metrics;
 pub mod render;
 pub mod sensors;
 

@@ -1,0 +1,382 @@
+//! COCO box evaluation, following pycocotools' `COCOeval` (evaluateImg, accumulate, summarize)
+//! step by step, so that results agree with it to floating-point precision:
+//!
+//! - per image and category, detections are sorted by score with a stable sort (numpy's
+//!   mergesort) and cut to the 100 best; ground truth that is crowd or outside the area range is
+//!   "ignored" and sorted after the rest;
+//! - greedy matching per IoU threshold: each detection, best score first, takes the unmatched
+//!   ground truth of highest IoU ≥ threshold, preferring non-ignored ground truth; a crowd region
+//!   may absorb many detections; a detection matched to ignored ground truth, or unmatched and
+//!   outside the area range, is ignored;
+//! - per category, area range and detection limit, detections of all images are merged by score
+//!   (stable), precision is made monotone from the right and sampled at 101 recall points
+//!   (`searchsorted`, side "left"); categories without non-ignored ground truth are left out.
+
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Names of the 12 summary numbers, in pycocotools' order.
+pub const STAT_NAMES: [&str; 12] = [
+    "AP @[ IoU=0.50:0.95 | area=   all | maxDets=100 ]",
+    "AP @[ IoU=0.50      | area=   all | maxDets=100 ]",
+    "AP @[ IoU=0.75      | area=   all | maxDets=100 ]",
+    "AP @[ IoU=0.50:0.95 | area= small | maxDets=100 ]",
+    "AP @[ IoU=0.50:0.95 | area=medium | maxDets=100 ]",
+    "AP @[ IoU=0.50:0.95 | area= large | maxDets=100 ]",
+    "AR @[ IoU=0.50:0.95 | area=   all | maxDets=  1 ]",
+    "AR @[ IoU=0.50:0.95 | area=   all | maxDets= 10 ]",
+    "AR @[ IoU=0.50:0.95 | area=   all | maxDets=100 ]",
+    "AR @[ IoU=0.50:0.95 | area= small | maxDets=100 ]",
+    "AR @[ IoU=0.50:0.95 | area=medium | maxDets=100 ]",
+    "AR @[ IoU=0.50:0.95 | area= large | maxDets=100 ]",
+];
+
+const MAX_DETS: [usize; 3] = [1, 10, 100];
+/// Area ranges all, small, medium, large (square pixels), inclusive at both ends as in
+/// pycocotools.
+const AREA_RANGES: [(f64, f64); 4] =
+    [(0.0, 1e10), (0.0, 32.0 * 32.0), (32.0 * 32.0, 96.0 * 96.0), (96.0 * 96.0, 1e10)];
+const RECALL_POINTS: usize = 101;
+
+/// IoU thresholds 0.50:0.05:0.95 computed as `numpy.linspace(.5, .95, 10)` does, so that
+/// comparisons at exactly a threshold break the same way.
+fn iou_thresholds() -> [f64; 10] {
+    let step = (0.95 - 0.5) / 9.0;
+    let mut t: [f64; 10] = std::array::from_fn(|i| i as f64 * step + 0.5);
+    t[9] = 0.95;
+    t
+}
+
+/// Recall sample points 0:0.01:1 as `numpy.linspace(0, 1, 101)`.
+fn recall_thresholds() -> [f64; RECALL_POINTS] {
+    let mut r: [f64; RECALL_POINTS] = std::array::from_fn(|i| i as f64 * 0.01);
+    r[RECALL_POINTS - 1] = 1.0;
+    r
+}
+
+/// Intersection over union of two `[x, y, w, h]` boxes (pycocotools' `bbIou`): no `+1`; when
+/// `crowd` the union is the detection's area alone.
+pub fn iou_xywh(dt: &[f64; 4], gt: &[f64; 4], crowd: bool) -> f64 {
+    let w = (dt[0] + dt[2]).min(gt[0] + gt[2]) - dt[0].max(gt[0]);
+    if w <= 0.0 {
+        return 0.0;
+    }
+    let h = (dt[1] + dt[3]).min(gt[1] + gt[3]) - dt[1].max(gt[1]);
+    if h <= 0.0 {
+        return 0.0;
+    }
+    let inter = w * h;
+    let union = if crowd { dt[2] * dt[3] } else { dt[2] * dt[3] + gt[2] * gt[3] - inter };
+    inter / union
+}
+
+/// A ground-truth object.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GroundTruth {
+    /// `[x, y, w, h]`, pixels.
+    pub bbox: [f64; 4],
+    /// COCO category id.
+    pub category: u32,
+    /// Area used for the area ranges (COCO's `area` field; `w·h` for boxes).
+    pub area: f64,
+    /// A crowd region (`iscrowd = 1`).
+    pub crowd: bool,
+}
+
+impl GroundTruth {
+    /// A non-crowd object with area `w·h`.
+    pub fn new(bbox: [f64; 4], category: u32) -> Self {
+        Self { bbox, category, area: bbox[2] * bbox[3], crowd: false }
+    }
+}
+
+/// A detection.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ScoredBox {
+    /// `[x, y, w, h]`, pixels.
+    pub bbox: [f64; 4],
+    /// COCO category id.
+    pub category: u32,
+    /// Confidence.
+    pub score: f64,
+}
+
+impl ScoredBox {
+    /// A detection.
+    pub fn new(bbox: [f64; 4], category: u32, score: f64) -> Self {
+        Self { bbox, category, score }
+    }
+}
+
+/// The result of an evaluation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CocoSummary {
+    /// The 12 numbers of `COCOeval.summarize()` ([`STAT_NAMES`]); −1 where undefined.
+    pub stats: [f64; 12],
+    /// AP@[.50:.95] per category that has ground truth.
+    pub per_category_ap: BTreeMap<u32, f64>,
+    /// Detections matched at IoU 0.5 (area all, 100 detections per image), not ignored.
+    pub true_positives_50: usize,
+    /// Non-ignored ground-truth objects.
+    pub ground_truths: usize,
+}
+
+/// Accumulates images of ground truth and detections, then evaluates them together.
+#[derive(Debug, Clone, Default)]
+pub struct CocoEvaluator {
+    images: BTreeMap<u64, (Vec<GroundTruth>, Vec<ScoredBox>)>,
+}
+
+/// Matching result of one image and category at one area range.
+struct ImageEval {
+    scores: Vec<f64>,
+    /// `[threshold][detection]`: matched to a ground truth.
+    matched: Vec<Vec<bool>>,
+    /// `[threshold][detection]`: ignored.
+    ignored: Vec<Vec<bool>>,
+    gt_ignored: Vec<bool>,
+}
+
+impl CocoEvaluator {
+    /// Adds an image (or more objects to an image already added). Images without ground truth
+    /// count: their detections are false positives.
+    pub fn add_image(&mut self, image_id: u64, gts: Vec<GroundTruth>, dts: Vec<ScoredBox>) {
+        let entry = self.images.entry(image_id).or_default();
+        entry.0.extend(gts);
+        entry.1.extend(dts);
+    }
+
+    /// Forgets every image.
+    pub fn reset(&mut self) {
+        self.images.clear();
+    }
+
+    /// Number of images added.
+    pub fn len(&self) -> usize {
+        self.images.len()
+    }
+
+    /// Whether no image was added.
+    pub fn is_empty(&self) -> bool {
+        self.images.is_empty()
+    }
+
+    /// Evaluates everything added so far.
+    pub fn evaluate(&self) -> CocoSummary {
+        let thresholds = iou_thresholds();
+        let categories: BTreeSet<u32> =
+            self.images.values().flat_map(|(g, _)| g.iter().map(|g| g.category)).collect();
+        // precision[t][r][k][a][m], recall[t][k][a][m], with −1 meaning "no ground truth".
+        let (nt, nk, na, nm) =
+            (thresholds.len(), categories.len(), AREA_RANGES.len(), MAX_DETS.len());
+        let mut precision = vec![-1.0f64; nt * RECALL_POINTS * nk * na * nm];
+        let mut recall = vec![-1.0f64; nt * nk * na * nm];
+        let p_index = |t: usize, r: usize, k: usize, a: usize, m: usize| {
+            (((t * RECALL_POINTS + r) * nk + k) * na + a) * nm + m
+        };
+        let r_index = |t: usize, k: usize, a: usize, m: usize| ((t * nk + k) * na + a) * nm + m;
+        let recall_points = recall_thresholds();
+        let mut true_positives_50 = 0;
+        let mut ground_truths = 0;
+        for (k, &category) in categories.iter().enumerate() {
+            for (a, &range) in AREA_RANGES.iter().enumerate() {
+                let evals: Vec<ImageEval> = self
+                    .images
+                    .values()
+                    .filter_map(|(g, d)| {
+                        let g: Vec<&GroundTruth> =
+                            g.iter().filter(|x| x.category == category).collect();
+                        let d: Vec<&ScoredBox> =
+                            d.iter().filter(|x| x.category == category).collect();
+                        evaluate_image(&g, &d, range, &thresholds)
+                    })
+                    .collect();
+                if a == 0 {
+                    ground_truths +=
+                        evals.iter().flat_map(|e| &e.gt_ignored).filter(|&&i| !i).count();
+                    true_positives_50 += evals
+                        .iter()
+                        .map(|e| {
+                            e.matched[0]
+                                .iter()
+                                .zip(&e.ignored[0])
+                                .take(100)
+                                .filter(|(m, i)| **m && !**i)
+                                .count()
+                        })
+                        .sum::<usize>();
+                }
+                let npig = evals.iter().flat_map(|e| &e.gt_ignored).filter(|&&i| !i).count();
+                if npig == 0 {
+                    continue;
+                }
+                for (m, &max_det) in MAX_DETS.iter().enumerate() {
+                    // Merge the images' detections by score (stable, images in id order).
+                    let mut merged: Vec<(f64, usize, usize)> = Vec::new();
+                    for (e_index, e) in evals.iter().enumerate() {
+                        for (d, &s) in e.scores.iter().take(max_det).enumerate() {
+                            merged.push((s, e_index, d));
+                        }
+                    }
+                    merged.sort_by(|x, y| y.0.total_cmp(&x.0));
+                    for t in 0..nt {
+                        let mut tp = 0.0f64;
+                        let mut fp = 0.0f64;
+                        let mut rc = Vec::with_capacity(merged.len());
+                        let mut pr = Vec::with_capacity(merged.len());
+                        for &(_, e, d) in &merged {
+                            let (matched, ignored) =
+                                (evals[e].matched[t][d], evals[e].ignored[t][d]);
+                            // Ignored detections neither add nor cost, but, as numpy's cumsum
+                            // does, still emit a (repeated) point of the curve.
+                            if !ignored {
+                                if matched {
+                                    tp += 1.0;
+                                } else {
+                                    fp += 1.0;
+                                }
+                            }
+                            rc.push(tp / npig as f64);
+                            pr.push(tp / (fp + tp + f64::EPSILON));
+                        }
+                        recall[r_index(t, k, a, m)] = rc.last().copied().unwrap_or(0.0);
+                        for i in (1..pr.len()).rev() {
+                            if pr[i] > pr[i - 1] {
+                                pr[i - 1] = pr[i];
+                            }
+                        }
+                        for (r, &threshold) in recall_points.iter().enumerate() {
+                            // searchsorted(rc, threshold, side="left"); recall points out of
+                            // reach keep precision 0, as in pycocotools.
+                            let pi = rc.partition_point(|&v| v < threshold);
+                            precision[p_index(t, r, k, a, m)] = pr.get(pi).copied().unwrap_or(0.0);
+                        }
+                    }
+                }
+            }
+        }
+        let mean_of = |values: Vec<f64>| {
+            let kept: Vec<f64> = values.into_iter().filter(|&v| v > -1.0).collect();
+            if kept.is_empty() { -1.0 } else { kept.iter().sum::<f64>() / kept.len() as f64 }
+        };
+        let ap = |t_sel: Option<usize>, a: usize, m: usize| {
+            let mut v = Vec::new();
+            for t in 0..nt {
+                if t_sel.is_some_and(|s| s != t) {
+                    continue;
+                }
+                for r in 0..RECALL_POINTS {
+                    for k in 0..nk {
+                        v.push(precision[p_index(t, r, k, a, m)]);
+                    }
+                }
+            }
+            mean_of(v)
+        };
+        let ar = |a: usize, m: usize| {
+            let mut v = Vec::new();
+            for t in 0..nt {
+                for k in 0..nk {
+                    v.push(recall[r_index(t, k, a, m)]);
+                }
+            }
+            mean_of(v)
+        };
+        let stats = [
+            ap(None, 0, 2),
+            ap(Some(0), 0, 2),
+            ap(Some(5), 0, 2),
+            ap(None, 1, 2),
+            ap(None, 2, 2),
+            ap(None, 3, 2),
+            ar(0, 0),
+            ar(0, 1),
+            ar(0, 2),
+            ar(1, 2),
+            ar(2, 2),
+            ar(3, 2),
+        ];
+        let per_category_ap = categories
+            .iter()
+            .enumerate()
+            .filter_map(|(k, &c)| {
+                let mut v = Vec::new();
+                for t in 0..nt {
+                    for r in 0..RECALL_POINTS {
+                        v.push(precision[p_index(t, r, k, 0, 2)]);
+                    }
+                }
+                let m = mean_of(v);
+                (m > -1.0).then_some((c, m))
+            })
+            .collect();
+        CocoSummary { stats, per_category_ap, true_positives_50, ground_truths }
+    }
+}
+
+/// pycocotools' `evaluateImg` for one image and category (maxDets 100).
+fn evaluate_image(
+    gts: &[&GroundTruth],
+    dts: &[&ScoredBox],
+    range: (f64, f64),
+    thresholds: &[f64],
+) -> Option<ImageEval> {
+    if gts.is_empty() && dts.is_empty() {
+        return None;
+    }
+    let ignore = |g: &GroundTruth| g.crowd || g.area < range.0 || g.area > range.1;
+    // Non-ignored ground truth first (stable).
+    let mut g_order: Vec<usize> = (0..gts.len()).collect();
+    g_order.sort_by_key(|&i| ignore(gts[i]));
+    let g: Vec<&GroundTruth> = g_order.iter().map(|&i| gts[i]).collect();
+    let gt_ignored: Vec<bool> = g.iter().map(|x| ignore(x)).collect();
+    // Best score first (stable), at most 100.
+    let mut d_order: Vec<usize> = (0..dts.len()).collect();
+    d_order.sort_by(|&a, &b| dts[b].score.total_cmp(&dts[a].score));
+    d_order.truncate(100);
+    let d: Vec<&ScoredBox> = d_order.iter().map(|&i| dts[i]).collect();
+    let ious: Vec<Vec<f64>> = d
+        .iter()
+        .map(|dt| g.iter().map(|gt| iou_xywh(&dt.bbox, &gt.bbox, gt.crowd)).collect())
+        .collect();
+    let mut matched = vec![vec![false; d.len()]; thresholds.len()];
+    let mut ignored = vec![vec![false; d.len()]; thresholds.len()];
+    for (t, &threshold) in thresholds.iter().enumerate() {
+        let mut gt_taken = vec![false; g.len()];
+        for (di, row) in ious.iter().enumerate() {
+            let mut best = threshold.min(1.0 - 1e-10);
+            let mut m: Option<usize> = None;
+            for (gi, &iou) in row.iter().enumerate() {
+                if gt_taken[gi] && !g[gi].crowd {
+                    continue;
+                }
+                if let Some(mm) = m
+                    && !gt_ignored[mm]
+                    && gt_ignored[gi]
+                {
+                    break;
+                }
+                if iou < best {
+                    continue;
+                }
+                best = iou;
+                m = Some(gi);
+            }
+            if let Some(mm) = m {
+                ignored[t][di] = gt_ignored[mm];
+                matched[t][di] = true;
+                gt_taken[mm] = true;
+            }
+        }
+    }
+    for (di, dt) in d.iter().enumerate() {
+        let area = dt.bbox[2] * dt.bbox[3];
+        let outside = area < range.0 || area > range.1;
+        for t in 0..thresholds.len() {
+            if !matched[t][di] && outside {
+                ignored[t][di] = true;
+            }
+        }
+    }
+    Some(ImageEval { scores: d.iter().map(|x| x.score).collect(), matched, ignored, gt_ignored })
+}

@@ -1,0 +1,137 @@
+//! The paper's task measures over a set of frames (Sec. 6.1): mAP@[.5:.95], AP50, and the ratio
+//! of true positives at IoU 0.5 to all objects visible in a 180° field around the vehicle.
+//!
+//! The k frames of a hardware candidate are scored together (DESIGN.md): their detections and
+//! ground truth form one COCO evaluation, and the TP ratio sums true positives and visible
+//! objects over the frames. Per-frame AP would be undefined on frames without objects.
+
+use crate::coco::{CocoEvaluator, GroundTruth, ScoredBox};
+use joca_core::{Annotation, Detection};
+use serde::{Deserialize, Serialize};
+
+/// Weight of the TP ratio in the hardware fitness (paper Sec. 6.1).
+pub const TP_RATIO_WEIGHT: f64 = 1.1;
+
+/// Accumulates frames and scores them together.
+#[derive(Debug, Clone, Default)]
+pub struct TaskMetrics {
+    coco: CocoEvaluator,
+    visible_180: u64,
+    frames: u64,
+}
+
+/// Scores of a set of frames.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TaskScores {
+    /// COCO mAP@[.5:.95]; 0 when no frame had ground truth.
+    pub map: f64,
+    /// COCO AP at IoU 0.5; 0 when no frame had ground truth.
+    pub ap50: f64,
+    /// True positives at IoU 0.5 over objects visible in the 180° field.
+    pub tp_ratio: f64,
+    /// True positives at IoU 0.5.
+    pub true_positives: u64,
+    /// Objects visible in the 180° field, summed over frames.
+    pub visible_180: u64,
+    /// Frames scored.
+    pub frames: u64,
+}
+
+impl TaskScores {
+    /// The hardware GA's fitness: `mAP + 1.1 · TP ratio`.
+    pub fn fitness(&self) -> f64 {
+        self.map + TP_RATIO_WEIGHT * self.tp_ratio
+    }
+}
+
+impl TaskMetrics {
+    /// Adds one frame: its ground truth, the detector's output and the 180° visible count.
+    pub fn update(&mut self, truth: &[Annotation], detections: &[Detection], visible_180: u32) {
+        let gts = truth
+            .iter()
+            .map(|a| {
+                let b = a.bbox.to_xywh().map(f64::from);
+                GroundTruth::new(b, a.class.coco_id())
+            })
+            .collect();
+        let dts = detections
+            .iter()
+            .map(|d| {
+                ScoredBox::new(
+                    d.bbox.to_xywh().map(f64::from),
+                    d.class.coco_id(),
+                    f64::from(d.score),
+                )
+            })
+            .collect();
+        self.coco.add_image(self.frames, gts, dts);
+        self.visible_180 += u64::from(visible_180);
+        self.frames += 1;
+    }
+
+    /// Scores every frame added since the last reset.
+    pub fn compute(&self) -> TaskScores {
+        let summary = self.coco.evaluate();
+        let defined = |v: f64| if v < 0.0 { 0.0 } else { v };
+        let tp = summary.true_positives_50 as u64;
+        TaskScores {
+            map: defined(summary.stats[0]),
+            ap50: defined(summary.stats[1]),
+            tp_ratio: if self.visible_180 == 0 { 0.0 } else { tp as f64 / self.visible_180 as f64 },
+            true_positives: tp,
+            visible_180: self.visible_180,
+            frames: self.frames,
+        }
+    }
+
+    /// Forgets every frame.
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use joca_core::{BBox, Class};
+
+    #[test]
+    fn perfect_detection_of_half_the_visible_objects() {
+        let mut m = TaskMetrics::default();
+        let gt = [Annotation { bbox: BBox::new(10.0, 10.0, 50.0, 40.0), class: Class::Vehicle }];
+        let dt = [Detection {
+            bbox: BBox::new(10.0, 10.0, 50.0, 40.0),
+            class: Class::Vehicle,
+            score: 0.9,
+        }];
+        m.update(&gt, &dt, 2);
+        m.update(&[], &[], 0);
+        let s = m.compute();
+        assert_eq!((s.true_positives, s.visible_180, s.frames), (1, 2, 2));
+        assert!((s.map - 1.0).abs() < 1e-12 && (s.tp_ratio - 0.5).abs() < 1e-12);
+        assert!((s.fitness() - 1.55).abs() < 1e-12);
+        m.reset();
+        assert_eq!(m.compute().frames, 0);
+        assert_eq!(m.compute().map, 0.0);
+    }
+
+    #[test]
+    fn a_box_at_iou_below_half_is_no_true_positive() {
+        let mut m = TaskMetrics::default();
+        let gt = [Annotation { bbox: BBox::new(0.0, 0.0, 10.0, 10.0), class: Class::Walker }];
+        // IoU = 50 / 150 = 1/3.
+        let dt =
+            [Detection { bbox: BBox::new(5.0, 0.0, 15.0, 10.0), class: Class::Walker, score: 0.9 }];
+        m.update(&gt, &dt, 1);
+        assert_eq!(m.compute().true_positives, 0);
+        // The right box of the wrong class is no true positive either.
+        let mut m = TaskMetrics::default();
+        let dt = [Detection {
+            bbox: BBox::new(0.0, 0.0, 10.0, 10.0),
+            class: Class::Vehicle,
+            score: 0.9,
+        }];
+        m.update(&gt, &dt, 1);
+        assert_eq!(m.compute().true_positives, 0);
+    }
+}
