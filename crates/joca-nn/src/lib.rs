@@ -2,17 +2,32 @@
 //!
 //! This is the only crate of the workspace that depends on the deep-learning engine (see
 //! ARCHITECTURE.md): the detector, the NeuralAE adaptive-camera-control network, the
-//! differentiable image formation and the optimisers all live here, so the rest of joca stays
-//! free of framework types.
+//! differentiable image formation and the optimisers live here, so the rest of joca stays free
+//! of framework types.
 //!
-//! For now it exposes the engine's set-up: [`Engine::cpu`] fixes the thread count that every
-//! reproducible run records.
+//! - [`Engine`] fixes the device and the thread count that every reproducible run records.
+//! - [`detector`] — the CenterNet-style detector, its loss and decoding.
+//! - [`Adam`] — Adam/AdamW with checkpointable state.
+//! - [`save_weights`] / [`load_weights`] — safetensors weight files, checked tensor by tensor.
 //!
 //! ```
+//! use joca_nn::detector::{Detector, DetectorConfig};
 //! let engine = joca_nn::Engine::cpu(1);
-//! assert_eq!(engine.threads(), 1);
+//! let vs = tch::nn::VarStore::new(engine.device());
+//! let detector = Detector::new(&vs.root(), DetectorConfig::default());
+//! let out = detector.forward(&tch::Tensor::zeros([1, 3, 48, 64], (tch::Kind::Float, engine.device())));
+//! assert_eq!(out.heatmap.size(), vec![1, 3, 12, 16]);
 //! ```
 #![deny(missing_docs)]
+
+pub mod detector;
+mod error;
+mod optim;
+mod weights;
+
+pub use error::NnError;
+pub use optim::{Adam, AdamConfig, grad_norm};
+pub use weights::{load_weights, save_weights};
 
 use tch::Device;
 
@@ -31,6 +46,7 @@ impl Engine {
     pub fn cpu(threads: usize) -> Self {
         let threads = threads.max(1);
         tch::set_num_threads(i32::try_from(threads).unwrap_or(i32::MAX));
+        tch::manual_seed(0);
         Self { device: Device::Cpu, threads }
     }
 
@@ -42,6 +58,11 @@ impl Engine {
     /// The number of intra-op threads.
     pub fn threads(&self) -> usize {
         self.threads
+    }
+
+    /// Seeds libtorch's generator (weight initialisation) from a run stream.
+    pub fn seed(&self, seed: u64) {
+        tch::manual_seed(seed as i64);
     }
 }
 

@@ -1,0 +1,226 @@
+//! The object detector: single-stage, anchor-free, CenterNet-style (Zhou et al., "Objects as
+//! Points"), on a small ResNet-style backbone, trainable from scratch.
+//!
+//! ```text
+//! image [1,3,H,W] (8-bit / 255 − 0.5)
+//!  stem    conv3×3 s2, GN, ReLU                          [c,  H/2,  W/2]
+//!  layer1  conv3×3 s2, GN, ReLU + BasicBlock              [2c, H/4,  W/4]   ← "conv2" features
+//!  layer2  BasicBlock s2 + BasicBlock                     [4c, H/8,  W/8]
+//!  layer3  BasicBlock s2 + BasicBlock                     [8c, H/16, W/16]
+//!  neck    top-down: 1×1 laterals, nearest upsampling, 3×3 smoothing  [4c, H/4, W/4]
+//!  heads   heatmap (one channel per class, sigmoid), log box size, sub-cell centre offset
+//! ```
+//!
+//! Group normalisation instead of batch normalisation: the paper trains with batch size 1.
+//! The stride-4 `layer1` output is what the NeuralAE semantic branch reads (paper supplementary:
+//! "the conv2 layer output"). Any input size works; the output grid is `ceil(H/4) × ceil(W/4)`.
+
+mod decode;
+mod loss;
+
+pub use decode::decode;
+pub use loss::{DetectionLoss, Targets};
+
+use joca_core::{Class, Rgb8Image};
+use serde::{Deserialize, Serialize};
+use tch::nn;
+use tch::{Device, Kind, Tensor};
+
+/// Output stride of the heads, pixels.
+pub const STRIDE: i64 = 4;
+
+/// Size of the detector.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DetectorConfig {
+    /// Channels of the stem; stages have 2×, 4×, 8× this.
+    pub width: i64,
+    /// Number of classes.
+    pub classes: i64,
+}
+
+impl Default for DetectorConfig {
+    fn default() -> Self {
+        Self { width: 16, classes: Class::ALL.len() as i64 }
+    }
+}
+
+fn conv(vs: &nn::Path<'_>, name: &str, i: i64, o: i64, k: i64, stride: i64) -> nn::Conv2D {
+    let cfg = nn::ConvConfig { stride, padding: k / 2, bias: false, ..Default::default() };
+    nn::conv2d(vs / name, i, o, k, cfg)
+}
+
+fn norm(vs: &nn::Path<'_>, name: &str, channels: i64) -> nn::GroupNorm {
+    nn::group_norm(vs / name, (channels / 8).max(1), channels, Default::default())
+}
+
+/// Two 3×3 convolutions with a residual connection (ResNet's BasicBlock).
+#[derive(Debug)]
+struct BasicBlock {
+    conv1: nn::Conv2D,
+    norm1: nn::GroupNorm,
+    conv2: nn::Conv2D,
+    norm2: nn::GroupNorm,
+    shortcut: Option<(nn::Conv2D, nn::GroupNorm)>,
+}
+
+impl BasicBlock {
+    fn new(vs: &nn::Path<'_>, i: i64, o: i64, stride: i64) -> Self {
+        let shortcut = (stride != 1 || i != o)
+            .then(|| (conv(vs, "down", i, o, 1, stride), norm(vs, "down_norm", o)));
+        Self {
+            conv1: conv(vs, "conv1", i, o, 3, stride),
+            norm1: norm(vs, "norm1", o),
+            conv2: conv(vs, "conv2", o, o, 3, 1),
+            norm2: norm(vs, "norm2", o),
+            shortcut,
+        }
+    }
+
+    fn forward(&self, xs: &Tensor) -> Tensor {
+        let y =
+            xs.apply(&self.conv1).apply(&self.norm1).relu().apply(&self.conv2).apply(&self.norm2);
+        let skip = match &self.shortcut {
+            Some((c, n)) => xs.apply(c).apply(n),
+            None => xs.shallow_clone(),
+        };
+        (y + skip).relu()
+    }
+}
+
+/// A 3×3 conv + ReLU followed by a 1×1 conv to `out` channels.
+#[derive(Debug)]
+struct Head {
+    hidden: nn::Conv2D,
+    out: nn::Conv2D,
+}
+
+impl Head {
+    fn new(vs: &nn::Path<'_>, channels: i64, out: i64, bias_init: f64) -> Self {
+        let hidden = nn::conv2d(
+            vs / "hidden",
+            channels,
+            channels,
+            3,
+            nn::ConvConfig { padding: 1, ..Default::default() },
+        );
+        let cfg = nn::ConvConfig { bs_init: nn::Init::Const(bias_init), ..Default::default() };
+        Self { hidden, out: nn::conv2d(vs / "out", channels, out, 1, cfg) }
+    }
+
+    fn forward(&self, xs: &Tensor) -> Tensor {
+        xs.apply(&self.hidden).relu().apply(&self.out)
+    }
+}
+
+/// What the detector computes for one image.
+#[derive(Debug)]
+pub struct DetectorOutput {
+    /// Class heatmap logits `[1, classes, h, w]` (sigmoid gives the centre probability).
+    pub heatmap: Tensor,
+    /// `log(box size / STRIDE)` `[1, 2, h, w]` (width, height).
+    pub size: Tensor,
+    /// Centre offset within the cell `[1, 2, h, w]`, in cells.
+    pub offset: Tensor,
+    /// The backbone's stride-4 features `[1, 2·width, h, w]` (the NeuralAE's input).
+    pub features: Tensor,
+}
+
+/// The CenterNet-style detector. Its variables live in the `VarStore` given to [`Detector::new`].
+#[derive(Debug)]
+pub struct Detector {
+    config: DetectorConfig,
+    stem: nn::Conv2D,
+    stem_norm: nn::GroupNorm,
+    layer1_down: nn::Conv2D,
+    layer1_norm: nn::GroupNorm,
+    layer1: BasicBlock,
+    layer2: [BasicBlock; 2],
+    layer3: [BasicBlock; 2],
+    lateral3: nn::Conv2D,
+    lateral2: nn::Conv2D,
+    lateral1: nn::Conv2D,
+    smooth2: nn::Conv2D,
+    smooth1: nn::Conv2D,
+    heatmap: Head,
+    size: Head,
+    offset: Head,
+}
+
+impl Detector {
+    /// A freshly initialised detector under `vs` (heatmap bias −2.19: prior probability 0.1, as
+    /// CenterNet initialises it).
+    pub fn new(vs: &nn::Path<'_>, config: DetectorConfig) -> Self {
+        let c = config.width;
+        let b = vs / "backbone";
+        let n = vs / "neck";
+        let h = vs / "heads";
+        Self {
+            config,
+            stem: conv(&b, "stem", 3, c, 3, 2),
+            stem_norm: norm(&b, "stem_norm", c),
+            layer1_down: conv(&b, "layer1_down", c, 2 * c, 3, 2),
+            layer1_norm: norm(&b, "layer1_norm", 2 * c),
+            layer1: BasicBlock::new(&(&b / "layer1"), 2 * c, 2 * c, 1),
+            layer2: [
+                BasicBlock::new(&(&b / "layer2_0"), 2 * c, 4 * c, 2),
+                BasicBlock::new(&(&b / "layer2_1"), 4 * c, 4 * c, 1),
+            ],
+            layer3: [
+                BasicBlock::new(&(&b / "layer3_0"), 4 * c, 8 * c, 2),
+                BasicBlock::new(&(&b / "layer3_1"), 8 * c, 8 * c, 1),
+            ],
+            lateral3: conv(&n, "lateral3", 8 * c, 4 * c, 1, 1),
+            lateral2: conv(&n, "lateral2", 4 * c, 4 * c, 1, 1),
+            lateral1: conv(&n, "lateral1", 2 * c, 4 * c, 1, 1),
+            smooth2: conv(&n, "smooth2", 4 * c, 4 * c, 3, 1),
+            smooth1: conv(&n, "smooth1", 4 * c, 4 * c, 3, 1),
+            heatmap: Head::new(&(&h / "heatmap"), 4 * c, config.classes, -2.19),
+            size: Head::new(&(&h / "size"), 4 * c, 2, 0.0),
+            offset: Head::new(&(&h / "offset"), 4 * c, 2, 0.0),
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> DetectorConfig {
+        self.config
+    }
+
+    /// Runs the network on a `[1, 3, H, W]` float image.
+    pub fn forward(&self, image: &Tensor) -> DetectorOutput {
+        let x = image.apply(&self.stem).apply(&self.stem_norm).relu(); // [c, H/2, W/2]
+        let x = x.apply(&self.layer1_down).apply(&self.layer1_norm).relu();
+        let c2 = self.layer1.forward(&x); // [2c, H/4, W/4]
+        let c3 = self.layer2[1].forward(&self.layer2[0].forward(&c2)); // [4c, H/8, W/8]
+        let c4 = self.layer3[1].forward(&self.layer3[0].forward(&c3)); // [8c, H/16, W/16]
+        let up = |t: &Tensor, like: &Tensor| {
+            let s = like.size();
+            t.upsample_nearest2d([s[2], s[3]], None, None)
+        };
+        let p4 = c4.apply(&self.lateral3);
+        let p3 = (up(&p4, &c3) + c3.apply(&self.lateral2)).apply(&self.smooth2).relu();
+        let p2 = (up(&p3, &c2) + c2.apply(&self.lateral1)).apply(&self.smooth1).relu(); // [4c, H/4, W/4]
+        DetectorOutput {
+            heatmap: self.heatmap.forward(&p2),
+            size: self.size.forward(&p2),
+            offset: self.offset.forward(&p2),
+            features: c2,
+        }
+    }
+}
+
+/// An 8-bit frame as the detector's input tensor `[1, 3, H, W]`, values in [−0.5, 0.5].
+pub fn image_tensor(frame: &Rgb8Image, device: Device) -> Tensor {
+    let (w, h) = (frame.width() as i64, frame.height() as i64);
+    Tensor::from_slice(frame.data())
+        .to_device(device)
+        .view([h, w, 3])
+        .permute([2, 0, 1])
+        .unsqueeze(0)
+        .to_kind(Kind::Float)
+        / 255.0
+        - 0.5
+}
+
+#[cfg(test)]
+mod tests;

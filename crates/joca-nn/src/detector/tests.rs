@@ -1,0 +1,103 @@
+use super::*;
+use crate::{Adam, AdamConfig, Engine, load_weights, save_weights};
+use joca_core::{Annotation, BBox};
+use tch::nn::VarStore;
+
+fn frame_with_box(w: usize, h: usize, b: BBox) -> Rgb8Image {
+    let mut data = vec![30u8; w * h * 3];
+    for y in b.y_min as usize..b.y_max as usize {
+        for x in b.x_min as usize..b.x_max as usize {
+            data[(y * w + x) * 3..(y * w + x) * 3 + 3].copy_from_slice(&[220, 60, 40]);
+        }
+    }
+    Rgb8Image::from_vec(w, h, data).unwrap()
+}
+
+#[test]
+fn any_input_size_gives_a_quarter_resolution_grid() {
+    let engine = Engine::cpu(1);
+    let vs = VarStore::new(engine.device());
+    let d = Detector::new(&vs.root(), DetectorConfig::default());
+    let out = d.forward(&Tensor::zeros([1, 3, 77, 102], (Kind::Float, engine.device())));
+    assert_eq!(out.heatmap.size(), vec![1, 3, 20, 26]);
+    assert_eq!(out.size.size(), vec![1, 2, 20, 26]);
+    assert_eq!(out.features.size(), vec![1, 32, 20, 26]);
+}
+
+#[test]
+fn targets_peak_at_object_centres() {
+    let a = [Annotation { bbox: BBox::new(8.0, 12.0, 24.0, 20.0), class: Class::Walker }];
+    let t = Targets::new(&a, 3, 10, 10, Device::Cpu);
+    assert_eq!(t.count, 1);
+    // Centre (16, 16) px → cell (4, 4), offset (0, 0); size 16×8 px → log(4), log(2).
+    assert_eq!(t.heatmap.double_value(&[0, 1, 4, 4]), 1.0);
+    assert!(t.heatmap.double_value(&[0, 1, 4, 5]) < 1.0);
+    assert_eq!(t.heatmap.double_value(&[0, 0, 4, 4]), 0.0);
+    assert_eq!(t.indices.int64_value(&[0]), 44);
+    assert!((t.size.double_value(&[0, 0]) - 4f64.ln()).abs() < 1e-6);
+    assert!((t.size.double_value(&[1, 0]) - 2f64.ln()).abs() < 1e-6);
+}
+
+#[test]
+fn learns_to_find_a_box_in_a_few_hundred_steps() {
+    let engine = Engine::cpu(2);
+    engine.seed(3);
+    let vs = VarStore::new(engine.device());
+    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3 });
+    let mut opt = Adam::new(&vs, AdamConfig { lr: 2e-3, ..AdamConfig::DETECTOR });
+    let b = BBox::new(20.0, 16.0, 44.0, 36.0);
+    let frame = frame_with_box(64, 48, b);
+    let x = image_tensor(&frame, engine.device());
+    let ann = [Annotation { bbox: b, class: Class::Vehicle }];
+    let targets = Targets::new(&ann, 3, 12, 16, engine.device());
+    let mut first = 0.0;
+    for step in 0..250 {
+        let loss = DetectionLoss::new(&d.forward(&x), &targets);
+        if step == 0 {
+            first = loss.total.double_value(&[]);
+        }
+        opt.zero_grad();
+        loss.total.backward();
+        opt.step();
+    }
+    let last = DetectionLoss::new(&d.forward(&x), &targets).total.double_value(&[]);
+    assert!(last < 0.1 * first, "loss {first} -> {last}");
+    let dets = decode(&d.forward(&x), 64, 48, 100, 0.05);
+    let best = dets.first().unwrap();
+    assert_eq!(best.class, Class::Vehicle);
+    assert!(best.bbox.iou(&b) > 0.7, "{best:?}");
+}
+
+#[test]
+fn decoding_survives_nan_output() {
+    let h = Tensor::full([1, 3, 4, 4], f64::NAN, (Kind::Float, Device::Cpu));
+    let out = DetectorOutput {
+        heatmap: h,
+        size: Tensor::zeros([1, 2, 4, 4], (Kind::Float, Device::Cpu)),
+        offset: Tensor::zeros([1, 2, 4, 4], (Kind::Float, Device::Cpu)),
+        features: Tensor::zeros([1, 2, 4, 4], (Kind::Float, Device::Cpu)),
+    };
+    assert!(decode(&out, 16, 16, 100, 0.01).is_empty());
+}
+
+#[test]
+fn weights_round_trip_and_refuse_another_architecture() {
+    let dir = std::env::temp_dir().join(format!("joca-nn-weights-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("det.safetensors");
+    let vs = VarStore::new(Device::Cpu);
+    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3 });
+    save_weights(&vs, &path).unwrap();
+    let mut same = VarStore::new(Device::Cpu);
+    let d2 = Detector::new(&same.root(), DetectorConfig { width: 8, classes: 3 });
+    load_weights(&mut same, &path).unwrap();
+    let x = Tensor::rand([1, 3, 32, 32], (Kind::Float, Device::Cpu));
+    let diff = (d.forward(&x).heatmap - d2.forward(&x).heatmap).abs().max().double_value(&[]);
+    assert_eq!(diff, 0.0);
+
+    let mut wider = VarStore::new(Device::Cpu);
+    let _ = Detector::new(&wider.root(), DetectorConfig { width: 16, classes: 3 });
+    let e = load_weights(&mut wider, &path).unwrap_err().to_string();
+    assert!(e.contains("det.safetensors") && e.contains("backbone.") && e.contains("shape"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,27 @@
+//! Errors of the deep-learning side.
+
+use thiserror::Error;
+
+/// What can go wrong in `joca-nn`.
+#[derive(Debug, Error)]
+pub enum NnError {
+    /// A weights file does not fit the model.
+    #[error("weights file {path}: {reason}")]
+    Weights {
+        /// The file.
+        path: String,
+        /// Which tensor is missing or mismatched.
+        reason: String,
+    },
+    /// A loss became NaN or infinite.
+    #[error("the {what} loss is {value}: training diverged (try a lower learning rate)")]
+    NonFinite {
+        /// Which loss.
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// libtorch reported an error.
+    #[error(transparent)]
+    Torch(#[from] tch::TchError),
+}
