@@ -5,6 +5,7 @@
 #![allow(clippy::print_stdout)]
 
 mod commands;
+mod config;
 mod draw;
 mod io;
 
@@ -34,6 +35,8 @@ enum Command {
     Metrics(commands::metrics::Args),
     /// Render frames from the built-in driving simulator, with ground truth and a contact sheet.
     Render(commands::render::Args),
+    /// Pre-train the detector on simulator frames from random camera designs (AverageAE).
+    TrainDetector(commands::train_detector::Args),
     /// Measure the speed of joca's components and print a table.
     Bench(commands::bench::Args),
 }
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
         Command::CalibrateNoise(args) => commands::calibrate::run(&args),
         Command::Metrics(args) => commands::metrics::run(&args),
         Command::Render(args) => commands::render::run(&args),
+        Command::TrainDetector(args) => commands::train_detector::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
     };
     match result {

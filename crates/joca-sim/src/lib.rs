@@ -41,3 +41,17 @@ pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
 pub use lighting::Illumination;
 pub use sim::{Episode, MAX_SUBFRAMES, SimConfig, Simulator, VisibilityRules, subframe_count};
+
+use rand::Rng;
+
+/// Map seed of training town `index`. Training and test towns come from separate seed families
+/// (the paper tests on a town never seen in training); neither depends on a run's seed, so every
+/// run trains on the same towns and is tested on the same one.
+pub fn train_map_seed(index: u64) -> u64 {
+    joca_core::SeedStreams::new(0x6a6f_6361).indexed("train-map", index).random()
+}
+
+/// Map seed of test town `index` (see [`train_map_seed`]).
+pub fn test_map_seed(index: u64) -> u64 {
+    joca_core::SeedStreams::new(0x6a6f_6361).indexed("test-map", index).random()
+}

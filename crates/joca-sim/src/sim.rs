@@ -40,7 +40,7 @@ pub struct VisibilityRules {
 
 impl Default for VisibilityRules {
     fn default() -> Self {
-        Self { max_range_m: 100.0, min_visible_fraction: 0.15, min_box_px: 4.0 }
+        Self { max_range_m: 100.0, min_visible_fraction: 0.15, min_box_px: 8.0 }
     }
 }
 

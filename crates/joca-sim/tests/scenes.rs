@@ -232,7 +232,7 @@ fn ground_truth_follows_the_field_of_view_and_the_180_count_does_not() {
 
 #[test]
 fn occluded_objects_have_no_box_and_do_not_count_in_180() {
-    // A walker 15 m ahead hidden behind a wall 8 m ahead, and a visible sign.
+    // A walker 15 m ahead hidden behind a wall 8 m ahead, and a visible sign 10 m ahead.
     let wall =
         block(V3::new(8.0, 0.0, 2.0), V3::new(0.2, 4.0, 2.0), Material::Flat([0.3; 3]), None);
     let walker = block(
@@ -242,7 +242,7 @@ fn occluded_objects_have_no_box_and_do_not_count_in_180() {
         Some(Class::Walker),
     );
     let sign = block(
-        V3::new(15.0, -8.0, 2.4),
+        V3::new(10.0, -5.0, 2.4),
         V3::new(0.05, 0.35, 0.35),
         Material::Sign(0),
         Some(Class::TrafficSign),

@@ -1,5 +1,20 @@
-//! The joint optimisation loop of the paper (hardware GA, NeuralAE trained with DF-Grad,
-//! detector), with every method and ablation as a configuration, checkpoints and resume.
+//! Training and evaluation of joca: detector pre-training now; the joint loop of the paper
+//! (hardware GA, NeuralAE with DF-Grad, detector) builds on the same pieces.
 //!
-//! Not implemented yet: this crate marks its boundary in the workspace (see ARCHITECTURE.md).
+//! - [`pretrain`] — `joca train-detector`: the detector on random designs with AverageAE.
+//! - [`evaluate`] — closed-loop scoring of a design, an exposure controller and a detector on
+//!   the test town.
+//! - [`CheckpointDir`] — atomic checkpoints; a killed run resumes from the last one.
 #![deny(missing_docs)]
+
+mod checkpoint;
+mod error;
+mod eval;
+mod pretrain;
+
+pub use checkpoint::{CheckpointDir, write_atomic};
+pub use error::TrainError;
+pub use eval::{AverageControl, EvalSpec, ExposureControl, evaluate};
+pub use pretrain::{
+    EvalReport, PretrainConfig, PretrainEvent, differing_fields, pretrain, reference_design,
+};

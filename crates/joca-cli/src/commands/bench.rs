@@ -18,6 +18,8 @@ pub enum Target {
     Formation,
     /// The simulator: sub-frames and motion-blurred frames at 320×240 and 640×480, 1 and 2 threads.
     Render,
+    /// The detector: inference and training step at 320×240 and 640×480, against PyTorch.
+    Detector,
 }
 
 /// Arguments of `joca bench`.
@@ -29,6 +31,12 @@ pub struct Args {
     /// Timed repetitions per row (the best is reported).
     #[arg(long, default_value_t = 20)]
     repeats: usize,
+    /// Threads for the detector benchmark (libtorch intra-op threads).
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Python interpreter with torch installed, for the PyTorch reference of `bench detector`.
+    #[arg(long, default_value = "python3")]
+    python: String,
 }
 
 /// Runs `joca bench`.
@@ -36,6 +44,7 @@ pub fn run(args: &Args) -> Result<()> {
     match args.target {
         Target::Formation => bench_formation(args.repeats.max(1)),
         Target::Render => bench_render(args.repeats.max(1)),
+        Target::Detector => bench_detector(args.repeats.max(1), args.threads, &args.python),
     }
 }
 
@@ -155,5 +164,70 @@ fn bench_render(repeats: usize) -> Result<()> {
     println!(
         "(a blurred frame also renders its middle sub-frame once more for ground truth and the sub-frame count)"
     );
+    Ok(())
+}
+
+/// Peak single-precision throughput of one core of this machine class (AVX-512: 2 FMA units ×
+/// 16 lanes × 2 flops at ~1.8 GHz), GFLOP/s. A reference for the utilisation column only.
+const PEAK_GFLOPS_PER_CORE: f64 = 115.0;
+
+fn bench_detector(repeats: usize, threads: usize, python: &str) -> Result<()> {
+    use joca_nn::detector::{DetectorConfig, forward_flops, time_detector};
+    let engine = joca_nn::Engine::cpu(threads);
+    let config = DetectorConfig::default();
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scripts/bench_detector_pytorch.py");
+    let reference: Option<serde_json::Value> = std::process::Command::new(python)
+        .args([
+            script,
+            "--width",
+            &config.width.to_string(),
+            "--threads",
+            &threads.to_string(),
+            "--repeats",
+            &repeats.to_string(),
+        ])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| serde_json::from_slice(&o.stdout).ok());
+    println!(
+        "detector (width {}, {} threads), best of {repeats}; training step = forward + loss + backward + AdamW",
+        config.width, threads
+    );
+    println!(
+        "{:<9} {:<10} {:>9} {:>10} {:>9} {:>12} {:>13}",
+        "input", "pass", "ms", "GFLOP", "GFLOP/s", "% of peak", "joca/PyTorch"
+    );
+    for (h, w) in [(240usize, 320usize), (480, 640)] {
+        let (infer, train) = time_detector(&engine, config, h, w, repeats);
+        let f = forward_flops(config, h as i64, w as i64) / 1e9;
+        let peak = PEAK_GFLOPS_PER_CORE * threads as f64;
+        let key = format!("{h}x{w}");
+        for (pass, ms, flops, field) in
+            [("inference", infer, f, "infer_ms"), ("train step", train, 3.0 * f, "train_ms")]
+        {
+            let gflops = flops / (ms / 1e3);
+            let ratio = reference
+                .as_ref()
+                .and_then(|r| r[&key][field].as_f64())
+                .map_or_else(|| "n/a".to_owned(), |torch_ms| format!("{:.2}", ms / torch_ms));
+            println!(
+                "{:<9} {:<10} {:>9.2} {:>10.3} {:>9.1} {:>11.1}% {:>13}",
+                format!("{w}x{h}"),
+                pass,
+                ms,
+                flops,
+                gflops,
+                100.0 * gflops / peak,
+                ratio
+            );
+        }
+    }
+    if reference.is_none() {
+        println!(
+            "(PyTorch reference not run: `{python} -c \"import torch\"` failed; install torch==2.13.0 or pass --python)"
+        );
+    }
+    println!("(training GFLOP counted as 3x forward: backward costs about twice the forward pass)");
     Ok(())
 }

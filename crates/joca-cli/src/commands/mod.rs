@@ -6,6 +6,7 @@ pub mod form;
 pub mod metrics;
 pub mod render;
 pub mod sensors;
+pub mod train_detector;
 
 use anyhow::{Result, bail};
 

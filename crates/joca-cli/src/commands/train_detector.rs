@@ -1,0 +1,106 @@
+//! `joca train-detector`: pre-train the detector (the paper's frozen-detector pre-training).
+
+use crate::config;
+use anyhow::{Context, Result};
+use joca_train::{PretrainConfig, PretrainEvent, pretrain};
+use std::io::Write;
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `joca train-detector`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Preset: quick, standard or paper (files in presets/).
+    #[arg(long, default_value = "standard")]
+    preset: String,
+    /// A TOML file whose [pretrain] fields override the preset's.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Override the number of training steps (frames).
+    #[arg(long)]
+    steps: Option<usize>,
+    /// Override the thread count.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Where to write the trained weights (safetensors). The run directory (log, checkpoint,
+    /// results) is this path with `.run` in place of the extension.
+    #[arg(long)]
+    out: PathBuf,
+    /// Continue the run in the run directory from its last checkpoint.
+    #[arg(long)]
+    resume: bool,
+}
+
+/// Runs `joca train-detector`.
+pub fn run(args: &Args) -> Result<()> {
+    let mut cfg: PretrainConfig = config::load(&args.preset, args.config.as_deref(), "pretrain")?;
+    if let Some(s) = args.steps {
+        cfg.steps = s;
+    }
+    if let Some(t) = args.threads {
+        cfg.threads = t;
+    }
+    let run_dir = args.out.with_extension("run");
+    println!(
+        "pre-training the detector: {} steps, {} frames per random camera, render scale {}, {} threads; run directory {}",
+        cfg.steps,
+        cfg.frames_per_design,
+        cfg.render_scale,
+        cfg.threads,
+        run_dir.display()
+    );
+    let started = Instant::now();
+    let mut smoothed = None::<f64>;
+    let mut progress = |event: &PretrainEvent| {
+        report_progress(event, &started, &mut smoothed);
+        ControlFlow::Continue(())
+    };
+    let report = pretrain(&cfg, &run_dir, &args.out, args.resume, &mut progress)
+        .with_context(|| format!("pre-training into {} failed", run_dir.display()))?;
+    eprintln!();
+    println!(
+        "done in {:.1} min; weights written to {}",
+        started.elapsed().as_secs_f64() / 60.0,
+        args.out.display()
+    );
+    println!("| light | mAP@[.5:.95] | AP50 | TP ratio | frames |");
+    println!("|---|---|---|---|---|");
+    for (name, s) in [("day", report.day), ("night", report.night)] {
+        println!("| {name} | {:.3} | {:.3} | {:.3} | {} |", s.map, s.ap50, s.tp_ratio, s.frames);
+    }
+    Ok(())
+}
+
+fn report_progress(event: &PretrainEvent, started: &Instant, smoothed: &mut Option<f64>) {
+    match event {
+        PretrainEvent::Step { step, of, loss } => {
+            let s = smoothed.map_or(loss.total, |v| 0.98 * v + 0.02 * loss.total);
+            *smoothed = Some(s);
+            if step % 25 == 0 || step == of {
+                let elapsed = started.elapsed().as_secs_f64();
+                let eta = elapsed / *step as f64 * (*of - *step) as f64;
+                eprint!(
+                    "\r  step {step:>6}/{of}  loss {s:.3}  {:.0} ms/step  ETA {:.0} s   ",
+                    1e3 * elapsed / *step as f64,
+                    eta
+                );
+                let _ = std::io::stderr().flush();
+            }
+        }
+        PretrainEvent::Eval(r) => {
+            eprintln!();
+            println!(
+                "  test town at step {}: day mAP {:.3} AP50 {:.3} TP ratio {:.3} | night mAP {:.3} AP50 {:.3} TP ratio {:.3}",
+                r.step,
+                r.day.map,
+                r.day.ap50,
+                r.day.tp_ratio,
+                r.night.map,
+                r.night.ap50,
+                r.night.tp_ratio
+            );
+        }
+        PretrainEvent::Checkpoint { .. } => {}
+    }
+}

@@ -1,0 +1,56 @@
+//! Presets and user configuration files.
+//!
+//! A preset is a TOML file in `presets/` (compiled into the binary so `joca` works from any
+//! directory); a user's `--config FILE` is merged over it table by table, so it only needs the
+//! fields it changes. Unknown fields are refused, naming the field and the file.
+
+use anyhow::{Context, Result, bail};
+use serde::de::DeserializeOwned;
+use std::path::Path;
+
+/// The presets shipped with joca, by name.
+pub const PRESETS: [(&str, &str); 3] = [
+    ("quick", include_str!("../../../presets/quick.toml")),
+    ("standard", include_str!("../../../presets/standard.toml")),
+    ("paper", include_str!("../../../presets/paper.toml")),
+];
+
+/// The preset's TOML text, or an error listing the valid names.
+pub fn preset(name: &str) -> Result<&'static str> {
+    match PRESETS.iter().find(|(n, _)| *n == name) {
+        Some((_, text)) => Ok(text),
+        None => bail!(
+            "unknown preset {name:?}; valid: {}",
+            PRESETS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+        ),
+    }
+}
+
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
+    }
+}
+
+/// Table `section` of preset `name` with `user_file` merged over it, as `T`.
+pub fn load<T: DeserializeOwned>(name: &str, user_file: Option<&Path>, section: &str) -> Result<T> {
+    let mut table: toml::Table =
+        toml::from_str(preset(name)?).with_context(|| format!("preset {name} is invalid"))?;
+    let mut source = format!("preset {name}");
+    if let Some(path) = user_file {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read config file {}", path.display()))?;
+        let user: toml::Table = toml::from_str(&text)
+            .with_context(|| format!("invalid config file {}", path.display()))?;
+        merge(&mut table, user);
+        source = format!("{} over preset {name}", path.display());
+    }
+    let value =
+        table.remove(section).with_context(|| format!("{source} has no [{section}] table"))?;
+    value.try_into().with_context(|| format!("invalid [{section}] in {source}"))
+}

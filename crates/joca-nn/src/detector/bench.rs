@@ -1,0 +1,84 @@
+//! Timing of the detector (`joca bench detector`) and its analytic operation count.
+
+use super::{DetectionLoss, Detector, DetectorConfig, Targets, image_tensor};
+use crate::{Adam, AdamConfig, Engine};
+use joca_core::{Annotation, BBox, Class, Rgb8Image};
+use std::time::Instant;
+use tch::nn::VarStore;
+
+/// Floating-point operations (multiply and add counted separately) of one forward pass on an
+/// `h × w` image: the sum over convolutions of `2·Cin·Cout·k²·Hout·Wout`, mirroring
+/// [`Detector::forward`]. Normalisation, activations and upsampling are left out (<2 %).
+pub fn forward_flops(config: DetectorConfig, h: i64, w: i64) -> f64 {
+    let c = config.width as f64;
+    let down = |n: i64| (n + 1) / 2; // stride-2 convolution with padding k/2
+    let conv =
+        |cin: f64, cout: f64, k: f64, ho: i64, wo: i64| 2.0 * cin * cout * k * k * (ho * wo) as f64;
+    let (h2, w2) = (down(h), down(w));
+    let (h4, w4) = (down(h2), down(w2));
+    let (h8, w8) = (down(h4), down(w4));
+    let (h16, w16) = (down(h8), down(w8));
+    let block = |cin: f64, cout: f64, ho: i64, wo: i64, shortcut: bool| {
+        conv(cin, cout, 3.0, ho, wo)
+            + conv(cout, cout, 3.0, ho, wo)
+            + if shortcut { conv(cin, cout, 1.0, ho, wo) } else { 0.0 }
+    };
+    let mut f = conv(3.0, c, 3.0, h2, w2) + conv(c, 2.0 * c, 3.0, h4, w4);
+    f += block(2.0 * c, 2.0 * c, h4, w4, false);
+    f += block(2.0 * c, 4.0 * c, h8, w8, true) + block(4.0 * c, 4.0 * c, h8, w8, false);
+    f += block(4.0 * c, 8.0 * c, h16, w16, true) + block(8.0 * c, 8.0 * c, h16, w16, false);
+    f += conv(8.0 * c, 4.0 * c, 1.0, h16, w16)
+        + conv(4.0 * c, 4.0 * c, 1.0, h8, w8)
+        + conv(4.0 * c, 4.0 * c, 3.0, h8, w8);
+    f += conv(2.0 * c, 4.0 * c, 1.0, h4, w4) + conv(4.0 * c, 4.0 * c, 3.0, h4, w4);
+    let head = |out: f64| conv(4.0 * c, 4.0 * c, 3.0, h4, w4) + conv(4.0 * c, out, 1.0, h4, w4);
+    f + head(config.classes as f64) + head(2.0) + head(2.0)
+}
+
+/// Best-of-`repeats` wall times in milliseconds of inference and of one training step
+/// (forward, CenterNet loss, backward, AdamW update) on an `h × w` frame.
+pub fn time_detector(
+    engine: &Engine,
+    config: DetectorConfig,
+    h: usize,
+    w: usize,
+    repeats: usize,
+) -> (f64, f64) {
+    let vs = VarStore::new(engine.device());
+    let net = Detector::new(&vs.root(), config);
+    let mut opt = Adam::new(&vs, AdamConfig::DETECTOR);
+    let frame = Rgb8Image::from_vec(w, h, (0..w * h * 3).map(|i| (i * 31 % 251) as u8).collect())
+        .unwrap_or_else(|_| Rgb8Image::zeros(w, h));
+    let x = image_tensor(&frame, engine.device());
+    let truth: Vec<Annotation> = (0..6)
+        .map(|k| {
+            let (fx, fy) = ((k as f32 * 0.15 + 0.1) * w as f32, (k as f32 * 0.1 + 0.3) * h as f32);
+            Annotation { bbox: BBox::new(fx, fy, fx + 20.0, fy + 14.0), class: Class::ALL[k % 3] }
+        })
+        .collect();
+    let out = net.forward(&x);
+    let s = out.heatmap.size();
+    let targets = Targets::new(&truth, config.classes, s[2], s[3], engine.device());
+    let best = |f: &mut dyn FnMut()| {
+        f();
+        (0..repeats.max(1))
+            .map(|_| {
+                let t = Instant::now();
+                f();
+                t.elapsed().as_secs_f64() * 1e3
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let infer = best(&mut || {
+        let _g = tch::no_grad_guard();
+        let o = net.forward(&x);
+        let _ = o.heatmap.double_value(&[0, 0, 0, 0]);
+    });
+    let train = best(&mut || {
+        let loss = DetectionLoss::new(&net.forward(&x), &targets);
+        opt.zero_grad();
+        loss.total.backward();
+        opt.step();
+    });
+    (infer, train)
+}

@@ -1,0 +1,116 @@
+//! The detector with its variables and optimiser, behind an interface free of tensor types, so
+//! that training loops outside this crate never touch the framework.
+
+use super::{DetectionLoss, Detector, DetectorConfig, Targets, decode, image_tensor};
+use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
+use joca_core::{Annotation, Detection, Rgb8Image};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use tch::nn::VarStore;
+use tch::{Device, Tensor};
+
+/// Detections kept per image (COCO's maxDets).
+pub const MAX_DETECTIONS: i64 = 100;
+/// Detections below this score are dropped.
+pub const MIN_SCORE: f64 = 0.01;
+
+/// The parts of one training step's loss.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LossParts {
+    /// Weighted total.
+    pub total: f64,
+    /// Focal heatmap loss.
+    pub heatmap: f64,
+    /// Log-size L1 loss.
+    pub size: f64,
+    /// Offset L1 loss.
+    pub offset: f64,
+}
+
+/// A trainable detector: network, variables, optimiser.
+#[derive(Debug)]
+pub struct DetectorModel {
+    vs: VarStore,
+    net: Detector,
+    optimizer: Adam,
+    device: Device,
+}
+
+impl DetectorModel {
+    /// A freshly initialised detector (initialisation follows libtorch's generator, seeded by
+    /// [`Engine::seed`]).
+    pub fn new(engine: &Engine, config: DetectorConfig, adam: AdamConfig) -> Self {
+        let vs = VarStore::new(engine.device());
+        let net = Detector::new(&vs.root(), config);
+        let optimizer = Adam::new(&vs, adam);
+        Self { vs, net, optimizer, device: engine.device() }
+    }
+
+    /// The network (for the NeuralAE, which reads its features).
+    pub fn network(&self) -> &Detector {
+        &self.net
+    }
+
+    /// Loads weights, checking every tensor.
+    pub fn load_weights(&mut self, path: &Path) -> Result<(), NnError> {
+        load_weights(&mut self.vs, path)
+    }
+
+    /// Saves weights atomically.
+    pub fn save_weights(&self, path: &Path) -> Result<(), NnError> {
+        save_weights(&self.vs, path)
+    }
+
+    /// Saves the optimiser state.
+    pub fn save_optimizer(&self, path: &Path) -> Result<(), NnError> {
+        self.optimizer.save(path)
+    }
+
+    /// Restores the optimiser state.
+    pub fn load_optimizer(&mut self, path: &Path) -> Result<(), NnError> {
+        self.optimizer.load(path)
+    }
+
+    /// Sets the learning rate.
+    pub fn set_lr(&mut self, lr: f64) {
+        self.optimizer.set_lr(lr);
+    }
+
+    /// Freezes or unfreezes every weight (the "frozen detector" ablation).
+    pub fn set_trainable(&mut self, trainable: bool) {
+        if trainable { self.vs.unfreeze() } else { self.vs.freeze() }
+    }
+
+    /// One gradient step on one frame. A non-finite loss is reported before any weight changes.
+    pub fn train_step(
+        &mut self,
+        frame: &Rgb8Image,
+        truth: &[Annotation],
+    ) -> Result<LossParts, NnError> {
+        let x = image_tensor(frame, self.device);
+        let out = self.net.forward(&x);
+        let s = out.heatmap.size();
+        let targets = Targets::new(truth, self.net.config().classes, s[2], s[3], self.device);
+        let loss = DetectionLoss::new(&out, &targets);
+        let total = loss.total.double_value(&[]);
+        if !total.is_finite() {
+            return Err(NnError::NonFinite { what: "detector", value: total });
+        }
+        self.optimizer.zero_grad();
+        loss.total.backward();
+        self.optimizer.step();
+        Ok(LossParts { total, heatmap: loss.heatmap, size: loss.size, offset: loss.offset })
+    }
+
+    /// Detections in one frame, best first.
+    pub fn detect(&self, frame: &Rgb8Image) -> Vec<Detection> {
+        let _guard = tch::no_grad_guard();
+        let out = self.net.forward(&image_tensor(frame, self.device));
+        decode(&out, frame.width(), frame.height(), MAX_DETECTIONS, MIN_SCORE)
+    }
+
+    /// Number of weights.
+    pub fn parameter_count(&self) -> i64 {
+        self.vs.trainable_variables().iter().map(Tensor::numel).map(|n| n as i64).sum()
+    }
+}

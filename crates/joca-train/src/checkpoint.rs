@@ -1,0 +1,96 @@
+//! Atomic checkpoint directories: a checkpoint is written completely into `<name>.partial/` and
+//! then swapped in with renames, so a run killed at any instant leaves either the previous
+//! checkpoint or the new one, never a mixture.
+
+use crate::TrainError;
+use std::path::{Path, PathBuf};
+
+/// Where the checkpoint of `dir` lives and its temporaries.
+#[derive(Debug, Clone)]
+pub struct CheckpointDir {
+    path: PathBuf,
+}
+
+impl CheckpointDir {
+    /// The checkpoint at `path` (e.g. `runs/x/checkpoint`).
+    pub fn new(path: impl Into<PathBuf>) -> Self {
+        Self { path: path.into() }
+    }
+
+    fn partial(&self) -> PathBuf {
+        self.path.with_extension("partial")
+    }
+
+    fn old(&self) -> PathBuf {
+        self.path.with_extension("old")
+    }
+
+    /// The directory to read from, if a complete checkpoint exists (recovering one left by a
+    /// crash between the two renames of [`CheckpointDir::write`]).
+    pub fn existing(&self) -> Option<PathBuf> {
+        if self.path.is_dir() {
+            Some(self.path.clone())
+        } else if self.old().is_dir() {
+            Some(self.old())
+        } else {
+            None
+        }
+    }
+
+    /// Writes a new checkpoint: `fill` writes the files into a fresh temporary directory, which
+    /// then replaces the current checkpoint.
+    pub fn write(
+        &self,
+        fill: impl FnOnce(&Path) -> Result<(), TrainError>,
+    ) -> Result<(), TrainError> {
+        let partial = self.partial();
+        if partial.exists() {
+            std::fs::remove_dir_all(&partial).map_err(|e| TrainError::io(&partial, e))?;
+        }
+        std::fs::create_dir_all(&partial).map_err(|e| TrainError::io(&partial, e))?;
+        fill(&partial)?;
+        let old = self.old();
+        if self.path.exists() {
+            if old.exists() {
+                std::fs::remove_dir_all(&old).map_err(|e| TrainError::io(&old, e))?;
+            }
+            std::fs::rename(&self.path, &old).map_err(|e| TrainError::io(&self.path, e))?;
+        }
+        std::fs::rename(&partial, &self.path).map_err(|e| TrainError::io(&partial, e))?;
+        if old.exists() {
+            std::fs::remove_dir_all(&old).map_err(|e| TrainError::io(&old, e))?;
+        }
+        Ok(())
+    }
+}
+
+/// Writes `text` to `path` atomically (temporary file and rename).
+pub fn write_atomic(path: &Path, text: &str) -> Result<(), TrainError> {
+    let tmp = path.with_extension("partial");
+    std::fs::write(&tmp, text).map_err(|e| TrainError::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| TrainError::io(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failed_write_keeps_the_previous_checkpoint() {
+        let dir = tempfile::tempdir().unwrap();
+        let ckpt = CheckpointDir::new(dir.path().join("checkpoint"));
+        assert!(ckpt.existing().is_none());
+        ckpt.write(|d| std::fs::write(d.join("state"), "1").map_err(|e| TrainError::io(d, e)))
+            .unwrap();
+        let failed = ckpt.write(|d| {
+            std::fs::write(d.join("state"), "2").map_err(|e| TrainError::io(d, e))?;
+            Err(TrainError::Corrupt { path: "x".into(), reason: "disk full".into() })
+        });
+        assert!(failed.is_err());
+        let existing = ckpt.existing().unwrap();
+        assert_eq!(std::fs::read_to_string(existing.join("state")).unwrap(), "1");
+        // A crash between the renames leaves only `.old`; it is found.
+        std::fs::rename(dir.path().join("checkpoint"), dir.path().join("checkpoint.old")).unwrap();
+        assert_eq!(ckpt.existing().unwrap(), dir.path().join("checkpoint.old"));
+    }
+}

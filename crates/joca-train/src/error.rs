@@ -1,0 +1,67 @@
+//! Errors of training and evaluation.
+
+use thiserror::Error;
+
+/// What can stop a training run.
+#[derive(Debug, Error)]
+pub enum TrainError {
+    /// A configuration value is invalid.
+    #[error("{field} = {value} is invalid: {allowed}")]
+    Config {
+        /// The field, as written in the TOML file.
+        field: String,
+        /// The value given.
+        value: String,
+        /// What is allowed.
+        allowed: String,
+    },
+    /// `--resume` with a configuration that differs from the checkpoint's.
+    #[error(
+        "cannot resume {dir}: the configuration differs from the checkpoint's in {fields}; use the original configuration or start a new run"
+    )]
+    ResumeMismatch {
+        /// The run directory.
+        dir: String,
+        /// The differing fields.
+        fields: String,
+    },
+    /// Reading or writing run files failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: String,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The caller stopped the run (work since the last checkpoint is discarded, as after a kill).
+    #[error("stopped at step {step}; resume from the last checkpoint with --resume")]
+    Interrupted {
+        /// Steps done when stopped.
+        step: usize,
+    },
+    /// A run file is corrupt.
+    #[error("{path} is corrupt: {reason}")]
+    Corrupt {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The deep-learning side failed (including a NaN loss).
+    #[error(transparent)]
+    Nn(#[from] joca_nn::NnError),
+    /// A frame could not be produced.
+    #[error(transparent)]
+    Source(#[from] joca_core::SourceError),
+    /// The camera model refused a value.
+    #[error(transparent)]
+    Camera(#[from] joca_camera::CameraError),
+}
+
+impl TrainError {
+    /// An I/O error with its path.
+    pub fn io(path: &std::path::Path, source: std::io::Error) -> Self {
+        TrainError::Io { path: path.display().to_string(), source }
+    }
+}
