@@ -242,7 +242,7 @@ fn occluded_objects_have_no_box_and_do_not_count_in_180() {
         Some(Class::Walker),
     );
     let sign = block(
-        V3::new(10.0, -5.0, 2.4),
+        V3::new(10.0, -7.0, 2.4),
         V3::new(0.05, 0.35, 0.35),
         Material::Sign(0),
         Some(Class::TrafficSign),
