@@ -7,6 +7,8 @@
 //!
 //! - [`Engine`] fixes the device and the thread count that every reproducible run records.
 //! - [`detector`] — the CenterNet-style detector, its loss and decoding.
+//! - [`acc`] — NeuralAE, the adaptive camera control network.
+//! - [`formation`] — image formation on tensors (Eq. 2–3), differentiable in exposure and gain.
 //! - [`Adam`] — Adam/AdamW with checkpointable state.
 //! - [`save_weights`] / [`load_weights`] — safetensors weight files, checked tensor by tensor.
 //!
@@ -20,8 +22,10 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod acc;
 pub mod detector;
 mod error;
+pub mod formation;
 mod optim;
 mod weights;
 

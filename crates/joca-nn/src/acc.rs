@@ -1,0 +1,216 @@
+//! NeuralAE, the adaptive camera control network of the paper (supplementary, after Onzon et al.
+//! 2021), predicting exposure time and gain for the next frame.
+//!
+//! ```text
+//! global branch   multi-scale luminance histograms of the 8-bit frame: 1×1 + 3×3 + 7×7 tiles
+//!                 = 59 tiles × 256 bins, each normalised to sum 1        [1, 59, 256]
+//!                 3 × (Conv1d k=4 s=4, ReLU): 59→64→64→32 channels          [1, 32, 4]
+//!                 flatten 128 → Linear 256, ReLU → Linear 256               g [1, 256]
+//! semantic branch detector stride-4 features (detached)                    [1, 2c, h, w]
+//!                 compression conv 1×1 → 3·k channels, ReLU, split in three CFMs of k:
+//!                 avg-pool CFM1, max-pool CFM2, max-pool CFM3, avg-pool the whole map
+//!                 → 3k + 3k, concatenated with a 32-d embedding of the previous (E, G)
+//!                 (Linear 2→32, ReLU, Linear 32→32)
+//!                 → Linear 256, ReLU → Linear 256                           s [1, 256]
+//! head            g + s → Linear 2 → sigmoid → (log E, G dB) within the ACC ranges
+//! ```
+//!
+//! Sizes: the paper keeps NeuralAE's original layer widths with a ResNet-50 detector (a 784-d
+//! semantic vector, 816 with the previous-settings embedding). Our detector's stride-4 map has
+//! `2·width` = 32 channels, so the compression keeps k = 16 per CFM (6k = 96-d pooled vector,
+//! 128 with the embedding); the branches meet in 256 dimensions as in the original.
+//!
+//! Outputs are bounded as the paper requires: exposure `exp(log Emin + σ(o₁)·(log Emax − log Emin))`
+//! (a sigmoid in log space), gain `Gmin + σ(o₂)·(Gmax − Gmin)` dB (already logarithmic).
+
+use joca_core::Rgb8Image;
+use tch::nn;
+use tch::{Device, Kind, Tensor};
+
+/// Histogram tiles per side at each scale.
+const SCALES: [usize; 3] = [1, 3, 7];
+/// Tiles over all scales (1 + 9 + 49).
+pub const HISTOGRAM_TILES: i64 = 59;
+/// Bins per histogram.
+pub const BINS: i64 = 256;
+
+/// Bounds of the ACC outputs, in the units the network sees: `ln(seconds)` and dB.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AccBounds {
+    /// `ln` of the shortest and longest exposure, seconds.
+    pub log_exposure: (f64, f64),
+    /// Gain range, dB.
+    pub gain_db: (f64, f64),
+}
+
+impl AccBounds {
+    /// Bounds from exposure (s) and gain (dB) ranges.
+    pub fn new(exposure_s: (f64, f64), gain_db: (f64, f64)) -> Self {
+        Self { log_exposure: (exposure_s.0.ln(), exposure_s.1.ln()), gain_db }
+    }
+
+    /// `(E, G)` as the `[0, 1]²` values the network is conditioned on.
+    pub fn unit(&self, exposure_s: f64, gain_db: f64) -> [f32; 2] {
+        let (a, b) = self.log_exposure;
+        let (c, d) = self.gain_db;
+        [((exposure_s.ln() - a) / (b - a)) as f32, ((gain_db - c) / (d - c)) as f32]
+    }
+}
+
+/// Multi-scale luminance histograms of an 8-bit frame, `[59 · 256]`, each tile's histogram
+/// normalised to sum 1 (luminance = mean of R, G, B, rounded down).
+pub fn histograms(frame: &Rgb8Image) -> Vec<f32> {
+    let (w, h) = (frame.width(), frame.height());
+    let mut out = vec![0.0f32; (HISTOGRAM_TILES * BINS) as usize];
+    let mut offset = 0;
+    for &n in &SCALES {
+        let mut counts = vec![0u32; n * n * BINS as usize];
+        for y in 0..h {
+            let ty = (y * n / h.max(1)).min(n - 1);
+            for x in 0..w {
+                let tx = (x * n / w.max(1)).min(n - 1);
+                let p = frame.pixel(x, y);
+                let luma = (u32::from(p[0]) + u32::from(p[1]) + u32::from(p[2])) / 3;
+                counts[(ty * n + tx) * BINS as usize + luma as usize] += 1;
+            }
+        }
+        for tile in counts.chunks(BINS as usize) {
+            let total: u32 = tile.iter().sum();
+            for (k, &c) in tile.iter().enumerate() {
+                out[offset + k] = if total > 0 { c as f32 / total as f32 } else { 0.0 };
+            }
+            offset += BINS as usize;
+        }
+    }
+    out
+}
+
+/// The NeuralAE network.
+#[derive(Debug)]
+pub struct NeuralAe {
+    hist: [nn::Conv1D; 3],
+    global: [nn::Linear; 2],
+    compress: nn::Conv2D,
+    cfm: i64,
+    prev: [nn::Linear; 2],
+    semantic: [nn::Linear; 2],
+    out: nn::Linear,
+    bounds: AccBounds,
+}
+
+/// What NeuralAE predicts for the next frame.
+#[derive(Debug)]
+pub struct AccOutput {
+    /// Exposure, seconds `[1]` (differentiable).
+    pub exposure_s: Tensor,
+    /// Gain, dB `[1]` (differentiable).
+    pub gain_db: Tensor,
+}
+
+impl NeuralAe {
+    /// A freshly initialised NeuralAE reading detector features with `feature_channels`.
+    pub fn new(vs: &nn::Path<'_>, feature_channels: i64, bounds: AccBounds) -> Self {
+        let conv1 = |name: &str, i: i64, o: i64| {
+            nn::conv1d(vs / name, i, o, 4, nn::ConvConfig { stride: 4, ..Default::default() })
+        };
+        let cfm = (feature_channels / 2).max(4);
+        Self {
+            hist: [
+                conv1("hist1", HISTOGRAM_TILES, 64),
+                conv1("hist2", 64, 64),
+                conv1("hist3", 64, 32),
+            ],
+            global: [
+                nn::linear(vs / "global1", 32 * 4, 256, Default::default()),
+                nn::linear(vs / "global2", 256, 256, Default::default()),
+            ],
+            compress: nn::conv2d(vs / "compress", feature_channels, 3 * cfm, 1, Default::default()),
+            cfm,
+            prev: [
+                nn::linear(vs / "prev1", 2, 32, Default::default()),
+                nn::linear(vs / "prev2", 32, 32, Default::default()),
+            ],
+            semantic: [
+                nn::linear(vs / "semantic1", 6 * cfm + 32, 256, Default::default()),
+                nn::linear(vs / "semantic2", 256, 256, Default::default()),
+            ],
+            out: nn::linear(vs / "out", 256, 2, Default::default()),
+            bounds,
+        }
+    }
+
+    /// Predicts the next frame's settings from the last frame's histograms (`[59·256]`), the
+    /// detector's stride-4 features of that frame (detached here) and the last settings.
+    pub fn forward(
+        &self,
+        histograms: &[f32],
+        features: &Tensor,
+        previous: [f32; 2],
+        device: Device,
+    ) -> AccOutput {
+        let h = Tensor::from_slice(histograms).to_device(device).view([1, HISTOGRAM_TILES, BINS]);
+        let h = self.hist.iter().fold(h, |x, c| x.apply(c).relu()); // [1, 32, 4]
+        let g = h.flatten(1, 2).apply(&self.global[0]).relu().apply(&self.global[1]); // [1, 256]
+
+        let f = features.detach().apply(&self.compress).relu(); // [1, 3k, h, w]
+        let parts = f.split(self.cfm, 1);
+        let avg = |t: &Tensor| t.mean_dim(&[2i64, 3][..], false, Kind::Float);
+        let max = |t: &Tensor| t.amax(&[2i64, 3][..], false);
+        let prev = Tensor::from_slice(&previous).to_device(device).view([1, 2]);
+        let e = prev.apply(&self.prev[0]).relu().apply(&self.prev[1]); // [1, 32]
+        let pooled = Tensor::cat(&[avg(&parts[0]), max(&parts[1]), max(&parts[2]), avg(&f), e], 1); // [1, 6k + 32]
+        let s = pooled.apply(&self.semantic[0]).relu().apply(&self.semantic[1]); // [1, 256]
+
+        let o = (g + s).apply(&self.out).sigmoid(); // [1, 2]
+        let (a, b) = self.bounds.log_exposure;
+        let (c, d) = self.bounds.gain_db;
+        AccOutput {
+            exposure_s: (o.select(1, 0) * (b - a) + a).exp(),
+            gain_db: o.select(1, 1) * (d - c) + c,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histograms_sum_to_one_per_tile_and_locate_brightness() {
+        let mut data = vec![0u8; 14 * 14 * 3];
+        // The top-left quarter is white.
+        for y in 0..7 {
+            for x in 0..7 {
+                data[(y * 14 + x) * 3..(y * 14 + x) * 3 + 3].copy_from_slice(&[255, 255, 255]);
+            }
+        }
+        let h = histograms(&Rgb8Image::from_vec(14, 14, data).unwrap());
+        for tile in h.chunks(256) {
+            assert!((tile.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+        }
+        assert!((h[255] - 0.25).abs() < 1e-6 && (h[0] - 0.75).abs() < 1e-6); // whole image
+        assert_eq!(h[256 + 255], 1.0); // 3×3 tile (0, 0) is all white
+        assert_eq!(h[256 * 9], 1.0); // 3×3 tile (2, 2) is all black
+    }
+
+    #[test]
+    fn outputs_stay_inside_the_ranges_and_carry_gradients() {
+        let vs = nn::VarStore::new(Device::Cpu);
+        let bounds = AccBounds::new((0.1e-3, 50e-3), (1.0, 30.0));
+        let net = NeuralAe::new(&vs.root(), 32, bounds);
+        let features = Tensor::randn([1, 32, 12, 16], (Kind::Float, Device::Cpu));
+        let hist = histograms(&Rgb8Image::zeros(16, 12));
+        let out = net.forward(&hist, &features, [0.5, 0.5], Device::Cpu);
+        let e = out.exposure_s.double_value(&[0]);
+        let g = out.gain_db.double_value(&[0]);
+        assert!((0.1e-3..=50e-3).contains(&e) && (1.0..=30.0).contains(&g), "{e} {g}");
+        (out.exposure_s.sum(Kind::Float) + out.gain_db.sum(Kind::Float)).backward();
+        let grads: f64 = vs
+            .trainable_variables()
+            .iter()
+            .map(|v| v.grad().abs().sum(Kind::Double).double_value(&[]))
+            .sum();
+        assert!(grads > 0.0);
+        assert_eq!(bounds.unit(50e-3, 1.0), [1.0, 0.0]);
+    }
+}

@@ -1,0 +1,79 @@
+//! Differentiable image formation: the same Eq. 2–3 as `joca_camera::ImageFormation`, on
+//! tensors, so the task loss reaches the ACC through exposure and gain.
+//!
+//! The rendered `I0` (with the motion blur of the exposure it was rendered with) enters as a
+//! constant: its dependence on exposure through blur is not differentiable — the gap DF-Grad's
+//! GA supervision fills. For a given noise field `z` (taken from
+//! `joca_camera::ImageFormation::standard_normals`, i.e. the very sample the 8-bit formation
+//! uses) the forward value equals the 8-bit frame: clipping at 0 and 255 and rounding to the
+//! nearest integer are applied with straight-through gradients (the gradient of clip is 1 inside
+//! and 0 outside; rounding passes the gradient unchanged).
+
+use tch::{Device, Kind, Tensor};
+
+/// The calibration constants formation needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FormationConstants {
+    /// E0, seconds.
+    pub exposure_s: f64,
+    /// G0, dB.
+    pub gain_db: f64,
+    /// p0, µm.
+    pub pixel_pitch_um: f64,
+    /// σp² × noise scale, per channel.
+    pub sigma_p2: [f64; 3],
+    /// σr² × noise scale, per channel.
+    pub sigma_r2: [f64; 3],
+}
+
+/// One frame's constant inputs.
+#[derive(Debug, Clone, Copy)]
+pub struct Scene<'a> {
+    /// Interleaved RGB `I0`, `[H·W·3]`, calibrated DN.
+    pub i0: &'a [f32],
+    /// The noise sample `z`, same layout.
+    pub normals: &'a [f32],
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// The sensor's pixel pitch, µm.
+    pub pixel_pitch_um: f64,
+}
+
+/// `[1, 3, H, W]` frame in DN (0–255, integer-valued in the forward pass) of `scene`,
+/// differentiable in `exposure_s` and `gain_db` (`[1]` tensors).
+pub fn form(
+    scene: &Scene<'_>,
+    exposure_s: &Tensor,
+    gain_db: &Tensor,
+    c: &FormationConstants,
+    device: Device,
+) -> Tensor {
+    let (i0, normals, pixel_pitch_um) = (scene.i0, scene.normals, scene.pixel_pitch_um);
+    let (w, h) = (scene.width as i64, scene.height as i64);
+    let to_chw = |v: &[f32]| {
+        Tensor::from_slice(v).to_device(device).view([h, w, 3]).permute([2, 0, 1]).unsqueeze(0)
+    };
+    let i0 = to_chw(i0);
+    let z = to_chw(normals);
+    let g0 = 10f64.powf(c.gain_db / 20.0);
+    let gain_ratio = (gain_db / 20.0 * std::f64::consts::LN_10).exp() / g0; // 10^(dB/20) / G0
+    let area = (pixel_pitch_um / c.pixel_pitch_um).powi(2);
+    let scale = exposure_s / c.exposure_s * &gain_ratio * area; // [1]
+    let i = i0 * scale.view([1, 1, 1, 1]);
+    let sp = Tensor::from_slice(&c.sigma_p2.map(|v| v as f32)).to_device(device).view([1, 3, 1, 1]);
+    let sr = Tensor::from_slice(&c.sigma_r2.map(|v| v as f32)).to_device(device).view([1, 3, 1, 1]);
+    let g = gain_ratio.view([1, 1, 1, 1]);
+    let var = (&g * sp * &i + &g * &g * sr).clamp_min(0.0);
+    let noisy = &i + var.sqrt() * z;
+    let clipped = noisy.clamp(0.0, 255.0);
+    // floor(x + 0.5) as the 8-bit formation rounds, with the gradient of the identity.
+    let rounded = (&clipped + 0.5).floor();
+    &clipped + (rounded - &clipped).detach()
+}
+
+/// The frame as the detector's input scaling (`DN / 255 − 0.5`).
+pub fn to_detector_input(frame_dn: &Tensor) -> Tensor {
+    frame_dn.to_kind(Kind::Float) / 255.0 - 0.5
+}

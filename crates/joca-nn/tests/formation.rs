@@ -1,0 +1,54 @@
+//! The differentiable formation reproduces joca-camera's 8-bit formation for the same noise
+//! sample, and its gradient with respect to exposure is the closed form.
+#![allow(clippy::unwrap_used)]
+
+use joca_camera::{Calibration, DynamicSettings, ImageFormation};
+use joca_core::{HdrImage, SeedStreams};
+use joca_nn::formation::{FormationConstants, Scene, form};
+use rand::Rng;
+use tch::{Device, Kind, Tensor};
+
+#[test]
+fn same_noise_sample_gives_the_same_frame() {
+    let (w, h) = (53, 37);
+    let mut i0 = HdrImage::zeros(w, h);
+    for (k, v) in i0.data_mut().iter_mut().enumerate() {
+        *v = ((k * 7919) % 300) as f32 * 0.9;
+    }
+    let cal = Calibration::DEFAULT;
+    let settings = DynamicSettings::new(7e-3, 14.0);
+    let formation = ImageFormation::new(cal).unwrap().with_noise_scale(3.0).unwrap();
+    let streams = SeedStreams::new(5);
+    let reference = formation.form(&i0, settings, 2.4, &mut streams.stream("n"));
+    let z = ImageFormation::standard_normals(w, h, streams.stream("n").random());
+    let constants = FormationConstants {
+        exposure_s: cal.exposure_s,
+        gain_db: cal.gain_db,
+        pixel_pitch_um: cal.pixel_pitch_um,
+        sigma_p2: cal.sigma_p2.map(|v| v * 3.0),
+        sigma_r2: cal.sigma_r2.map(|v| v * 3.0),
+    };
+    let e = Tensor::from_slice(&[7e-3f32]).set_requires_grad(true);
+    let g = Tensor::from_slice(&[14.0f32]).set_requires_grad(true);
+    let scene = Scene { i0: i0.data(), normals: &z, width: w, height: h, pixel_pitch_um: 2.4 };
+    let frame = form(&scene, &e, &g, &constants, Device::Cpu);
+    let ours: Vec<f32> =
+        Vec::try_from(frame.squeeze_dim(0).permute([1, 2, 0]).contiguous().view([-1])).unwrap();
+    let mut differ = 0;
+    for (a, &b) in ours.iter().zip(reference.data()) {
+        let d = (a - f32::from(b)).abs();
+        assert!(d <= 1.0, "{a} vs {b}");
+        differ += usize::from(d > 0.0);
+    }
+    // Only values within float rounding of a .5 boundary may round differently.
+    assert!(differ * 1000 < ours.len(), "{differ} of {} differ", ours.len());
+
+    // Gradient: where nothing clips, d(sum I)/dE = sum(I)/E (I is linear in E; the noise
+    // standard deviation grows as √E, whose share is small but included in the tolerance).
+    let unclipped = frame.gt(5.0).logical_and(&frame.lt(250.0)).to_kind(Kind::Float);
+    (&frame * &unclipped).sum(Kind::Float).backward();
+    let de = e.grad().double_value(&[0]);
+    let expected = (&frame * &unclipped).sum(Kind::Double).double_value(&[]) / 7e-3;
+    assert!((de / expected - 1.0).abs() < 0.05, "{de} vs {expected}");
+    assert!(g.grad().double_value(&[0]) > 0.0);
+}
