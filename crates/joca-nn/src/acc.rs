@@ -107,6 +107,29 @@ pub struct AccOutput {
     pub gain_db: Tensor,
 }
 
+/// The output layer, initialised so that an untrained NeuralAE predicts the calibration settings
+/// (E0 = 5 ms, G0 = 10 dB): small weights, and biases at the logits of those settings. A random
+/// start would put the first predictions anywhere in the ranges, often at an extreme where the
+/// task gradient is weak.
+fn start_at_calibration(vs: &nn::Path<'_>, bounds: AccBounds) -> nn::Linear {
+    let logit = |u: f64| (u / (1.0 - u)).ln();
+    let unit = bounds.unit(5e-3, 10.0).map(|u| f64::from(u).clamp(0.01, 0.99));
+    let mut layer = nn::linear(
+        vs / "out",
+        256,
+        2,
+        nn::LinearConfig {
+            ws_init: nn::Init::Randn { mean: 0.0, stdev: 1e-3 },
+            ..Default::default()
+        },
+    );
+    if let Some(bias) = layer.bs.as_mut() {
+        let _guard = tch::no_grad_guard();
+        bias.copy_(&Tensor::from_slice(&[logit(unit[0]) as f32, logit(unit[1]) as f32]));
+    }
+    layer
+}
+
 impl NeuralAe {
     /// A freshly initialised NeuralAE reading detector features with `feature_channels`.
     pub fn new(vs: &nn::Path<'_>, feature_channels: i64, bounds: AccBounds) -> Self {
@@ -134,7 +157,7 @@ impl NeuralAe {
                 nn::linear(vs / "semantic1", 6 * cfm + 32, 256, Default::default()),
                 nn::linear(vs / "semantic2", 256, 256, Default::default()),
             ],
-            out: nn::linear(vs / "out", 256, 2, Default::default()),
+            out: start_at_calibration(vs, bounds),
             bounds,
         }
     }
@@ -177,6 +200,7 @@ mod tests {
 
     #[test]
     fn histograms_sum_to_one_per_tile_and_locate_brightness() {
+        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let mut data = vec![0u8; 14 * 14 * 3];
         // The top-left quarter is white.
         for y in 0..7 {
@@ -195,6 +219,8 @@ mod tests {
 
     #[test]
     fn outputs_stay_inside_the_ranges_and_carry_gradients() {
+        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        tch::manual_seed(1);
         let vs = nn::VarStore::new(Device::Cpu);
         let bounds = AccBounds::new((0.1e-3, 50e-3), (1.0, 30.0));
         let net = NeuralAe::new(&vs.root(), 32, bounds);
@@ -212,5 +238,7 @@ mod tests {
             .sum();
         assert!(grads > 0.0);
         assert_eq!(bounds.unit(50e-3, 1.0), [1.0, 0.0]);
+        // Untrained, it predicts the calibration settings.
+        assert!((e / 5e-3 - 1.0).abs() < 0.1 && (g - 10.0).abs() < 1.0, "{e} {g}");
     }
 }

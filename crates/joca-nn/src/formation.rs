@@ -53,7 +53,14 @@ pub fn form(
     let (i0, normals, pixel_pitch_um) = (scene.i0, scene.normals, scene.pixel_pitch_um);
     let (w, h) = (scene.width as i64, scene.height as i64);
     let to_chw = |v: &[f32]| {
-        Tensor::from_slice(v).to_device(device).view([h, w, 3]).permute([2, 0, 1]).unsqueeze(0)
+        // Contiguous NCHW: a permuted view would make convolutions keep a channels-last
+        // layout that later `view`s cannot reinterpret.
+        Tensor::from_slice(v)
+            .to_device(device)
+            .view([h, w, 3])
+            .permute([2, 0, 1])
+            .contiguous()
+            .unsqueeze(0)
     };
     let i0 = to_chw(i0);
     let z = to_chw(normals);

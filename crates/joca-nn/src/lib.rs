@@ -26,6 +26,7 @@ pub mod acc;
 pub mod detector;
 mod error;
 pub mod formation;
+pub mod joint;
 mod optim;
 mod weights;
 
@@ -34,6 +35,11 @@ pub use optim::{Adam, AdamConfig, grad_norm};
 pub use weights::{load_weights, save_weights};
 
 use tch::Device;
+
+/// libtorch's generator and thread count are process-wide: unit tests that create networks
+/// hold this lock so that each sees the seed it set.
+#[cfg(test)]
+pub(crate) static TORCH_SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// The device and thread count that every tensor of a run uses.
 #[derive(Debug, Clone, Copy)]

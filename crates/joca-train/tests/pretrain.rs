@@ -4,6 +4,11 @@
 use joca_nn::detector::DetectorConfig;
 use joca_train::{PretrainConfig, PretrainEvent, TrainError, pretrain};
 use std::ops::ControlFlow;
+use std::sync::Mutex;
+
+/// libtorch's random generator and thread count are process-wide: tests that initialise
+/// networks run one at a time so that each sees the seed it set.
+static SERIAL: Mutex<()> = Mutex::new(());
 
 fn tiny() -> PretrainConfig {
     PretrainConfig {
@@ -32,6 +37,7 @@ fn go(_: &PretrainEvent) -> ControlFlow<()> {
 
 #[test]
 fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
     let (a_dir, b_dir) = (dir.path().join("a.run"), dir.path().join("b.run"));
     let (a_w, b_w) = (dir.path().join("a.safetensors"), dir.path().join("b.safetensors"));
@@ -65,6 +71,7 @@ fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
 
 #[test]
 fn invalid_configuration_names_the_field_and_the_range() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
     let mut cfg = tiny();
     cfg.render_scale = 3.0;

@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod form;
 pub mod metrics;
 pub mod render;
+pub mod run;
 pub mod sensors;
 pub mod train_detector;
 

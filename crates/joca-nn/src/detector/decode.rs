@@ -22,12 +22,12 @@ pub fn decode(
     let peaks = heat.max_pool2d([3, 3], [1, 1], [1, 1], [1, 1], false);
     let kept = &heat * peaks.eq_tensor(&heat).to_kind(Kind::Float);
     let k = max_detections.min(classes * h * w);
-    let (scores, indices) = kept.view([-1]).topk(k, 0, true, true);
+    let (scores, indices) = kept.reshape([-1]).topk(k, 0, true, true);
     let scores: Vec<f32> =
         Vec::try_from(scores.to_kind(Kind::Float).to_device(tch::Device::Cpu)).unwrap_or_default();
     let indices: Vec<i64> = Vec::try_from(indices.to_device(tch::Device::Cpu)).unwrap_or_default();
     let flat = |t: &Tensor| -> Vec<f32> {
-        Vec::try_from(t.to_kind(Kind::Float).to_device(tch::Device::Cpu).view([-1]))
+        Vec::try_from(t.to_kind(Kind::Float).to_device(tch::Device::Cpu).reshape([-1]))
             .unwrap_or_default()
     };
     let size = flat(&output.size);

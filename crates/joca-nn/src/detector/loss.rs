@@ -136,7 +136,7 @@ impl DetectionLoss {
         } else {
             let at = |map: &Tensor| {
                 let s = map.size();
-                map.view([2, s[2] * s[3]]).index_select(1, &targets.indices)
+                map.reshape([2, s[2] * s[3]]).index_select(1, &targets.indices)
             };
             (
                 (at(&output.size) - &targets.size).abs().mean(Kind::Float),

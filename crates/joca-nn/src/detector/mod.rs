@@ -226,6 +226,7 @@ pub fn image_tensor(frame: &Rgb8Image, device: Device) -> Tensor {
         .to_device(device)
         .view([h, w, 3])
         .permute([2, 0, 1])
+        .contiguous()
         .unsqueeze(0)
         .to_kind(Kind::Float)
         / 255.0

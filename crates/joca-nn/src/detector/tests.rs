@@ -16,6 +16,7 @@ fn frame_with_box(w: usize, h: usize, b: BBox) -> Rgb8Image {
 
 #[test]
 fn any_input_size_gives_a_quarter_resolution_grid() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(1);
     let vs = VarStore::new(engine.device());
     let d = Detector::new(&vs.root(), DetectorConfig::default());
@@ -27,6 +28,7 @@ fn any_input_size_gives_a_quarter_resolution_grid() {
 
 #[test]
 fn targets_peak_at_object_centres() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let a = [Annotation { bbox: BBox::new(8.0, 12.0, 24.0, 20.0), class: Class::Walker }];
     let t = Targets::new(&a, 3, 10, 10, Device::Cpu);
     assert_eq!(t.count, 1);
@@ -41,6 +43,7 @@ fn targets_peak_at_object_centres() {
 
 #[test]
 fn learns_to_find_a_box_in_a_few_hundred_steps() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(2);
     engine.seed(3);
     let vs = VarStore::new(engine.device());
@@ -71,6 +74,7 @@ fn learns_to_find_a_box_in_a_few_hundred_steps() {
 
 #[test]
 fn decoding_survives_nan_output() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let h = Tensor::full([1, 3, 4, 4], f64::NAN, (Kind::Float, Device::Cpu));
     let out = DetectorOutput {
         heatmap: h,
@@ -83,6 +87,7 @@ fn decoding_survives_nan_output() {
 
 #[test]
 fn weights_round_trip_and_refuse_another_architecture() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = std::env::temp_dir().join(format!("joca-nn-weights-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("det.safetensors");
@@ -105,6 +110,7 @@ fn weights_round_trip_and_refuse_another_architecture() {
 
 #[test]
 fn a_non_finite_loss_is_refused_before_any_weight_changes() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(1);
     let mut model =
         DetectorModel::new(&engine, DetectorConfig { width: 8, classes: 3 }, AdamConfig::DETECTOR);

@@ -1,0 +1,114 @@
+//! `joca run`: the joint optimisation of camera hardware, NeuralAE and detector.
+
+use crate::config;
+use anyhow::{Context, Result, anyhow};
+use joca_train::{Method, RunConfig, RunEvent, RunResults, Scenario, run as run_loop};
+use std::io::Write;
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `joca run`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Preset: quick, standard or paper (files in presets/).
+    #[arg(long, default_value = "quick")]
+    preset: String,
+    /// Method: joca, tacos-average, fixed-neural, no-ga-loss, fixed-perturbation, frozen-detector.
+    #[arg(long)]
+    method: Option<String>,
+    /// Scenario: calibrated, noise10, noise20, blur2, blur4.
+    #[arg(long)]
+    scenario: Option<String>,
+    /// A TOML file whose [run] fields override the preset's.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Run directory [default: runs/<preset>-<method>-<scenario>].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the run in the run directory from its last checkpoint.
+    #[arg(long)]
+    resume: bool,
+}
+
+/// Runs `joca run`.
+pub fn run(args: &Args) -> Result<()> {
+    let mut cfg: RunConfig = config::load(&args.preset, args.config.as_deref(), "run")?;
+    if let Some(m) = &args.method {
+        cfg.method = Method::from_name(m).map_err(|e| anyhow!(e))?;
+    }
+    if let Some(s) = &args.scenario {
+        cfg.scenario = Scenario::from_name(s).map_err(|e| anyhow!(e))?;
+    }
+    // Relative weight paths are tried from the working directory, then from the repository root
+    // (where the presets' shipped weights live), so `joca run` works from any directory.
+    if !cfg.detector_weights.is_empty() && !std::path::Path::new(&cfg.detector_weights).exists() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../..")
+            .join(&cfg.detector_weights);
+        if root.exists() {
+            cfg.detector_weights = root.display().to_string();
+        }
+    }
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from(format!("runs/{}-{}-{}", args.preset, cfg.method.name(), cfg.scenario.name()))
+    });
+    println!(
+        "joca run: method {}, scenario {}, {} generations x {} candidates x {} steps, render scale {}, run directory {}",
+        cfg.method.name(),
+        cfg.scenario.name(),
+        cfg.generations,
+        cfg.population,
+        cfg.steps_per_candidate,
+        cfg.render_scale,
+        out.display()
+    );
+    let started = Instant::now();
+    let mut progress = |e: &RunEvent| {
+        match e {
+            RunEvent::Candidate { generation, fitness, best, done, of, .. } => {
+                let elapsed = started.elapsed().as_secs_f64();
+                let eta = elapsed / *done as f64 * (*of - *done) as f64;
+                eprint!(
+                    "\r  candidate {done:>4}/{of}  generation {generation:>3}  fitness {fitness:.3}  best {best:.3}  ETA {eta:.0} s   "
+                );
+                let _ = std::io::stderr().flush();
+            }
+            RunEvent::Testing => eprintln!("\n  testing the best design on the test town…"),
+        }
+        ControlFlow::Continue(())
+    };
+    let results = run_loop(&cfg, &out, args.resume, &mut progress)
+        .with_context(|| format!("run in {} failed", out.display()))?;
+    print_results(&results, started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn print_results(r: &RunResults, seconds: f64) {
+    let d = &r.design;
+    let mark = if d.optimised { "optimised" } else { "fixed" };
+    println!("\nfinished in {:.1} min\n", seconds / 60.0);
+    println!(
+        "| method | scenario | x (m) | z (m) | f (mm) | sensor | W×H (mm) | p (µm) | mAP@[.5:.95] | AP50 | TP ratio |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!(
+        "| {} | {} | {:.2} | {:.2} | {:.2} | {} ({mark}) | {:.2}×{:.2} | {:.2} | {:.3} | {:.3} | {:.3} |",
+        r.method.name(),
+        r.scenario.name(),
+        d.x_m,
+        d.z_m,
+        d.focal_length_mm,
+        d.sensor,
+        d.sensor_mm.0,
+        d.sensor_mm.1,
+        d.pixel_pitch_um,
+        r.test.map,
+        r.test.ap50,
+        r.test.tp_ratio
+    );
+    println!("\nmean exposure and gain on the test town, by illumination:");
+    for (light, (e, g)) in &r.settings_by_illumination {
+        println!("  {light:<7} E = {e:6.2} ms   G = {g:5.1} dB");
+    }
+}

@@ -1,0 +1,92 @@
+//! The joint loop end to end on a tiny configuration: determinism, kill-and-resume, refusals.
+#![allow(clippy::unwrap_used)]
+
+use joca_nn::detector::DetectorConfig;
+use joca_train::{FixedCamera, Method, RunConfig, RunEvent, Scenario, TrainError, run};
+use std::ops::ControlFlow;
+use std::sync::Mutex;
+
+/// libtorch's random generator and thread count are process-wide: tests that initialise
+/// networks run one at a time so that each sees the seed it set.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn tiny(method: Method) -> RunConfig {
+    RunConfig {
+        seed: 3,
+        threads: 1,
+        method,
+        scenario: Scenario::Blur2,
+        camera: FixedCamera::Flir,
+        generations: 2,
+        population: 2,
+        steps_per_candidate: 5,
+        perturbation_population: 4,
+        ga_every: 2,
+        task_weight: 7.0,
+        render_scale: 0.03,
+        train_maps: 2,
+        max_speed_mps: 15.0,
+        detector: DetectorConfig { width: 8, classes: 3 },
+        detector_weights: String::new(),
+        test_episodes: 1,
+        test_frames_per_episode: 3,
+    }
+}
+
+fn go(_: &RunEvent) -> ControlFlow<()> {
+    ControlFlow::Continue(())
+}
+
+#[test]
+fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = tiny(Method::Joca);
+    let a = run(&cfg, &dir.path().join("a"), false, &mut go).unwrap();
+    // The same configuration again: identical results.
+    let again = run(&cfg, &dir.path().join("again"), false, &mut go).unwrap();
+    assert_eq!(a, again);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("a/results.json")).unwrap(),
+        std::fs::read_to_string(dir.path().join("again/results.json")).unwrap()
+    );
+
+    // Stopped after the third candidate (mid second generation), then resumed.
+    let b_dir = dir.path().join("b");
+    let mut stop = |e: &RunEvent| match e {
+        RunEvent::Candidate { done: 3, .. } => ControlFlow::Break(()),
+        _ => ControlFlow::Continue(()),
+    };
+    assert!(matches!(
+        run(&cfg, &b_dir, false, &mut stop),
+        Err(TrainError::Interrupted { step: 3 })
+    ));
+    let b = run(&cfg, &b_dir, true, &mut go).unwrap();
+    assert_eq!(a, b);
+
+    let mut other = cfg.clone();
+    other.task_weight = 5.0;
+    let e = run(&other, &b_dir, true, &mut go).unwrap_err().to_string();
+    assert!(e.contains("task_weight (7.0 → 5.0)"), "{e}");
+}
+
+#[test]
+fn every_method_runs() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    for method in
+        [Method::TacosAverage, Method::FixedNeural, Method::NoGaLoss, Method::FixedPerturbation]
+    {
+        let mut cfg = tiny(method);
+        cfg.generations = 1;
+        let r = run(&cfg, &dir.path().join(method.name()), false, &mut go).unwrap();
+        assert_eq!(r.method, method);
+        assert_eq!(r.design.optimised, method != Method::FixedNeural);
+        assert!(r.test.frames == 3);
+    }
+    // The frozen detector needs weights to freeze.
+    let e = run(&tiny(Method::FrozenDetector), &dir.path().join("f"), false, &mut go)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("run.detector_weights"), "{e}");
+}
