@@ -68,10 +68,27 @@ pub struct StepReport {
     pub loss: LossParts,
     /// GA supervision loss, when a target was given.
     pub ga_loss: Option<f64>,
+    /// Wall time of this step's parts, milliseconds.
+    pub timings: StepTimings,
     /// Exposure applied, seconds.
     pub exposure_s: f64,
     /// Gain applied, dB.
     pub gain_db: f64,
+}
+
+/// Where a training step's time goes, milliseconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepTimings {
+    /// Differentiable formation (Eq. 4 and Eq. 2–3 on tensors).
+    pub formation_ms: f64,
+    /// Detector forward pass and loss.
+    pub detector_forward_ms: f64,
+    /// Backward pass through detector, formation and NeuralAE.
+    pub backward_ms: f64,
+    /// Optimiser updates of detector and NeuralAE.
+    pub update_ms: f64,
+    /// Decoding the detections.
+    pub decode_ms: f64,
 }
 
 /// Detector + NeuralAE + their optimisers.
@@ -215,7 +232,14 @@ impl JointModel {
                 });
             }
         };
+        let mut timings = StepTimings::default();
+        let mut clock = std::time::Instant::now();
+        let mut lap = |slot: &mut f64| {
+            *slot = clock.elapsed().as_secs_f64() * 1e3;
+            clock = std::time::Instant::now();
+        };
         let frame_dn = form(scene, &e_t, &g_t, &self.constants, self.device);
+        lap(&mut timings.formation_ms);
         let out = self.det.forward(&to_detector_input(&frame_dn));
         let s = out.heatmap.size();
         let targets = Targets::new(truth, self.det.config().classes, s[2], s[3], self.device);
@@ -247,7 +271,9 @@ impl JointModel {
         }
         self.det_opt.zero_grad();
         self.acc_opt.zero_grad();
+        lap(&mut timings.detector_forward_ms);
         objective.backward();
+        lap(&mut timings.backward_ms);
         if self.train_detector {
             self.det_opt.step();
         }
@@ -261,9 +287,11 @@ impl JointModel {
             }
             self.acc_opt.step();
         }
+        lap(&mut timings.update_ms);
         self.features = Some(out.features.detach());
         let frame = tensor_to_rgb8(&frame_dn);
         let detections = decode(&out, scene.width, scene.height, MAX_DETECTIONS, MIN_SCORE);
+        lap(&mut timings.decode_ms);
         Ok(StepReport {
             frame,
             detections,
@@ -274,6 +302,7 @@ impl JointModel {
                 offset: loss.offset,
             },
             ga_loss,
+            timings,
             exposure_s: e_t.double_value(&[0]),
             gain_db: g_t.double_value(&[0]),
         })

@@ -21,4 +21,7 @@ pub use eval::{AverageControl, EvalSpec, ExposureControl, evaluate};
 pub use pretrain::{
     EvalReport, PretrainConfig, PretrainEvent, differing_fields, pretrain, reference_design,
 };
-pub use run::{DesignSummary, FixedCamera, Method, RunConfig, RunEvent, RunResults, Scenario, run};
+pub use run::{
+    DesignSummary, FixedCamera, Method, RunConfig, RunEvent, RunResults, Scenario, StepBreakdown,
+    bench_step, run,
+};

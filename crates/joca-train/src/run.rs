@@ -355,6 +355,71 @@ pub enum RunEvent {
     Testing,
 }
 
+/// Mean wall time per training step by part, milliseconds (`joca bench step`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct StepBreakdown {
+    /// NeuralAE forward (histograms, features, prediction).
+    pub acc_predict_ms: f64,
+    /// Rendering the forward-mode frame (all its sub-frames).
+    pub render_ms: f64,
+    /// Perturbation mode: rendering the perturbed frames.
+    pub perturbation_render_ms: f64,
+    /// Perturbation mode: forming, detecting and scoring (AP50) the perturbed frames.
+    pub perturbation_detect_ms: f64,
+    /// Perturbation GA update.
+    pub perturbation_ga_ms: f64,
+    /// Drawing the noise sample.
+    pub noise_ms: f64,
+    /// Differentiable formation.
+    pub formation_ms: f64,
+    /// Detector forward and loss.
+    pub detector_forward_ms: f64,
+    /// Backward pass.
+    pub backward_ms: f64,
+    /// Optimiser updates.
+    pub update_ms: f64,
+    /// Decoding and metric bookkeeping.
+    pub decode_ms: f64,
+    /// Steps measured.
+    pub steps: usize,
+}
+
+impl StepBreakdown {
+    /// Sum of the parts, milliseconds.
+    pub fn total_ms(&self) -> f64 {
+        self.acc_predict_ms
+            + self.render_ms
+            + self.perturbation_render_ms
+            + self.perturbation_detect_ms
+            + self.perturbation_ga_ms
+            + self.noise_ms
+            + self.formation_ms
+            + self.detector_forward_ms
+            + self.backward_ms
+            + self.update_ms
+            + self.decode_ms
+    }
+
+    fn scaled(mut self, k: f64) -> Self {
+        for v in [
+            &mut self.acc_predict_ms,
+            &mut self.render_ms,
+            &mut self.perturbation_render_ms,
+            &mut self.perturbation_detect_ms,
+            &mut self.perturbation_ga_ms,
+            &mut self.noise_ms,
+            &mut self.formation_ms,
+            &mut self.detector_forward_ms,
+            &mut self.backward_ms,
+            &mut self.update_ms,
+            &mut self.decode_ms,
+        ] {
+            *v *= k;
+        }
+        self
+    }
+}
+
 #[derive(Debug, Serialize, Deserialize)]
 struct RunState {
     config: RunConfig,
@@ -373,8 +438,9 @@ struct Context {
     formation: ImageFormation,
     sims: HashMap<u64, Simulator>,
     ranges: AccRanges,
-    log: std::fs::File,
+    log: Box<dyn Write>,
     log_path: PathBuf,
+    timing: Option<StepBreakdown>,
 }
 
 /// Runs (or resumes) a joint optimisation into `run_dir`, then tests the best design.
@@ -480,8 +546,9 @@ pub fn run(
         formation,
         sims: HashMap::new(),
         ranges,
-        log,
+        log: Box::new(log),
         log_path,
+        timing: None,
     };
 
     let total =
@@ -575,6 +642,59 @@ pub fn run(
 /// Mean exposure (ms) and gain (dB) per illumination name.
 type SettingsByLight = BTreeMap<String, (f64, f64)>;
 
+/// Times `steps` training steps of `config`'s method on `design` (one candidate after a warm-up
+/// candidate), returning the mean time per step by part.
+pub fn bench_step(
+    config: &RunConfig,
+    design: &CameraDesign,
+    steps: usize,
+) -> Result<StepBreakdown, TrainError> {
+    let mut config = config.clone();
+    config.steps_per_candidate = steps.max(2);
+    config.validate()?;
+    let engine = Engine::cpu(config.threads);
+    let streams = SeedStreams::new(config.seed);
+    engine.seed(streams.stream("init").random());
+    let cal = Calibration::DEFAULT;
+    let ranges = AccRanges::PAPER;
+    let constants = FormationConstants {
+        exposure_s: cal.exposure_s,
+        gain_db: cal.gain_db,
+        pixel_pitch_um: cal.pixel_pitch_um,
+        sigma_p2: cal.sigma_p2,
+        sigma_r2: cal.sigma_r2,
+    };
+    let bounds = AccBounds::new(
+        (ranges.exposure_s.min, ranges.exposure_s.max),
+        (ranges.gain_db.min, ranges.gain_db.max),
+    );
+    let mut model = JointModel::new(&engine, config.detector, bounds, constants);
+    if !config.detector_weights.is_empty() {
+        model.load_detector(Path::new(&config.detector_weights))?;
+    }
+    let mut perturbation = Ga::new(
+        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
+            .map_err(ga_err)?,
+        &mut streams.stream("perturbation-init"),
+    );
+    let mut cx = Context {
+        config: config.clone(),
+        streams,
+        codec: GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?,
+        formation: ImageFormation::new(cal)?,
+        sims: HashMap::new(),
+        ranges,
+        log: Box::new(std::io::sink()),
+        log_path: PathBuf::from("(none)"),
+        timing: None,
+    };
+    train_candidate(&mut cx, &mut model, &mut perturbation, design, 0)?; // warm-up
+    cx.timing = Some(StepBreakdown::default());
+    train_candidate(&mut cx, &mut model, &mut perturbation, design, 1)?;
+    let t = cx.timing.unwrap_or_default();
+    Ok(t.scaled(1.0 / t.steps.max(1) as f64))
+}
+
 #[derive(Serialize)]
 struct ConfigFile {
     run: RunConfig,
@@ -625,8 +745,17 @@ fn train_candidate(
     let mut applied = DynamicSettings::new(cal.exposure_s, cal.gain_db);
     let mut previous_pred = applied;
     let mut previous_frame = None;
+    let mut clock = std::time::Instant::now();
+    let mut lap = |timing: &mut Option<StepBreakdown>, part: fn(&mut StepBreakdown) -> &mut f64| {
+        let ms = clock.elapsed().as_secs_f64() * 1e3;
+        clock = std::time::Instant::now();
+        if let Some(t) = timing.as_mut() {
+            *part(t) += ms;
+        }
+    };
     for step in 0..c.steps_per_candidate {
         let global = index * c.steps_per_candidate as u64 + step as u64;
+        lap(&mut None, |t| &mut t.decode_ms);
         let sim = simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
         let t = t0 + step as f64 * sim.frame_interval_s();
         // 1. Exposure and gain for this frame.
@@ -653,6 +782,7 @@ fn train_candidate(
                 Exposure::Fixed { exposure_s: applied.exposure_s, gain_db: applied.gain_db }
             }
         };
+        lap(&mut cx.timing, |t| &mut t.acc_predict_ms);
         let request = FrameRequest {
             episode,
             time_s: t,
@@ -660,6 +790,7 @@ fn train_candidate(
             motion_scale: motion,
         };
         let frame = sim.render(&camera, &request)?;
+        lap(&mut cx.timing, |t| &mut t.render_ms);
         // 2. Perturbation mode: re-render with perturbed settings (new blur), score by AP50.
         let mut ga_target = None;
         if let (Some(pred), true) = (prediction, c.method.perturbations()) {
@@ -685,6 +816,7 @@ fn train_candidate(
                     &camera,
                     &FrameRequest { exposure_s: applied_p.exposure_s, ..request },
                 )?;
+                lap(&mut cx.timing, |t| &mut t.perturbation_render_ms);
                 let image = cx.formation.form(
                     &f.hdr,
                     applied_p,
@@ -695,6 +827,7 @@ fn train_candidate(
                 one.update(&f.boxes, &model.detect(&image), f.visible_180);
                 fitness.push(one.compute().ap50);
                 candidates.push(perturbed);
+                lap(&mut cx.timing, |t| &mut t.perturbation_detect_ms);
             }
             let best = (0..fitness.len())
                 .max_by(|&a, &b| fitness[a].total_cmp(&fitness[b]).then(b.cmp(&a)))
@@ -707,11 +840,13 @@ fn train_candidate(
             if step % c.ga_every == 0 {
                 ga_target = Some((candidates[best].exposure_s, candidates[best].gain_db));
             }
+            lap(&mut cx.timing, |t| &mut t.perturbation_ga_ms);
         }
         // 3. Forward mode: differentiable formation, detector, DF-Grad update.
         let noise_seed: u64 = cx.streams.indexed("noise", global).random();
         let normals =
             ImageFormation::standard_normals(camera.width_px, camera.height_px, noise_seed);
+        lap(&mut cx.timing, |t| &mut t.noise_ms);
         let scene = Scene {
             i0: frame.hdr.data(),
             normals: &normals,
@@ -720,6 +855,16 @@ fn train_candidate(
             pixel_pitch_um: pitch,
         };
         let report = model.step(&scene, &frame.boxes, exposure, ga_target, weights)?;
+        lap(&mut None, |t| &mut t.decode_ms);
+        if let Some(t) = cx.timing.as_mut() {
+            let r = report.timings;
+            t.formation_ms += r.formation_ms;
+            t.detector_forward_ms += r.detector_forward_ms;
+            t.backward_ms += r.backward_ms;
+            t.update_ms += r.update_ms;
+            t.decode_ms += r.decode_ms;
+            t.steps += 1;
+        }
         metrics.update(&frame.boxes, &report.detections, frame.visible_180);
         if step % 5 == 0 {
             let line = serde_json::json!({"step": global, "loss": report.loss, "ga_loss": report.ga_loss, "exposure_ms": report.exposure_s * 1e3, "gain_db": report.gain_db, "illumination": sim.episode(episode).illumination});

@@ -20,6 +20,8 @@ pub enum Target {
     Render,
     /// The detector: inference and training step at 320×240 and 640×480, against PyTorch.
     Detector,
+    /// One step of the joint loop (method joca) broken down by part, on the FLIR camera.
+    Step,
 }
 
 /// Arguments of `joca bench`.
@@ -37,6 +39,9 @@ pub struct Args {
     /// Python interpreter with torch installed, for the PyTorch reference of `bench detector`.
     #[arg(long, default_value = "python3")]
     python: String,
+    /// Preset whose [run] settings `bench step` uses (render scale, threads, weights).
+    #[arg(long, default_value = "quick")]
+    preset: String,
 }
 
 /// Runs `joca bench`.
@@ -45,6 +50,7 @@ pub fn run(args: &Args) -> Result<()> {
         Target::Formation => bench_formation(args.repeats.max(1)),
         Target::Render => bench_render(args.repeats.max(1)),
         Target::Detector => bench_detector(args.repeats.max(1), args.threads, &args.python),
+        Target::Step => bench_step(args.repeats.max(2), &args.preset),
     }
 }
 
@@ -229,5 +235,38 @@ fn bench_detector(repeats: usize, threads: usize, python: &str) -> Result<()> {
         );
     }
     println!("(training GFLOP counted as 3x forward: backward costs about twice the forward pass)");
+    Ok(())
+}
+
+fn bench_step(steps: usize, preset: &str) -> Result<()> {
+    use joca_train::{FixedCamera, Method, RunConfig};
+    let mut cfg: RunConfig = crate::config::load(preset, None, "run")?;
+    cfg.method = Method::Joca;
+    crate::commands::run::resolve_weights(&mut cfg);
+    let design = FixedCamera::Flir.design();
+    let (w, h) = design.resolution(cfg.render_scale);
+    let b = joca_train::bench_step(&cfg, &design, steps)?;
+    let total = b.total_ms();
+    println!(
+        "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (render scale {}), {} threads, mean of {} steps",
+        cfg.render_scale, cfg.threads, b.steps
+    );
+    println!("{:<46} {:>9} {:>7}", "part", "ms", "share");
+    for (name, ms) in [
+        ("NeuralAE prediction", b.acc_predict_ms),
+        ("render forward frame (all sub-frames)", b.render_ms),
+        ("render 4 perturbed frames", b.perturbation_render_ms),
+        ("form + detect + AP50 of perturbed frames", b.perturbation_detect_ms),
+        ("perturbation GA", b.perturbation_ga_ms),
+        ("noise sample", b.noise_ms),
+        ("differentiable formation", b.formation_ms),
+        ("detector forward + loss", b.detector_forward_ms),
+        ("backward (detector, formation, NeuralAE)", b.backward_ms),
+        ("optimiser updates", b.update_ms),
+        ("decode + bookkeeping", b.decode_ms),
+    ] {
+        println!("{:<46} {:>9.1} {:>6.1}%", name, ms, 100.0 * ms / total);
+    }
+    println!("{:<46} {:>9.1}", "total per step", total);
     Ok(())
 }

@@ -84,6 +84,19 @@ pub fn run(args: &Args) -> Result<()> {
     Ok(())
 }
 
+/// Relative weight paths are tried from the working directory, then from the repository root
+/// (where the presets' shipped weights live), so `joca run` works from any directory.
+pub fn resolve_weights(cfg: &mut RunConfig) {
+    if !cfg.detector_weights.is_empty() && !std::path::Path::new(&cfg.detector_weights).exists() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../..")
+            .join(&cfg.detector_weights);
+        if root.exists() {
+            cfg.detector_weights = root.display().to_string();
+        }
+    }
+}
+
 fn print_results(r: &RunResults, seconds: f64) {
     let d = &r.design;
     let mark = if d.optimised { "optimised" } else { "fixed" };
