@@ -27,6 +27,8 @@ struct Cli {
 enum Command {
     /// Jointly optimise camera hardware, NeuralAE and detector, then test the best design.
     Run(commands::run::Args),
+    /// Test a run's best design again (trained detector and NeuralAE) on the test town.
+    Eval(commands::eval::Args),
     /// List the 43-sensor catalogue (pitch, grid, size; field of view for a focal length).
     Sensors(commands::sensors::Args),
     /// Apply image formation (exposure, gain, pixel size, noise, clipping) to a linear image.
@@ -47,6 +49,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => commands::run::run(&args),
+        Command::Eval(args) => commands::eval::run(&args),
         Command::Sensors(args) => commands::sensors::run(&args),
         Command::Form(args) => commands::form::run(&args),
         Command::CalibrateNoise(args) => commands::calibrate::run(&args),

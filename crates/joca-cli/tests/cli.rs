@@ -323,3 +323,49 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
         stderr(&o)
     );
 }
+
+#[test]
+fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
+    let o = joca(&["run", "--method", "magic", "--out", "/tmp/joca-never"]);
+    assert!(
+        stderr(&o).contains("unknown method \"magic\"")
+            && stderr(&o).contains("tacos-average, fixed-neural"),
+        "{}",
+        stderr(&o)
+    );
+    let o = joca(&["run", "--scenario", "fog", "--out", "/tmp/joca-never"]);
+    assert!(
+        stderr(&o).contains("unknown scenario \"fog\"") && stderr(&o).contains("noise10"),
+        "{}",
+        stderr(&o)
+    );
+    let o = joca(&["run", "--preset", "huge", "--out", "/tmp/joca-never"]);
+    assert!(
+        stderr(&o).contains("unknown preset \"huge\"")
+            && stderr(&o).contains("quick, standard, paper"),
+        "{}",
+        stderr(&o)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("mine.toml");
+    std::fs::write(&cfg, "[run]\ngenerations = 2\npopulaton = 4\n").unwrap();
+    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    assert!(
+        stderr(&o).contains("mine.toml") && stderr(&o).contains("unknown field `populaton`"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::write(&cfg, "[run]\nrender_scale = 2.0\n").unwrap();
+    let o = joca(&[
+        "run",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        dir.path().join("r").to_str().unwrap(),
+    ]);
+    assert!(
+        stderr(&o).contains("run.render_scale = 2 is invalid: above 0, at most 1"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -23,5 +23,5 @@ pub use pretrain::{
 };
 pub use run::{
     DesignSummary, FixedCamera, Method, RunConfig, RunEvent, RunResults, Scenario, StepBreakdown,
-    bench_step, run,
+    bench_step, evaluate_run, run,
 };

@@ -452,30 +452,15 @@ pub fn run(
 ) -> Result<RunResults, TrainError> {
     config.validate()?;
     std::fs::create_dir_all(run_dir).map_err(|e| TrainError::io(run_dir, e))?;
-    let engine = Engine::cpu(config.threads);
-    let streams = SeedStreams::new(config.seed);
-    engine.seed(streams.stream("init").random());
-    let cal = Calibration::DEFAULT;
-    let ranges = AccRanges::PAPER;
-    let n = config.scenario.noise_scale();
-    let constants = FormationConstants {
-        exposure_s: cal.exposure_s,
-        gain_db: cal.gain_db,
-        pixel_pitch_um: cal.pixel_pitch_um,
-        sigma_p2: cal.sigma_p2.map(|v| v * n),
-        sigma_r2: cal.sigma_r2.map(|v| v * n),
-    };
-    let bounds = AccBounds::new(
-        (ranges.exposure_s.min, ranges.exposure_s.max),
-        (ranges.gain_db.min, ranges.gain_db.max),
-    );
-    let mut model = JointModel::new(&engine, config.detector, bounds, constants);
-    if !config.detector_weights.is_empty() {
-        model.load_detector(Path::new(&config.detector_weights))?;
-    }
-    model.set_detector_trainable(config.method != Method::FrozenDetector);
-
-    let codec = GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?;
+    let log_path = run_dir.join("events.jsonl");
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&log_path)
+        .map_err(|e| TrainError::io(&log_path, e))?;
+    let (mut cx, mut model) = setup(config, Box::new(log), log_path)?;
+    let streams = cx.streams;
+    let codec = cx.codec.clone();
     let hw_bounds: Vec<(f64, f64)> =
         codec.genes().iter().map(|g| (g.bounds.min, g.bounds.max)).collect();
     let mut init_rng = streams.stream("hardware-init");
@@ -532,24 +517,6 @@ pub fn run(
         &run_dir.join("config.toml"),
         &toml::to_string(&ConfigFile { run: config.clone() }).unwrap_or_default(),
     )?;
-    let log_path = run_dir.join("events.jsonl");
-    let log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&log_path)
-        .map_err(|e| TrainError::io(&log_path, e))?;
-    let formation = ImageFormation::new(cal)?.with_noise_scale(n)?;
-    let mut cx = Context {
-        config: config.clone(),
-        streams,
-        codec,
-        formation,
-        sims: HashMap::new(),
-        ranges,
-        log: Box::new(log),
-        log_path,
-        timing: None,
-    };
 
     let total =
         config.generations * if config.method.hardware_ga() { config.population } else { 1 };
@@ -642,6 +609,113 @@ pub fn run(
 /// Mean exposure (ms) and gain (dB) per illumination name.
 type SettingsByLight = BTreeMap<String, (f64, f64)>;
 
+/// Engine, model (with its starting detector weights) and loop context for `config`.
+fn setup(
+    config: &RunConfig,
+    log: Box<dyn Write>,
+    log_path: PathBuf,
+) -> Result<(Context, JointModel), TrainError> {
+    let engine = Engine::cpu(config.threads);
+    let streams = SeedStreams::new(config.seed);
+    engine.seed(streams.stream("init").random());
+    let cal = Calibration::DEFAULT;
+    let ranges = AccRanges::PAPER;
+    let n = config.scenario.noise_scale();
+    let constants = FormationConstants {
+        exposure_s: cal.exposure_s,
+        gain_db: cal.gain_db,
+        pixel_pitch_um: cal.pixel_pitch_um,
+        sigma_p2: cal.sigma_p2.map(|v| v * n),
+        sigma_r2: cal.sigma_r2.map(|v| v * n),
+    };
+    let bounds = AccBounds::new(
+        (ranges.exposure_s.min, ranges.exposure_s.max),
+        (ranges.gain_db.min, ranges.gain_db.max),
+    );
+    let mut model = JointModel::new(&engine, config.detector, bounds, constants);
+    if !config.detector_weights.is_empty() {
+        model.load_detector(Path::new(&config.detector_weights))?;
+    }
+    model.set_detector_trainable(config.method != Method::FrozenDetector);
+    let cx = Context {
+        config: config.clone(),
+        streams,
+        codec: GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?,
+        formation: ImageFormation::new(cal)?.with_noise_scale(n)?,
+        sims: HashMap::new(),
+        ranges,
+        log,
+        log_path,
+        timing: None,
+    };
+    Ok((cx, model))
+}
+
+/// Tests the best design of a finished (or interrupted) run again, from its checkpoint: the
+/// trained detector and NeuralAE in closed loop on the test town, optionally under another
+/// scenario or with another number of frames. Writes `results.json` (or, for another scenario,
+/// `results-<scenario>.json`) and returns the results.
+pub fn evaluate_run(
+    run_dir: &Path,
+    scenario: Option<Scenario>,
+    frames_per_episode: Option<usize>,
+) -> Result<RunResults, TrainError> {
+    let config_path = run_dir.join("config.toml");
+    let text =
+        std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
+    let file: ConfigFileIn = toml::from_str(&text).map_err(|e| TrainError::Corrupt {
+        path: config_path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let mut config = file.run;
+    if let Some(s) = scenario {
+        config.scenario = s;
+    }
+    if let Some(f) = frames_per_episode {
+        config.test_frames_per_episode = f;
+    }
+    config.validate()?;
+    let dir = CheckpointDir::new(run_dir.join("checkpoint")).existing().ok_or_else(|| {
+        TrainError::Corrupt {
+            path: run_dir.join("checkpoint").display().to_string(),
+            reason: "no checkpoint: the run has not finished a single candidate".into(),
+        }
+    })?;
+    let state_path = dir.join("state.json");
+    let text = std::fs::read_to_string(&state_path).map_err(|e| TrainError::io(&state_path, e))?;
+    let state: RunState = serde_json::from_str(&text).map_err(|e| TrainError::Corrupt {
+        path: state_path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
+    model.load(&dir)?;
+    let genes =
+        state.best.as_ref().map(|b| b.0.clone()).unwrap_or_else(|| state.hardware.ask()[0].clone());
+    let design = cx.codec.decode(&genes)?;
+    let (test, settings) = test_closed_loop(&mut cx, &mut model, &design)?;
+    let results = RunResults {
+        method: config.method,
+        scenario: config.scenario,
+        design: DesignSummary::new(&design, config.method.hardware_ga()),
+        test,
+        settings_by_illumination: settings,
+        best_fitness: state.best.map_or(0.0, |b| b.1),
+        render_scale: config.render_scale,
+    };
+    let name = if scenario.is_some_and(|s| s != state.config.scenario) {
+        format!("results-{}.json", config.scenario.name())
+    } else {
+        "results.json".to_owned()
+    };
+    write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
+    Ok(results)
+}
+
+#[derive(Deserialize)]
+struct ConfigFileIn {
+    run: RunConfig,
+}
+
 /// Times `steps` training steps of `config`'s method on `design` (one candidate after a warm-up
 /// candidate), returning the mean time per step by part.
 pub fn bench_step(
@@ -652,42 +726,12 @@ pub fn bench_step(
     let mut config = config.clone();
     config.steps_per_candidate = steps.max(2);
     config.validate()?;
-    let engine = Engine::cpu(config.threads);
-    let streams = SeedStreams::new(config.seed);
-    engine.seed(streams.stream("init").random());
-    let cal = Calibration::DEFAULT;
-    let ranges = AccRanges::PAPER;
-    let constants = FormationConstants {
-        exposure_s: cal.exposure_s,
-        gain_db: cal.gain_db,
-        pixel_pitch_um: cal.pixel_pitch_um,
-        sigma_p2: cal.sigma_p2,
-        sigma_r2: cal.sigma_r2,
-    };
-    let bounds = AccBounds::new(
-        (ranges.exposure_s.min, ranges.exposure_s.max),
-        (ranges.gain_db.min, ranges.gain_db.max),
-    );
-    let mut model = JointModel::new(&engine, config.detector, bounds, constants);
-    if !config.detector_weights.is_empty() {
-        model.load_detector(Path::new(&config.detector_weights))?;
-    }
+    let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     let mut perturbation = Ga::new(
         GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
             .map_err(ga_err)?,
-        &mut streams.stream("perturbation-init"),
+        &mut cx.streams.stream("perturbation-init"),
     );
-    let mut cx = Context {
-        config: config.clone(),
-        streams,
-        codec: GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?,
-        formation: ImageFormation::new(cal)?,
-        sims: HashMap::new(),
-        ranges,
-        log: Box::new(std::io::sink()),
-        log_path: PathBuf::from("(none)"),
-        timing: None,
-    };
     train_candidate(&mut cx, &mut model, &mut perturbation, design, 0)?; // warm-up
     cx.timing = Some(StepBreakdown::default());
     train_candidate(&mut cx, &mut model, &mut perturbation, design, 1)?;

@@ -64,6 +64,10 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     let b = run(&cfg, &b_dir, true, &mut go).unwrap();
     assert_eq!(a, b);
 
+    // `eval` re-tests the best design from the checkpoint and reproduces the test scores.
+    let e = joca_train::evaluate_run(&dir.path().join("a"), None, None).unwrap();
+    assert_eq!(e, a);
+
     let mut other = cfg.clone();
     other.task_weight = 5.0;
     let e = run(&other, &b_dir, true, &mut go).unwrap_err().to_string();

@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod eval;
 pub mod form;
 pub mod metrics;
 pub mod render;
