@@ -75,6 +75,31 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
 }
 
 #[test]
+fn a_failing_checkpoint_write_keeps_the_previous_checkpoint_usable() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = tiny(Method::NoGaLoss);
+    let reference = run(&cfg, &dir.path().join("ref"), false, &mut go).unwrap();
+    let run_dir = dir.path().join("r");
+    // After the first checkpoint, a file where the next checkpoint's temporary directory must
+    // go makes every later write fail (as a full disk or a permission problem would).
+    let blocker = run_dir.join("checkpoint.partial");
+    let mut block = |e: &RunEvent| {
+        if let RunEvent::Candidate { done: 1, .. } = e {
+            std::fs::write(&blocker, "in the way").unwrap();
+        }
+        ControlFlow::Continue(())
+    };
+    let e = run(&cfg, &run_dir, false, &mut block).unwrap_err();
+    assert!(matches!(e, TrainError::Io { .. }), "{e}");
+    let state = std::fs::read_to_string(run_dir.join("checkpoint/state.json")).unwrap();
+    assert!(state.contains("\"candidate\":1"), "{state}");
+    // Once the obstacle is gone, --resume continues from that checkpoint to the same result.
+    std::fs::remove_file(&blocker).unwrap();
+    assert_eq!(run(&cfg, &run_dir, true, &mut go).unwrap(), reference);
+}
+
+#[test]
 fn every_method_runs() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
