@@ -472,11 +472,7 @@ pub fn run(
         let _ = codec.snap(g);
     });
     // Perturbations in normalised units: ±5 % of each range.
-    let perturbation = Ga::new(
-        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
-            .map_err(ga_err)?,
-        &mut streams.stream("perturbation-init"),
-    );
+    let perturbation = perturbation_ga(config, &streams)?;
     let mut state = RunState {
         config: config.clone(),
         generation: 0,
@@ -609,6 +605,15 @@ pub fn run(
 /// Mean exposure (ms) and gain (dB) per illumination name.
 type SettingsByLight = BTreeMap<String, (f64, f64)>;
 
+/// The perturbation GA of DF-Grad: `(p_e, p_g)` in normalised units within ±5 % of each range,
+/// mutation ×U(0.9, 1.1).
+fn perturbation_ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainError> {
+    let ga_config =
+        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
+            .map_err(ga_err)?;
+    Ok(Ga::new(ga_config, &mut streams.stream("perturbation-init")))
+}
+
 /// Engine, model (with its starting detector weights) and loop context for `config`.
 fn setup(
     config: &RunConfig,
@@ -727,11 +732,7 @@ pub fn bench_step(
     config.steps_per_candidate = steps.max(2);
     config.validate()?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
-    let mut perturbation = Ga::new(
-        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
-            .map_err(ga_err)?,
-        &mut cx.streams.stream("perturbation-init"),
-    );
+    let mut perturbation = perturbation_ga(&config, &cx.streams)?;
     train_candidate(&mut cx, &mut model, &mut perturbation, design, 0)?; // warm-up
     cx.timing = Some(StepBreakdown::default());
     train_candidate(&mut cx, &mut model, &mut perturbation, design, 1)?;

@@ -40,16 +40,7 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(s) = &args.scenario {
         cfg.scenario = Scenario::from_name(s).map_err(|e| anyhow!(e))?;
     }
-    // Relative weight paths are tried from the working directory, then from the repository root
-    // (where the presets' shipped weights live), so `joca run` works from any directory.
-    if !cfg.detector_weights.is_empty() && !std::path::Path::new(&cfg.detector_weights).exists() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../..")
-            .join(&cfg.detector_weights);
-        if root.exists() {
-            cfg.detector_weights = root.display().to_string();
-        }
-    }
+    resolve_weights(&mut cfg);
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(format!("runs/{}-{}-{}", args.preset, cfg.method.name(), cfg.scenario.name()))
     });
