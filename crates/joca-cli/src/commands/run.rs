@@ -72,6 +72,9 @@ pub fn run(args: &Args) -> Result<()> {
     let results = run_loop(&cfg, &out, args.resume, &mut progress)
         .with_context(|| format!("run in {} failed", out.display()))?;
     print_results(&results, started.elapsed().as_secs_f64());
+    joca_report::write_run_report(&out)
+        .with_context(|| format!("cannot write the report of {}", out.display()))?;
+    println!("\nreport: {}", out.join("report.md").display());
     Ok(())
 }
 
