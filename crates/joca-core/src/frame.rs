@@ -67,6 +67,8 @@ pub struct Frame {
     /// Objects visible within a 180° horizontal field of view around the heading (the
     /// denominator of the TP-ratio metric); independent of the camera's own field of view.
     pub visible_180: u32,
+    /// Instants averaged over the shutter interval to make the blur (1: a sharp frame).
+    pub subframes: u32,
 }
 
 /// Why a source could not deliver a frame.

@@ -40,7 +40,7 @@ mod sim;
 pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
 pub use lighting::Illumination;
-pub use sim::{Episode, MAX_SUBFRAMES, SimConfig, Simulator, VisibilityRules, subframe_count};
+pub use sim::{Episode, MAX_SUBFRAMES, SimConfig, Simulator, VisibilityRules};
 
 use rand::Rng;
 

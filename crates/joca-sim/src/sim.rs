@@ -479,21 +479,10 @@ impl FrameSource for Simulator {
         );
         let hdr = HdrImage::from_vec(w, h, colour)
             .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
-        Ok(Frame { hdr, boxes, visible_180 })
+        Ok(Frame { hdr, boxes, visible_180, subframes: n as u32 })
     }
 
     fn frame_interval_s(&self) -> f64 {
         self.config.frame_interval_s
     }
-}
-
-/// The number of sub-frames the simulator would average for `request` (for benchmarks and
-/// tests).
-pub fn subframe_count(sim: &Simulator, camera: &PinholeCamera, request: &FrameRequest) -> usize {
-    let episode = sim.episode(request.episode);
-    let shutter = request.exposure_s * request.motion_scale;
-    let t_mid = request.time_s + 0.5 * shutter;
-    let mut mid = Target::new(camera.width_px, camera.height_px, sim.city.objects.len());
-    sim.render_at(&episode, camera, t_mid, &mut mid);
-    sim.subframes(&episode, camera, request.time_s, request.time_s + shutter, &mid)
 }

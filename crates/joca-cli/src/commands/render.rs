@@ -10,7 +10,7 @@ use joca_camera::{
 };
 use joca_core::units::{ms_from_s, s_from_ms};
 use joca_core::{FrameRequest, FrameSource, Rgb8Image, SeedStreams};
-use joca_sim::{Illumination, SimConfig, Simulator, subframe_count};
+use joca_sim::{Illumination, SimConfig, Simulator};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -195,7 +195,7 @@ pub fn run(args: &Args) -> Result<()> {
         );
         let name = format!("{k:06}.png");
         io::write_png(&frames_dir.join(&name), &image)?;
-        let sub = subframe_count(&sim, &camera, &request);
+        let sub = frame.subframes;
         println!(
             "{:>6} {:>7.2} {:>8.2} {:>7.1} {:>9.1} {:>6.1} {:>6} {:>5} {:>4}",
             k,
