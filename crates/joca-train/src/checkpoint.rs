@@ -64,6 +64,33 @@ impl CheckpointDir {
     }
 }
 
+/// Reads a JSON run file; a file that does not parse is reported as corrupt, with its path.
+pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, TrainError> {
+    let text = std::fs::read_to_string(path).map_err(|e| TrainError::io(path, e))?;
+    serde_json::from_str(&text).map_err(|e| TrainError::Corrupt {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    })
+}
+
+/// Refuses to resume `run_dir` when `requested` differs from the configuration the checkpoint
+/// was written with, naming every differing field.
+pub fn check_resume<C: serde::Serialize>(
+    saved: &C,
+    requested: &C,
+    run_dir: &Path,
+) -> Result<(), TrainError> {
+    let differing = crate::differing_fields(saved, requested);
+    if differing.is_empty() {
+        Ok(())
+    } else {
+        Err(TrainError::ResumeMismatch {
+            dir: run_dir.display().to_string(),
+            fields: differing.join(", "),
+        })
+    }
+}
+
 /// Writes `text` to `path` atomically (temporary file and rename).
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), TrainError> {
     let tmp = path.with_extension("partial");

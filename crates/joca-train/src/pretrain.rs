@@ -6,7 +6,7 @@
 //! can be regenerated: a resumed run continues exactly where the checkpoint left it.
 
 use crate::TrainError;
-use crate::checkpoint::{CheckpointDir, write_atomic};
+use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
 use crate::eval::{AverageControl, EvalSpec, evaluate};
 use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, GenomeCodec,
@@ -198,19 +198,8 @@ pub fn pretrain(
     let mut start = 0;
     if resume {
         if let Some(dir) = ckpt.existing() {
-            let path = dir.join("state.json");
-            let text = std::fs::read_to_string(&path).map_err(|e| TrainError::io(&path, e))?;
-            let state: State = serde_json::from_str(&text).map_err(|e| TrainError::Corrupt {
-                path: path.display().to_string(),
-                reason: e.to_string(),
-            })?;
-            let differing = differing_fields(&state.config, config);
-            if !differing.is_empty() {
-                return Err(TrainError::ResumeMismatch {
-                    dir: run_dir.display().to_string(),
-                    fields: differing.join(", "),
-                });
-            }
+            let state: State = read_json(&dir.join("state.json"))?;
+            check_resume(&state.config, config, run_dir)?;
             model.load_weights(&dir.join("detector.safetensors"))?;
             model.load_optimizer(&dir.join("optimizer.safetensors"))?;
             start = state.step;

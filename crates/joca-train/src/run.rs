@@ -3,8 +3,8 @@
 //! camera; NeuralAE or AverageAE; GA supervision, fixed perturbations or none; detector trained
 //! or frozen).
 
-use crate::checkpoint::{CheckpointDir, write_atomic};
-use crate::{TrainError, differing_fields};
+use crate::TrainError;
+use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
 use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, GenomeCodec,
     ImageFormation, SensorEncoding, compensate_for_pixel_size, sensor_by_name,
@@ -486,19 +486,8 @@ pub fn run(
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     if resume {
         if let Some(dir) = ckpt.existing() {
-            let path = dir.join("state.json");
-            let text = std::fs::read_to_string(&path).map_err(|e| TrainError::io(&path, e))?;
-            let saved: RunState = serde_json::from_str(&text).map_err(|e| TrainError::Corrupt {
-                path: path.display().to_string(),
-                reason: e.to_string(),
-            })?;
-            let differing = differing_fields(&saved.config, config);
-            if !differing.is_empty() {
-                return Err(TrainError::ResumeMismatch {
-                    dir: run_dir.display().to_string(),
-                    fields: differing.join(", "),
-                });
-            }
+            let saved: RunState = read_json(&dir.join("state.json"))?;
+            check_resume(&saved.config, config, run_dir)?;
             model.load(&dir)?;
             state = saved;
         }
@@ -577,24 +566,13 @@ pub fn run(
         }
     }
     let _ = progress(&RunEvent::Testing);
-    let best_genes =
-        state.best.as_ref().map(|b| b.0.clone()).unwrap_or_else(|| state.hardware.ask()[0].clone());
-    let design = cx.codec.decode(&best_genes)?;
+    let design = best_design(&cx, &state)?;
     write_atomic(
         &run_dir.join("best_design.json"),
         &serde_json::to_string_pretty(&DesignSummary::new(&design, config.method.hardware_ga()))
             .unwrap_or_default(),
     )?;
-    let (test, settings) = test_closed_loop(&mut cx, &mut model, &design)?;
-    let results = RunResults {
-        method: config.method,
-        scenario: config.scenario,
-        design: DesignSummary::new(&design, config.method.hardware_ga()),
-        test,
-        settings_by_illumination: settings,
-        best_fitness: state.best.map_or(0.0, |b| b.1),
-        render_scale: config.render_scale,
-    };
+    let results = test_design(&mut cx, &mut model, &state, &design)?;
     write_atomic(
         &run_dir.join("results.json"),
         &serde_json::to_string_pretty(&results).unwrap_or_default(),
@@ -668,7 +646,7 @@ pub fn evaluate_run(
     let config_path = run_dir.join("config.toml");
     let text =
         std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
-    let file: ConfigFileIn = toml::from_str(&text).map_err(|e| TrainError::Corrupt {
+    let file: ConfigFile = toml::from_str(&text).map_err(|e| TrainError::Corrupt {
         path: config_path.display().to_string(),
         reason: e.to_string(),
     })?;
@@ -686,27 +664,11 @@ pub fn evaluate_run(
             reason: "no checkpoint: the run has not finished a single candidate".into(),
         }
     })?;
-    let state_path = dir.join("state.json");
-    let text = std::fs::read_to_string(&state_path).map_err(|e| TrainError::io(&state_path, e))?;
-    let state: RunState = serde_json::from_str(&text).map_err(|e| TrainError::Corrupt {
-        path: state_path.display().to_string(),
-        reason: e.to_string(),
-    })?;
+    let state: RunState = read_json(&dir.join("state.json"))?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     model.load(&dir)?;
-    let genes =
-        state.best.as_ref().map(|b| b.0.clone()).unwrap_or_else(|| state.hardware.ask()[0].clone());
-    let design = cx.codec.decode(&genes)?;
-    let (test, settings) = test_closed_loop(&mut cx, &mut model, &design)?;
-    let results = RunResults {
-        method: config.method,
-        scenario: config.scenario,
-        design: DesignSummary::new(&design, config.method.hardware_ga()),
-        test,
-        settings_by_illumination: settings,
-        best_fitness: state.best.map_or(0.0, |b| b.1),
-        render_scale: config.render_scale,
-    };
+    let design = best_design(&cx, &state)?;
+    let results = test_design(&mut cx, &mut model, &state, &design)?;
     let name = if scenario.is_some_and(|s| s != state.config.scenario) {
         format!("results-{}.json", config.scenario.name())
     } else {
@@ -714,11 +676,6 @@ pub fn evaluate_run(
     };
     write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
     Ok(results)
-}
-
-#[derive(Deserialize)]
-struct ConfigFileIn {
-    run: RunConfig,
 }
 
 /// Times `steps` training steps of `config`'s method on `design` (one candidate after a warm-up
@@ -740,7 +697,8 @@ pub fn bench_step(
     Ok(t.scaled(1.0 / t.steps.max(1) as f64))
 }
 
-#[derive(Serialize)]
+/// `config.toml` of a run directory: the resolved `[run]` table.
+#[derive(Serialize, Deserialize)]
 struct ConfigFile {
     run: RunConfig,
 }
@@ -919,6 +877,33 @@ fn train_candidate(
         previous_frame = Some(report.frame);
     }
     Ok(metrics.compute())
+}
+
+/// The best design of `state`: best fitness seen, or the first member if none was scored.
+fn best_design(cx: &Context, state: &RunState) -> Result<CameraDesign, TrainError> {
+    let genes =
+        state.best.as_ref().map_or_else(|| state.hardware.ask()[0].clone(), |b| b.0.clone());
+    Ok(cx.codec.decode(&genes)?)
+}
+
+/// `design` tested in closed loop with the current model, as the run's results.
+fn test_design(
+    cx: &mut Context,
+    model: &mut JointModel,
+    state: &RunState,
+    design: &CameraDesign,
+) -> Result<RunResults, TrainError> {
+    let (test, settings) = test_closed_loop(cx, model, design)?;
+    let config = &cx.config;
+    Ok(RunResults {
+        method: config.method,
+        scenario: config.scenario,
+        design: DesignSummary::new(design, config.method.hardware_ga()),
+        test,
+        settings_by_illumination: settings,
+        best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
+        render_scale: config.render_scale,
+    })
 }
 
 /// Closed-loop test of `design` with the trained controller on the test town.
