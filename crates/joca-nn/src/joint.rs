@@ -15,8 +15,8 @@
 
 use crate::acc::{AccBounds, NeuralAe, histograms};
 use crate::detector::{
-    DetectionLoss, Detector, DetectorConfig, LossParts, MAX_DETECTIONS, MIN_SCORE, Targets, decode,
-    image_tensor,
+    DetectionLoss, DetectorConfig, DetectorModel, LossParts, MAX_DETECTIONS, MIN_SCORE, Targets,
+    decode, image_tensor,
 };
 use crate::formation::{FormationConstants, Scene, form, to_detector_input};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
@@ -94,9 +94,7 @@ pub struct StepTimings {
 /// Detector + NeuralAE + their optimisers.
 #[derive(Debug)]
 pub struct JointModel {
-    det_vs: VarStore,
-    det: Detector,
-    det_opt: Adam,
+    det: DetectorModel,
     acc_vs: VarStore,
     acc: NeuralAe,
     acc_opt: Adam,
@@ -120,16 +118,12 @@ impl JointModel {
         bounds: AccBounds,
         constants: FormationConstants,
     ) -> Self {
-        let det_vs = VarStore::new(engine.device());
-        let det = Detector::new(&det_vs.root(), detector);
-        let det_opt = Adam::new(&det_vs, AdamConfig::DETECTOR);
+        let det = DetectorModel::new(engine, detector, AdamConfig::DETECTOR);
         let acc_vs = VarStore::new(engine.device());
         let acc = NeuralAe::new(&acc_vs.root(), 2 * detector.width, bounds);
         let acc_opt = Adam::new(&acc_vs, AdamConfig::ACC);
         Self {
-            det_vs,
             det,
-            det_opt,
             acc_vs,
             acc,
             acc_opt,
@@ -145,27 +139,27 @@ impl JointModel {
     /// Freezes the detector (the "frozen detector" ablation) or lets it train.
     pub fn set_detector_trainable(&mut self, trainable: bool) {
         self.train_detector = trainable;
-        if trainable { self.det_vs.unfreeze() } else { self.det_vs.freeze() }
+        self.det.set_trainable(trainable);
     }
 
     /// Loads detector weights (e.g. from `joca train-detector`).
     pub fn load_detector(&mut self, path: &Path) -> Result<(), NnError> {
-        load_weights(&mut self.det_vs, path)
+        self.det.load_weights(path)
     }
 
     /// Writes weights and optimiser states into `dir` (four safetensors files).
     pub fn save(&self, dir: &Path) -> Result<(), NnError> {
-        save_weights(&self.det_vs, &dir.join("detector.safetensors"))?;
+        self.det.save_weights(&dir.join("detector.safetensors"))?;
         save_weights(&self.acc_vs, &dir.join("acc.safetensors"))?;
-        self.det_opt.save(&dir.join("detector_optimizer.safetensors"))?;
+        self.det.save_optimizer(&dir.join("detector_optimizer.safetensors"))?;
         self.acc_opt.save(&dir.join("acc_optimizer.safetensors"))
     }
 
     /// Restores what [`JointModel::save`] wrote.
     pub fn load(&mut self, dir: &Path) -> Result<(), NnError> {
-        load_weights(&mut self.det_vs, &dir.join("detector.safetensors"))?;
+        self.det.load_weights(&dir.join("detector.safetensors"))?;
         load_weights(&mut self.acc_vs, &dir.join("acc.safetensors"))?;
-        self.det_opt.load(&dir.join("detector_optimizer.safetensors"))?;
+        self.det.load_optimizer(&dir.join("detector_optimizer.safetensors"))?;
         self.acc_opt.load(&dir.join("acc_optimizer.safetensors"))
     }
 
@@ -240,9 +234,9 @@ impl JointModel {
         };
         let frame_dn = form(scene, &e_t, &g_t, &self.constants, self.device);
         lap(&mut timings.formation_ms);
-        let out = self.det.forward(&to_detector_input(&frame_dn));
+        let out = self.det.net.forward(&to_detector_input(&frame_dn));
         let s = out.heatmap.size();
-        let targets = Targets::new(truth, self.det.config().classes, s[2], s[3], self.device);
+        let targets = Targets::new(truth, self.det.net.config().classes, s[2], s[3], self.device);
         let loss = DetectionLoss::new(&out, &targets);
         let task = loss.total.double_value(&[]);
         if !task.is_finite() {
@@ -269,13 +263,13 @@ impl JointModel {
             ga_loss = Some(v);
             objective += l_ga * (weights.ga / weights.task);
         }
-        self.det_opt.zero_grad();
+        self.det.optimizer.zero_grad();
         self.acc_opt.zero_grad();
         lap(&mut timings.detector_forward_ms);
         objective.backward();
         lap(&mut timings.backward_ms);
         if self.train_detector {
-            self.det_opt.step();
+            self.det.optimizer.step();
         }
         if pred.is_some() {
             let _guard = tch::no_grad_guard();
@@ -312,7 +306,7 @@ impl JointModel {
     /// (evaluation and AverageAE methods).
     pub fn observe(&mut self, frame: &Rgb8Image) -> Vec<Detection> {
         let _guard = tch::no_grad_guard();
-        let out = self.det.forward(&image_tensor(frame, self.device));
+        let out = self.det.net.forward(&image_tensor(frame, self.device));
         self.features = Some(out.features.detach());
         self.pending = None;
         decode(&out, frame.width(), frame.height(), MAX_DETECTIONS, MIN_SCORE)
@@ -320,9 +314,7 @@ impl JointModel {
 
     /// Detections in a frame, without touching the sequence state.
     pub fn detect(&self, frame: &Rgb8Image) -> Vec<Detection> {
-        let _guard = tch::no_grad_guard();
-        let out = self.det.forward(&image_tensor(frame, self.device));
-        decode(&out, frame.width(), frame.height(), MAX_DETECTIONS, MIN_SCORE)
+        self.det.detect(frame)
     }
 }
 

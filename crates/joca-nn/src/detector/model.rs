@@ -30,9 +30,9 @@ pub struct LossParts {
 /// A trainable detector: network, variables, optimiser.
 #[derive(Debug)]
 pub struct DetectorModel {
-    vs: VarStore,
-    net: Detector,
-    optimizer: Adam,
+    pub(crate) vs: VarStore,
+    pub(crate) net: Detector,
+    pub(crate) optimizer: Adam,
     device: Device,
 }
 
