@@ -189,6 +189,8 @@ fn ground_and_sky(
     let up_irradiance = light.sun_sky([0.0, 0.0, 1.0]);
     let lights_on = light.lights_on();
     let k = RADIANCE_SCALE_DN;
+    // Rightward slope of each column's view ray, once per view rather than once per pixel.
+    let slopes: Vec<f32> = (0..w).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx).collect();
     for y in 0..target.height {
         let b = (y as f32 + 0.5 - cam.cy) / cam.fy; // downward slope of the ray
         let row = y * w;
@@ -204,11 +206,10 @@ fn ground_and_sky(
             continue;
         }
         let inv_t = 1.0 / t;
-        for x in 0..w {
+        for (x, &a) in slopes.iter().enumerate() {
             if target.inv_depth[row + x] >= inv_t {
                 continue; // an object is nearer than the ground here
             }
-            let a = (x as f32 + 0.5 - cam.cx) / cam.fx;
             let px = cam.origin.x + t * (cam.forward.x + a * cam.right.x);
             let py = cam.origin.y + t * (cam.forward.y + a * cam.right.y);
             let albedo = city.ground_albedo(px, py);
