@@ -9,22 +9,8 @@
 //! nearest integer are applied with straight-through gradients (the gradient of clip is 1 inside
 //! and 0 outside; rounding passes the gradient unchanged).
 
+use joca_camera::ImageFormation;
 use tch::{Device, Kind, Tensor};
-
-/// The calibration constants formation needs.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FormationConstants {
-    /// E0, seconds.
-    pub exposure_s: f64,
-    /// G0, dB.
-    pub gain_db: f64,
-    /// p0, µm.
-    pub pixel_pitch_um: f64,
-    /// σp² × noise scale, per channel.
-    pub sigma_p2: [f64; 3],
-    /// σr² × noise scale, per channel.
-    pub sigma_r2: [f64; 3],
-}
 
 /// One frame's constant inputs.
 #[derive(Debug, Clone, Copy)]
@@ -41,13 +27,14 @@ pub struct Scene<'a> {
     pub pixel_pitch_um: f64,
 }
 
-/// `[1, 3, H, W]` frame in DN (0–255, integer-valued in the forward pass) of `scene`,
+/// `[1, 3, H, W]` frame in DN (0–255, integer-valued in the forward pass) of `scene` under
+/// `formation`'s calibration and noise scale (the very formation the 8-bit path uses),
 /// differentiable in `exposure_s` and `gain_db` (`[1]` tensors).
 pub fn form(
     scene: &Scene<'_>,
     exposure_s: &Tensor,
     gain_db: &Tensor,
-    c: &FormationConstants,
+    formation: &ImageFormation,
     device: Device,
 ) -> Tensor {
     let (i0, normals, pixel_pitch_um) = (scene.i0, scene.normals, scene.pixel_pitch_um);
@@ -64,13 +51,19 @@ pub fn form(
     };
     let i0 = to_chw(i0);
     let z = to_chw(normals);
+    let c = formation.calibration();
+    let n = formation.noise_scale();
     let g0 = 10f64.powf(c.gain_db / 20.0);
     let gain_ratio = (gain_db / 20.0 * std::f64::consts::LN_10).exp() / g0; // 10^(dB/20) / G0
     let area = (pixel_pitch_um / c.pixel_pitch_um).powi(2);
     let scale = exposure_s / c.exposure_s * &gain_ratio * area; // [1]
     let i = i0 * scale.view([1, 1, 1, 1]);
-    let sp = Tensor::from_slice(&c.sigma_p2.map(|v| v as f32)).to_device(device).view([1, 3, 1, 1]);
-    let sr = Tensor::from_slice(&c.sigma_r2.map(|v| v as f32)).to_device(device).view([1, 3, 1, 1]);
+    let sp = Tensor::from_slice(&c.sigma_p2.map(|v| (v * n) as f32))
+        .to_device(device)
+        .view([1, 3, 1, 1]);
+    let sr = Tensor::from_slice(&c.sigma_r2.map(|v| (v * n) as f32))
+        .to_device(device)
+        .view([1, 3, 1, 1]);
     let g = gain_ratio.view([1, 1, 1, 1]);
     let var = (&g * sp * &i + &g * &g * sr).clamp_min(0.0);
     let noisy = &i + var.sqrt() * z;

@@ -18,8 +18,9 @@ use crate::detector::{
     DetectionLoss, DetectorConfig, DetectorModel, LossParts, MAX_DETECTIONS, MIN_SCORE, Targets,
     decode, image_tensor,
 };
-use crate::formation::{FormationConstants, Scene, form, to_detector_input};
+use crate::formation::{Scene, form, to_detector_input};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
+use joca_camera::ImageFormation;
 use joca_core::{Annotation, Detection, Rgb8Image};
 use std::path::Path;
 use tch::nn::VarStore;
@@ -99,7 +100,7 @@ pub struct JointModel {
     acc: NeuralAe,
     acc_opt: Adam,
     bounds: AccBounds,
-    constants: FormationConstants,
+    formation: ImageFormation,
     device: Device,
     pending: Option<(Tensor, Tensor)>,
     features: Option<Tensor>,
@@ -116,7 +117,7 @@ impl JointModel {
         engine: &Engine,
         detector: DetectorConfig,
         bounds: AccBounds,
-        constants: FormationConstants,
+        formation: ImageFormation,
     ) -> Self {
         let det = DetectorModel::new(engine, detector, AdamConfig::DETECTOR);
         let acc_vs = VarStore::new(engine.device());
@@ -128,7 +129,7 @@ impl JointModel {
             acc,
             acc_opt,
             bounds,
-            constants,
+            formation,
             device: engine.device(),
             pending: None,
             features: None,
@@ -210,8 +211,12 @@ impl JointModel {
         let pending = if exposure == Exposure::Predicted { self.pending.take() } else { None };
         let (e_t, g_t, pred) = match (&pending, exposure) {
             (Some((e_pred, g_pred)), _) => {
-                let (e, g) =
-                    eq4(e_pred, g_pred, scene.pixel_pitch_um, self.constants.pixel_pitch_um);
+                let (e, g) = eq4(
+                    e_pred,
+                    g_pred,
+                    scene.pixel_pitch_um,
+                    self.formation.calibration().pixel_pitch_um,
+                );
                 (e, g, Some((e_pred, g_pred)))
             }
             (None, Exposure::Fixed { exposure_s, gain_db }) => (
@@ -232,7 +237,7 @@ impl JointModel {
             *slot = clock.elapsed().as_secs_f64() * 1e3;
             clock = std::time::Instant::now();
         };
-        let frame_dn = form(scene, &e_t, &g_t, &self.constants, self.device);
+        let frame_dn = form(scene, &e_t, &g_t, &self.formation, self.device);
         lap(&mut timings.formation_ms);
         let out = self.det.net.forward(&to_detector_input(&frame_dn));
         let s = out.heatmap.size();

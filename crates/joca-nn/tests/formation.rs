@@ -4,7 +4,7 @@
 
 use joca_camera::{Calibration, DynamicSettings, ImageFormation};
 use joca_core::{HdrImage, SeedStreams};
-use joca_nn::formation::{FormationConstants, Scene, form};
+use joca_nn::formation::{Scene, form};
 use rand::Rng;
 use tch::{Device, Kind, Tensor};
 
@@ -21,17 +21,10 @@ fn same_noise_sample_gives_the_same_frame() {
     let streams = SeedStreams::new(5);
     let reference = formation.form(&i0, settings, 2.4, &mut streams.stream("n"));
     let z = ImageFormation::standard_normals(w, h, streams.stream("n").random());
-    let constants = FormationConstants {
-        exposure_s: cal.exposure_s,
-        gain_db: cal.gain_db,
-        pixel_pitch_um: cal.pixel_pitch_um,
-        sigma_p2: cal.sigma_p2.map(|v| v * 3.0),
-        sigma_r2: cal.sigma_r2.map(|v| v * 3.0),
-    };
     let e = Tensor::from_slice(&[7e-3f32]).set_requires_grad(true);
     let g = Tensor::from_slice(&[14.0f32]).set_requires_grad(true);
     let scene = Scene { i0: i0.data(), normals: &z, width: w, height: h, pixel_pitch_um: 2.4 };
-    let frame = form(&scene, &e, &g, &constants, Device::Cpu);
+    let frame = form(&scene, &e, &g, &formation, Device::Cpu);
     let ours: Vec<f32> =
         Vec::try_from(frame.squeeze_dim(0).permute([1, 2, 0]).contiguous().view([-1])).unwrap();
     let mut differ = 0;

@@ -15,7 +15,7 @@ use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::Engine;
 use joca_nn::acc::AccBounds;
 use joca_nn::detector::DetectorConfig;
-use joca_nn::formation::{FormationConstants, Scene};
+use joca_nn::formation::Scene;
 use joca_nn::joint::{DfGradWeights, Exposure, JointModel};
 use joca_sim::{Illumination, SimConfig, Simulator, test_map_seed, train_map_seed};
 use rand::Rng;
@@ -604,18 +604,12 @@ fn setup(
     let cal = Calibration::DEFAULT;
     let ranges = AccRanges::PAPER;
     let n = config.scenario.noise_scale();
-    let constants = FormationConstants {
-        exposure_s: cal.exposure_s,
-        gain_db: cal.gain_db,
-        pixel_pitch_um: cal.pixel_pitch_um,
-        sigma_p2: cal.sigma_p2.map(|v| v * n),
-        sigma_r2: cal.sigma_r2.map(|v| v * n),
-    };
+    let formation = ImageFormation::new(cal)?.with_noise_scale(n)?;
     let bounds = AccBounds::new(
         (ranges.exposure_s.min, ranges.exposure_s.max),
         (ranges.gain_db.min, ranges.gain_db.max),
     );
-    let mut model = JointModel::new(&engine, config.detector, bounds, constants);
+    let mut model = JointModel::new(&engine, config.detector, bounds, formation);
     if !config.detector_weights.is_empty() {
         model.load_detector(Path::new(&config.detector_weights))?;
     }
@@ -624,7 +618,7 @@ fn setup(
         config: config.clone(),
         streams,
         codec: GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?,
-        formation: ImageFormation::new(cal)?.with_noise_scale(n)?,
+        formation,
         sims: HashMap::new(),
         ranges,
         log,
