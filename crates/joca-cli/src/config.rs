@@ -37,8 +37,8 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
     }
 }
 
-/// Table `section` of preset `name` with `user_file` merged over it, as `T`.
-pub fn load<T: DeserializeOwned>(name: &str, user_file: Option<&Path>, section: &str) -> Result<T> {
+/// Preset `name` with `user_file` merged over it, and a description of that source for errors.
+pub fn load_table(name: &str, user_file: Option<&Path>) -> Result<(toml::Table, String)> {
     let mut table: toml::Table =
         toml::from_str(preset(name)?).with_context(|| format!("preset {name} is invalid"))?;
     let mut source = format!("preset {name}");
@@ -50,6 +50,17 @@ pub fn load<T: DeserializeOwned>(name: &str, user_file: Option<&Path>, section: 
         merge(&mut table, user);
         source = format!("{} over preset {name}", path.display());
     }
+    Ok((table, source))
+}
+
+/// Merges `over` into `base`, table by table (a value in `over` replaces the one in `base`).
+pub fn merge_tables(base: &mut toml::Table, over: toml::Table) {
+    merge(base, over);
+}
+
+/// Table `section` of preset `name` with `user_file` merged over it, as `T`.
+pub fn load<T: DeserializeOwned>(name: &str, user_file: Option<&Path>, section: &str) -> Result<T> {
+    let (mut table, source) = load_table(name, user_file)?;
     let value =
         table.remove(section).with_context(|| format!("{source} has no [{section}] table"))?;
     value.try_into().with_context(|| format!("invalid [{section}] in {source}"))

@@ -43,6 +43,13 @@ enum Command {
     TrainDetector(commands::train_detector::Args),
     /// Measure the speed of joca's components and print a table.
     Bench(commands::bench::Args),
+    /// Run a grid of runs (the paper's tables) locally or on Slurm, and report it.
+    Experiment(commands::experiment::Args),
+    /// Regenerate report.md, report.html and figures of a run or experiment directory.
+    Report(commands::report::Args),
+    /// Run or resume one experiment cell (used by `joca experiment` and its Slurm tasks).
+    #[command(hide = true)]
+    Cell(commands::experiment::CellArgs),
 }
 
 fn main() -> ExitCode {
@@ -57,6 +64,9 @@ fn main() -> ExitCode {
         Command::Render(args) => commands::render::run(&args),
         Command::TrainDetector(args) => commands::train_detector::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
+        Command::Experiment(args) => commands::experiment::run(&args),
+        Command::Report(args) => commands::report::run(&args),
+        Command::Cell(args) => commands::experiment::run_cell(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,17 +1,33 @@
 //! Reports that read run directories only — they never run anything.
 //!
-//! [`write_run_report`] turns a `joca run` directory (`results.json`, `events.jsonl`) into
-//! `report.md`: the result table laid out like the paper's (camera parameters with optimised or
-//! fixed marked, mAP and TP ratio), the exposure and gain the controller chose by illumination,
-//! and the hardware GA's best and mean fitness per generation.
+//! [`write_run_report`] turns one `joca run` directory into `report.md`, `report.html` and
+//! `figures/`; [`write_experiment_report`] does the same for an experiment directory (a grid of
+//! run directories described by its `experiment.json`, see [`Manifest`]) and adds
+//! `results.csv`. Tables are laid out like the paper's (camera parameters with optimised or fixed
+//! marked; mAP and TP ratio with the best of each group in bold and the second underlined).
+//! Figures (PNG, and a GIF): hardware-GA fitness per generation, exposure and gain against the
+//! illumination level over the tunnel test sequence, training loss, a qualitative grid of the same
+//! test scenes through each camera, a top view of each design's mount and field of view, and an
+//! animation of the tunnel transition.
 //!
 //! ```no_run
 //! let text = joca_report::write_run_report(std::path::Path::new("runs/quick-joca-calibrated")).unwrap();
-//! assert!(text.contains("| method |"));
+//! assert!(text.contains("| Scenario |"));
 //! ```
 #![deny(missing_docs)]
 
-use serde_json::Value;
+mod data;
+mod experiment;
+mod frames;
+mod html;
+mod plot;
+mod table;
+
+pub use data::{Design, GenerationFitness, Results, RunData, Scores, ShowFrame, Showcase, StepLog};
+pub use experiment::{CellSpec, CellState, Manifest, write_experiment_report};
+pub use frames::DRAW_MIN_SCORE;
+pub use table::{Row, Table};
+
 use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
@@ -36,129 +52,294 @@ pub enum ReportError {
         /// What is wrong.
         reason: String,
     },
+    /// A figure could not be drawn or encoded.
+    #[error("cannot draw {path}: {reason}")]
+    Draw {
+        /// The figure or image.
+        path: String,
+        /// What failed.
+        reason: String,
+    },
 }
 
-fn read(path: &Path) -> Result<String, ReportError> {
-    std::fs::read_to_string(path)
-        .map_err(|source| ReportError::Io { path: path.display().to_string(), source })
+/// A figure of a report: file relative to the report's directory, and its caption.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figure {
+    /// Path relative to the report directory.
+    pub file: String,
+    /// Caption (Markdown-free text).
+    pub caption: String,
 }
 
-fn num(v: &Value, key: &str) -> f64 {
-    v.get(key).and_then(Value::as_f64).unwrap_or(f64::NAN)
+fn io_err(path: &Path, source: std::io::Error) -> ReportError {
+    ReportError::Io { path: path.display().to_string(), source }
 }
 
-/// Writes `report.md` into `run_dir` and returns its text.
+/// Moving average over `window` points (the loss is logged every fifth step and is noisy).
+fn smooth(points: &[(f64, f64)], window: usize) -> Vec<(f64, f64)> {
+    (0..points.len())
+        .map(|i| {
+            let lo = i.saturating_sub(window - 1);
+            let part = &points[lo..=i];
+            (points[i].0, part.iter().map(|p| p.1).sum::<f64>() / part.len() as f64)
+        })
+        .collect()
+}
+
+/// Draws the figures comparing `runs` (label, run) into `dir/figures/`, file names prefixed
+/// with `prefix`, and returns them with captions. Figures whose data no run has are left out.
+pub fn write_figures(
+    dir: &Path,
+    prefix: &str,
+    what: &str,
+    runs: &[(String, &RunData)],
+) -> Result<Vec<Figure>, ReportError> {
+    let fig_dir = dir.join("figures");
+    std::fs::create_dir_all(&fig_dir).map_err(|e| io_err(&fig_dir, e))?;
+    let mut figures = Vec::new();
+    let name = |stem: &str, ext: &str| format!("figures/{prefix}{stem}.{ext}");
+
+    let mut fitness = Vec::new();
+    for (i, (label, run)) in runs.iter().enumerate() {
+        if run.generations.is_empty() {
+            continue;
+        }
+        let g = &run.generations;
+        if g.iter().all(|g| g.best == g.mean) {
+            // One candidate per generation (a fixed camera): best and mean coincide.
+            fitness.push(plot::Series {
+                label: format!("{label} (one candidate)"),
+                colour: i,
+                dashed: false,
+                points: g.iter().map(|g| (g.generation as f64, g.best)).collect(),
+            });
+            continue;
+        }
+        fitness.push(plot::Series {
+            label: format!("{label} (best)"),
+            colour: i,
+            dashed: false,
+            points: g.iter().map(|g| (g.generation as f64, g.best)).collect(),
+        });
+        fitness.push(plot::Series {
+            label: format!("{label} (mean)"),
+            colour: i,
+            dashed: true,
+            points: g.iter().map(|g| (g.generation as f64, g.mean)).collect(),
+        });
+    }
+    if !fitness.is_empty() {
+        let file = name("fitness", "png");
+        plot::stacked_chart(
+            &dir.join(&file),
+            &format!("Hardware GA fitness per generation — {what}"),
+            "generation",
+            &[plot::Panel { y_label: "fitness = mAP + 1.1 × TP ratio".into(), series: fitness }],
+            (900, 480),
+        )?;
+        figures.push(Figure {
+            file,
+            caption: format!(
+                "Fitness of the hardware GA's candidates per generation (solid: best, dashed: mean; {what}). \
+                 Each candidate is trained and scored on its own k frames, so the curves are noisy and a fixed-camera method has one candidate per generation."
+            ),
+        });
+    }
+
+    let tunnel: Vec<(usize, &String, &Showcase)> = runs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, (l, r))| r.showcase("tunnel").map(|s| (i, l, s)))
+        .collect();
+    if let Some((_, _, first)) = tunnel.first() {
+        let light = plot::Series {
+            label: "ambient light".into(),
+            colour: 7,
+            dashed: false,
+            points: first.frames.iter().map(|f| (f.time_s, f64::from(f.ambient).log10())).collect(),
+        };
+        let series = |value: fn(&ShowFrame) -> f64| {
+            tunnel
+                .iter()
+                .map(|(i, l, s)| plot::Series {
+                    label: (*l).clone(),
+                    colour: *i,
+                    dashed: false,
+                    points: s.frames.iter().map(|f| (f.time_s, value(f))).collect(),
+                })
+                .collect::<Vec<_>>()
+        };
+        let file = name("settings", "png");
+        plot::stacked_chart(
+            &dir.join(&file),
+            &format!("Exposure and gain through a tunnel transition (test town) — {what}"),
+            "time (s)",
+            &[
+                plot::Panel {
+                    y_label: "ambient, log10 (0 = daylight)".into(),
+                    series: vec![light],
+                },
+                plot::Panel {
+                    y_label: "exposure time (ms)".into(),
+                    series: series(|f| f.exposure_ms),
+                },
+                plot::Panel { y_label: "gain (dB)".into(), series: series(|f| f.gain_db) },
+            ],
+            (900, 820),
+        )?;
+        figures.push(Figure {
+            file,
+            caption: format!(
+                "What each exposure controller chose, frame by frame, while driving through an abrupt change of illumination on the test town (closed loop: each frame's settings come from the previous frame; {what})."
+            ),
+        });
+    }
+
+    let mut losses = Vec::new();
+    for (i, (label, run)) in runs.iter().enumerate() {
+        if run.steps.is_empty() {
+            continue;
+        }
+        let raw: Vec<(f64, f64)> = run.steps.iter().map(|s| (s.step as f64, s.loss)).collect();
+        losses.push(plot::Series {
+            label: label.clone(),
+            colour: i,
+            dashed: false,
+            points: smooth(&raw, 20),
+        });
+    }
+    if !losses.is_empty() {
+        let file = name("loss", "png");
+        plot::stacked_chart(
+            &dir.join(&file),
+            &format!("Detector task loss during joint training — {what}"),
+            "training step",
+            &[plot::Panel {
+                y_label: "task loss (moving average of 20 logs)".into(),
+                series: losses,
+            }],
+            (900, 480),
+        )?;
+        figures.push(Figure {
+            file,
+            caption: format!("The detector's task loss (focal heat-map + size + offset) during joint training, logged every fifth step, moving average over 20 logs; {what}."),
+        });
+    }
+
+    if runs.iter().any(|(_, r)| !r.showcases.is_empty()) {
+        let file = name("frames", "png");
+        frames::qualitative_grid(&dir.join(&file), runs)?;
+        figures.push(Figure {
+            file,
+            caption: format!(
+                "The same test scenes through each method's camera and controller ({what}): ground truth in green, detections with score ≥ {DRAW_MIN_SCORE} in red."
+            ),
+        });
+    }
+
+    let designs: Vec<(String, Design)> =
+        runs.iter().map(|(l, r)| (l.clone(), r.results.design.clone())).collect();
+    let file = name("fov", "png");
+    plot::fov_diagram(&dir.join(&file), &designs)?;
+    figures.push(Figure {
+        file,
+        caption: format!("Top view of each design's mount position and horizontal field of view on the ego vehicle ({what}); the mount height z is in the legend."),
+    });
+
+    if !tunnel.is_empty() {
+        let file = name("tunnel", "gif");
+        frames::tunnel_animation(&dir.join(&file), runs)?;
+        figures.push(Figure {
+            file,
+            caption: format!("Animation (10 frames/s) of the tunnel transition through each method's camera, with the exposure and gain its controller chose ({what})."),
+        });
+    }
+    Ok(figures)
+}
+
+/// Writes `report.md`, `report.html` and `figures/` into the run directory `run_dir` and
+/// returns the Markdown.
 pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
-    let results_path = run_dir.join("results.json");
-    let results: Value = serde_json::from_str(&read(&results_path)?).map_err(|e| {
-        ReportError::Format { path: results_path.display().to_string(), reason: e.to_string() }
-    })?;
-    let d = &results["design"];
-    let t = &results["test"];
-    let mark = if d["optimised"].as_bool().unwrap_or(false) { "optimised" } else { "fixed" };
-    let mut md = String::new();
+    let run = RunData::load(run_dir)?;
+    let r = &run.results;
+    let title = format!("joca run: {} / {}", r.method, r.scenario);
+    let table = Table {
+        label_header: "Method".into(),
+        rows: vec![Row {
+            group: r.scenario.clone(),
+            label: r.method.clone(),
+            cell: run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            results: r.clone(),
+        }],
+    };
+    let figures = write_figures(
+        run_dir,
+        "",
+        &format!("{} / {}", r.method, r.scenario),
+        &[(r.method.clone(), &run)],
+    )?;
+    let mut md = format!("# {title}\n\n");
     let _ = writeln!(
         md,
-        "# joca run: {} / {}\n",
-        results["method"].as_str().unwrap_or("?"),
-        results["scenario"].as_str().unwrap_or("?")
+        "Camera parameters marked ● were optimised, ○ fixed. Test on the test town, closed loop, {} frames; render scale {}.\n",
+        r.test.frames, r.render_scale
     );
-    let _ = writeln!(
-        md,
-        "Camera parameters are {mark}. Test on the test town, closed loop, {} frames; render scale {}.\n",
-        t["frames"], results["render_scale"]
+    md.push_str(&table.markdown());
+    let _ = writeln!(md, "\nAP50 {:.3}.\n", r.test.ap50);
+    md.push_str(&settings_markdown(r));
+    md.push_str(&fitness_markdown(&run));
+    md.push_str(&figures_markdown(&figures));
+    write_text(&run_dir.join("report.md"), &md)?;
+    let body = format!(
+        "<p>Camera parameters marked <span class=\"opt\">●</span> were optimised, <span class=\"fix\">○</span> fixed. Test on the test town, closed loop, {} frames; render scale {}; AP50 {:.3}.</p>\n{}",
+        r.test.frames,
+        r.render_scale,
+        r.test.ap50,
+        table.html()
     );
-    let _ = writeln!(
-        md,
-        "| method | scenario | x (m) | z (m) | f (mm) | W×H (mm) | p (µm) | sensor | mAP@[.5:.95] | AP50 | TP/All@180° |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
-    let _ = writeln!(
-        md,
-        "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2}×{:.2} | {:.2} | {} | {:.3} | {:.3} | {:.3} |\n",
-        results["method"].as_str().unwrap_or("?"),
-        results["scenario"].as_str().unwrap_or("?"),
-        num(d, "x_m"),
-        num(d, "z_m"),
-        num(d, "focal_length_mm"),
-        d["sensor_mm"][0].as_f64().unwrap_or(f64::NAN),
-        d["sensor_mm"][1].as_f64().unwrap_or(f64::NAN),
-        num(d, "pixel_pitch_um"),
-        d["sensor"].as_str().unwrap_or("?"),
-        num(t, "map"),
-        num(t, "ap50"),
-        num(t, "tp_ratio"),
-    );
-    if let Some(settings) = results["settings_by_illumination"].as_object() {
-        let _ = writeln!(
-            md,
-            "## Exposure and gain on the test town\n\n| illumination | mean E (ms) | mean G (dB) |\n|---|---|---|"
-        );
-        for (light, v) in settings {
-            let _ = writeln!(
-                md,
-                "| {light} | {:.2} | {:.1} |",
-                v[0].as_f64().unwrap_or(f64::NAN),
-                v[1].as_f64().unwrap_or(f64::NAN)
-            );
-        }
-        md.push('\n');
-    }
-    let events_path = run_dir.join("events.jsonl");
-    if let Ok(events) = read(&events_path) {
-        let mut rows = Vec::new();
-        for line in events.lines() {
-            let Ok(v) = serde_json::from_str::<Value>(line) else { continue };
-            if let (Some(g), Some(f)) = (v["generation_done"].as_u64(), v["fitness"].as_array()) {
-                let f: Vec<f64> = f.iter().filter_map(Value::as_f64).collect();
-                if f.is_empty() {
-                    continue;
-                }
-                let best = f.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                rows.push((g, best, f.iter().sum::<f64>() / f.len() as f64));
-            }
-        }
-        if !rows.is_empty() {
-            let _ = writeln!(
-                md,
-                "## Hardware GA fitness (mAP + 1.1 × TP ratio over each candidate's frames)\n\n| generation | best | mean |\n|---|---|---|"
-            );
-            for (g, best, mean) in rows {
-                let _ = writeln!(md, "| {g} | {best:.3} | {mean:.3} |");
-            }
-        }
-    }
-    let out = run_dir.join("report.md");
-    std::fs::write(&out, &md)
-        .map_err(|source| ReportError::Io { path: out.display().to_string(), source })?;
+    let page = html::page(&title, &body, run_dir, &figures)?;
+    write_text(&run_dir.join("report.html"), &page)?;
     Ok(md)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn report_from_a_run_directory() {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::write(
-            dir.path().join("results.json"),
-            r#"{"method":"joca","scenario":"blur4","design":{"x_m":1.35,"z_m":1.3,"focal_length_mm":5.19,"sensor":"IMX178","sensor_mm":[7.3728,4.9152],"pixel_pitch_um":2.4,"optimised":true},
-               "test":{"map":0.325,"ap50":0.6,"tp_ratio":0.39,"true_positives":39,"visible_180":100,"frames":1000},
-               "settings_by_illumination":{"day":[3.0,12.5]},"best_fitness":0.8,"render_scale":0.08}"#,
-        )
-        .unwrap();
-        std::fs::write(
-            dir.path().join("events.jsonl"),
-            "{\"step\":0}\n{\"generation_done\":0,\"fitness\":[0.2,0.4]}\nnot json\n",
-        )
-        .unwrap();
-        let md = write_run_report(dir.path()).unwrap();
-        assert!(md.contains("| joca | blur4 | 1.35 | 1.30 | 5.19 | 7.37×4.92 | 2.40 | IMX178 | 0.325 | 0.600 | 0.390 |"), "{md}");
-        assert!(md.contains("| day | 3.00 | 12.5 |"));
-        assert!(md.contains("| 0 | 0.400 | 0.300 |"));
-        assert_eq!(std::fs::read_to_string(dir.path().join("report.md")).unwrap(), md);
-        let missing = write_run_report(&dir.path().join("nope")).unwrap_err().to_string();
-        assert!(missing.contains("results.json"), "{missing}");
+fn settings_markdown(r: &Results) -> String {
+    let mut md = String::from(
+        "## Exposure and gain on the test town\n\n| illumination | mean E (ms) | mean G (dB) |\n|---|---|---|\n",
+    );
+    for (light, (e, g)) in &r.settings_by_illumination {
+        let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} |");
     }
+    md.push('\n');
+    md
+}
+
+fn fitness_markdown(run: &RunData) -> String {
+    if run.generations.is_empty() {
+        return String::new();
+    }
+    let mut md = String::from(
+        "## Hardware GA fitness (mAP + 1.1 × TP ratio over each candidate's frames)\n\n| generation | best | mean |\n|---|---|---|\n",
+    );
+    for g in &run.generations {
+        let _ = writeln!(md, "| {} | {:.3} | {:.3} |", g.generation, g.best, g.mean);
+    }
+    md.push('\n');
+    md
+}
+
+fn figures_markdown(figures: &[Figure]) -> String {
+    let mut md = String::new();
+    if !figures.is_empty() {
+        md.push_str("## Figures\n\n");
+    }
+    for f in figures {
+        let _ = writeln!(md, "![{}]({})\n\n*{}*\n", f.file, f.file, f.caption);
+    }
+    md
+}
+
+fn write_text(path: &Path, text: &str) -> Result<(), ReportError> {
+    let tmp = path.with_extension("partial");
+    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
 }

@@ -39,7 +39,7 @@ mod sim;
 
 pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
-pub use lighting::Illumination;
+pub use lighting::{Illumination, TUNNEL_PHASE_S};
 pub use sim::{Episode, MAX_SUBFRAMES, SimConfig, Simulator, VisibilityRules};
 
 use rand::Rng;

@@ -3,11 +3,14 @@
 pub mod bench;
 pub mod calibrate;
 pub mod eval;
+pub mod experiment;
 pub mod form;
 pub mod metrics;
 pub mod render;
+pub mod report;
 pub mod run;
 pub mod sensors;
+pub mod slurm;
 pub mod train_detector;
 
 use anyhow::{Result, bail};

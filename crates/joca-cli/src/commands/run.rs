@@ -5,7 +5,7 @@ use anyhow::{Context, Result, anyhow};
 use joca_train::{Method, RunConfig, RunEvent, RunResults, Scenario, run as run_loop};
 use std::io::Write;
 use std::ops::ControlFlow;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Arguments of `joca run`.
@@ -40,10 +40,16 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(s) = &args.scenario {
         cfg.scenario = Scenario::from_name(s).map_err(|e| anyhow!(e))?;
     }
-    resolve_weights(&mut cfg);
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(format!("runs/{}-{}-{}", args.preset, cfg.method.name(), cfg.scenario.name()))
     });
+    execute(cfg, &out, args.resume)
+}
+
+/// Runs (or resumes) `cfg` into `out` with a progress line, prints the result table and writes
+/// the run's report. `joca run` and every experiment cell go through here.
+pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
+    resolve_weights(&mut cfg);
     println!(
         "joca run: method {}, scenario {}, {} generations x {} candidates x {} steps, render scale {}, run directory {}",
         cfg.method.name(),
@@ -69,22 +75,20 @@ pub fn run(args: &Args) -> Result<()> {
         }
         ControlFlow::Continue(())
     };
-    let results = run_loop(&cfg, &out, args.resume, &mut progress)
+    let results = run_loop(&cfg, out, resume, &mut progress)
         .with_context(|| format!("run in {} failed", out.display()))?;
     print_results(&results, started.elapsed().as_secs_f64());
-    joca_report::write_run_report(&out)
+    joca_report::write_run_report(out)
         .with_context(|| format!("cannot write the report of {}", out.display()))?;
-    println!("\nreport: {}", out.join("report.md").display());
+    println!("\nreport: {} (and report.html, figures/)", out.join("report.md").display());
     Ok(())
 }
 
 /// Relative weight paths are tried from the working directory, then from the repository root
 /// (where the presets' shipped weights live), so `joca run` works from any directory.
 pub fn resolve_weights(cfg: &mut RunConfig) {
-    if !cfg.detector_weights.is_empty() && !std::path::Path::new(&cfg.detector_weights).exists() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../..")
-            .join(&cfg.detector_weights);
+    if !cfg.detector_weights.is_empty() && !Path::new(&cfg.detector_weights).exists() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(&cfg.detector_weights);
         if root.exists() {
             cfg.detector_weights = root.display().to_string();
         }

@@ -3,8 +3,11 @@
 //! camera; NeuralAE or AverageAE; GA supervision, fixed perturbations or none; detector trained
 //! or frozen).
 
+mod closed_loop;
+
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
+pub use closed_loop::{Showcase, ShowcaseFrame};
 use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, GenomeCodec,
     ImageFormation, SensorEncoding, compensate_for_pixel_size, sensor_by_name,
@@ -17,7 +20,7 @@ use joca_nn::acc::AccBounds;
 use joca_nn::detector::DetectorConfig;
 use joca_nn::formation::Scene;
 use joca_nn::joint::{DfGradWeights, Exposure, JointModel};
-use joca_sim::{Illumination, SimConfig, Simulator, test_map_seed, train_map_seed};
+use joca_sim::{Illumination, SimConfig, Simulator, train_map_seed};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -572,7 +575,7 @@ pub fn run(
         &serde_json::to_string_pretty(&DesignSummary::new(&design, config.method.hardware_ga()))
             .unwrap_or_default(),
     )?;
-    let results = test_design(&mut cx, &mut model, &state, &design)?;
+    let results = test_design(&mut cx, &mut model, &state, &design, Some(&run_dir.join("test")))?;
     write_atomic(
         &run_dir.join("results.json"),
         &serde_json::to_string_pretty(&results).unwrap_or_default(),
@@ -662,12 +665,16 @@ pub fn evaluate_run(
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     model.load(&dir)?;
     let design = best_design(&cx, &state)?;
-    let results = test_design(&mut cx, &mut model, &state, &design)?;
-    let name = if scenario.is_some_and(|s| s != state.config.scenario) {
-        format!("results-{}.json", config.scenario.name())
+    let other = scenario.is_some_and(|s| s != state.config.scenario);
+    let (name, test_dir) = if other {
+        (
+            format!("results-{}.json", config.scenario.name()),
+            format!("test-{}", config.scenario.name()),
+        )
     } else {
-        "results.json".to_owned()
+        ("results.json".to_owned(), "test".to_owned())
     };
+    let results = test_design(&mut cx, &mut model, &state, &design, Some(&run_dir.join(test_dir)))?;
     write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
     Ok(results)
 }
@@ -886,8 +893,9 @@ fn test_design(
     model: &mut JointModel,
     state: &RunState,
     design: &CameraDesign,
+    out: Option<&Path>,
 ) -> Result<RunResults, TrainError> {
-    let (test, settings) = test_closed_loop(cx, model, design)?;
+    let (test, settings) = closed_loop::test(cx, model, design, out)?;
     let config = &cx.config;
     Ok(RunResults {
         method: config.method,
@@ -898,65 +906,4 @@ fn test_design(
         best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
         render_scale: config.render_scale,
     })
-}
-
-/// Closed-loop test of `design` with the trained controller on the test town.
-fn test_closed_loop(
-    cx: &mut Context,
-    model: &mut JointModel,
-    design: &CameraDesign,
-) -> Result<(TaskScores, SettingsByLight), TrainError> {
-    let c = cx.config.clone();
-    let camera = design.pinhole(c.render_scale);
-    let pitch = design.sensor().pixel_pitch_um;
-    let cal = Calibration::DEFAULT;
-    let ae = AverageAe::new(cx.ranges);
-    let mut metrics = TaskMetrics::default();
-    let mut sums: BTreeMap<String, (f64, f64, f64)> = BTreeMap::new();
-    let map_seed = test_map_seed(0);
-    for episode in 0..c.test_episodes {
-        let sim = simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
-        model.reset_sequence();
-        let mut applied = DynamicSettings::new(cal.exposure_s, cal.gain_db);
-        let mut pred = applied;
-        let mut previous = None;
-        let warmup = 3;
-        for k in 0..warmup + c.test_frames_per_episode {
-            if let Some(prev) = &previous {
-                if c.method.neural() {
-                    if let Some(p) = model.predict(prev, pred.exposure_s, pred.gain_db) {
-                        pred = DynamicSettings::new(p.exposure_s, p.gain_db);
-                        applied = compensate_for_pixel_size(pred, pitch, cal.pixel_pitch_um);
-                    }
-                } else {
-                    applied = ae.step(applied, prev);
-                }
-            }
-            let request = FrameRequest {
-                episode,
-                time_s: 1.0 + k as f64 * sim.frame_interval_s(),
-                exposure_s: applied.exposure_s,
-                motion_scale: c.scenario.motion_scale(),
-            };
-            let frame = sim.render(&camera, &request)?;
-            let image = cx.formation.form(
-                &frame.hdr,
-                applied,
-                pitch,
-                &mut cx.streams.indexed("test-noise", episode * 10_000 + k as u64),
-            );
-            let detections = model.observe(&image);
-            if k >= warmup {
-                metrics.update(&frame.boxes, &detections, frame.visible_180);
-                let e =
-                    sums.entry(sim.episode(episode).illumination.name().to_owned()).or_default();
-                e.0 += applied.exposure_s * 1e3;
-                e.1 += applied.gain_db;
-                e.2 += 1.0;
-            }
-            previous = Some(image);
-        }
-    }
-    let settings = sums.into_iter().map(|(k, (e, g, n))| (k, (e / n, g / n))).collect();
-    Ok((metrics.compute(), settings))
 }

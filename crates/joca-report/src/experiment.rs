@@ -1,0 +1,147 @@
+//! Experiment reports: an experiment directory holds `experiment.json` (a [`Manifest`]: which
+//! cells exist and how the tables label them) and one normal run directory per cell. The report
+//! covers the finished cells and lists the others, so it can be made while a grid still runs.
+
+use crate::data::{RunData, parse, read};
+use crate::table::{Row, Table, escape};
+use crate::{Figure, ReportError, figures_markdown, html, write_figures, write_text};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// One cell of an experiment grid: a run directory and how tables label it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CellSpec {
+    /// Unique id, also the run directory's name.
+    pub id: String,
+    /// Row label (method or sweep value).
+    pub label: String,
+    /// Group label (scenario).
+    pub group: String,
+    /// Run directory, relative to the experiment directory.
+    pub dir: String,
+}
+
+/// `experiment.json`: what an experiment directory contains.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Experiment name (`table1`, …).
+    pub name: String,
+    /// Title of the report.
+    pub title: String,
+    /// Preset the cells were run with.
+    pub preset: String,
+    /// Header of the tables' label column.
+    pub label_header: String,
+    /// Cells in display order.
+    pub cells: Vec<CellSpec>,
+}
+
+/// Where a cell stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CellState {
+    /// `results.json` exists: finished and tested.
+    Done,
+    /// A run directory with a checkpoint or log but no results: killed or still running.
+    Partial,
+    /// Nothing yet.
+    Missing,
+}
+
+impl Manifest {
+    /// File name inside an experiment directory.
+    pub const FILE: &'static str = "experiment.json";
+
+    /// Reads `dir/experiment.json`.
+    pub fn load(dir: &Path) -> Result<Self, ReportError> {
+        let path = dir.join(Self::FILE);
+        parse(&path, &read(&path)?)
+    }
+
+    /// The run directory of `cell`.
+    pub fn cell_dir(exp_dir: &Path, cell: &CellSpec) -> PathBuf {
+        exp_dir.join(&cell.dir)
+    }
+
+    /// Where `cell` stands. `results.json` is written atomically after the test, so its presence
+    /// means the cell is complete.
+    pub fn state(exp_dir: &Path, cell: &CellSpec) -> CellState {
+        let dir = Self::cell_dir(exp_dir, cell);
+        if dir.join("results.json").is_file() {
+            CellState::Done
+        } else if dir.join("checkpoint").exists() || dir.join("events.jsonl").exists() {
+            CellState::Partial
+        } else {
+            CellState::Missing
+        }
+    }
+}
+
+/// Writes `report.md`, `report.html`, `results.csv` and `figures/` into the experiment
+/// directory from its finished cells, and returns the Markdown.
+pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
+    let manifest = Manifest::load(exp_dir)?;
+    let mut rows = Vec::new();
+    let mut runs = Vec::new();
+    let mut pending = Vec::new();
+    for cell in &manifest.cells {
+        if Manifest::state(exp_dir, cell) != CellState::Done {
+            pending.push(cell.id.clone());
+            continue;
+        }
+        let run = RunData::load(&Manifest::cell_dir(exp_dir, cell))?;
+        rows.push(Row {
+            group: cell.group.clone(),
+            label: cell.label.clone(),
+            cell: cell.id.clone(),
+            results: run.results.clone(),
+        });
+        runs.push((cell.clone(), run));
+    }
+    let table = Table { label_header: manifest.label_header.clone(), rows };
+    let done = runs.len();
+    let total = manifest.cells.len();
+    let mut meta = format!(
+        "Preset `{}`; {done} of {total} cells finished. Each cell is a full `joca run` directory under `{}`; \
+         test on the test town, closed loop. Camera parameters marked ● were optimised, ○ fixed; \
+         best of each group in bold, second underlined.",
+        manifest.preset,
+        exp_dir.display()
+    );
+    if !pending.is_empty() {
+        let _ = write!(meta, " Not finished: {}.", pending.join(", "));
+    }
+    let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
+    md.push_str(&table.markdown());
+    md.push_str("\nAll numbers, at full precision: `results.csv`.\n\n");
+    let mut html_body = format!("<p class=\"meta\">{}</p>\n{}", escape(&meta), table.html());
+    let mut figures: Vec<Figure> = Vec::new();
+    for group in table.groups() {
+        let members: Vec<(String, &RunData)> = runs
+            .iter()
+            .filter(|(c, _)| c.group == group)
+            .map(|(c, r)| (c.label.clone(), r))
+            .collect();
+        let prefix = format!("{}-", slug(&group));
+        let group_figures = write_figures(exp_dir, &prefix, &group, &members)?;
+        let _ = writeln!(md, "## {group}\n");
+        md.push_str(&figures_markdown(&group_figures).replacen("## Figures\n\n", "", 1));
+        figures.extend(group_figures);
+    }
+    write_text(&exp_dir.join("results.csv"), &table.csv())?;
+    write_text(&exp_dir.join("report.md"), &md)?;
+    html_body.push_str(&format!(
+        "<p class=\"meta\">{}</p>",
+        escape("Figures are grouped by scenario (file names start with it).")
+    ));
+    let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
+    write_text(&exp_dir.join("report.html"), &page)?;
+    Ok(md)
+}
+
+/// A file-name-safe form of a label.
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' })
+        .collect()
+}

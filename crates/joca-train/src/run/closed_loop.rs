@@ -1,0 +1,294 @@
+//! Closed-loop driving with the trained controller on the test town: the scored test episodes,
+//! and the fixed "showcase" sequences whose frames, settings and boxes the reports draw (the
+//! qualitative grid, the exposure/gain traces against illumination, the tunnel animation).
+//!
+//! In closed loop the controller sets the exposure and gain of frame t from frame t − 1 (its
+//! own output), exactly as at training time but without any update. What a run leaves in
+//! `test/` (all written atomically):
+//! - `trace.jsonl` — one line per scored test frame: episode, time, illumination schedule and
+//!   ambient level, the exposure and gain the sensor used, objects and detections;
+//! - `showcase.json` — for each showcase sequence its frames with the same fields plus ground
+//!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
+//! - `<sequence>/NNN.png` — those frames.
+
+use super::{Context, SettingsByLight, simulator};
+use crate::TrainError;
+use crate::checkpoint::write_atomic;
+use joca_camera::{
+    AverageAe, Calibration, CameraDesign, DynamicSettings, compensate_for_pixel_size,
+};
+use joca_core::{
+    Annotation, Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image,
+};
+use joca_metrics::{TaskMetrics, TaskScores};
+use joca_nn::joint::JointModel;
+use joca_sim::{Illumination, SimConfig, Simulator, TUNNEL_PHASE_S, test_map_seed};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Frames the controller runs before scoring starts (it starts at E0, G0).
+const WARMUP_FRAMES: usize = 3;
+/// Frames of the tunnel showcase (10 Hz): 5 s around an abrupt change of illumination.
+const TUNNEL_FRAMES: usize = 50;
+/// Frames of the day and night showcases; the last one is saved.
+const STEADY_FRAMES: usize = 20;
+
+/// One frame of a showcase sequence, as `showcase.json` stores it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShowcaseFrame {
+    /// Frame index in the sequence.
+    pub frame: usize,
+    /// Simulation time, s.
+    pub time_s: f64,
+    /// Ambient light relative to full daylight.
+    pub ambient: f32,
+    /// Exposure the sensor used, ms.
+    pub exposure_ms: f64,
+    /// Gain the sensor used, dB.
+    pub gain_db: f64,
+    /// Ground truth at the shutter midpoint.
+    pub boxes: Vec<Annotation>,
+    /// Detections on the formed frame.
+    pub detections: Vec<Detection>,
+    /// The saved 8-bit frame, relative to `test/`, if saved.
+    pub image: Option<String>,
+}
+
+/// A showcase sequence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Showcase {
+    /// Name (`tunnel`, `day`, `night`).
+    pub name: String,
+    /// Illumination schedule.
+    pub illumination: Illumination,
+    /// Output frame size, pixels.
+    pub size_px: (usize, usize),
+    /// Frames in order.
+    pub frames: Vec<ShowcaseFrame>,
+}
+
+/// The controller state of one closed-loop sequence.
+struct Driver {
+    /// Settings the sensor uses for the next frame.
+    applied: DynamicSettings,
+    /// The controller's last prediction (before pixel-size compensation).
+    predicted: DynamicSettings,
+    previous: Option<Rgb8Image>,
+}
+
+/// What one closed-loop frame produced.
+struct Step {
+    frame: Frame,
+    image: Rgb8Image,
+    detections: Vec<Detection>,
+    settings: DynamicSettings,
+}
+
+impl Driver {
+    fn new(model: &mut JointModel) -> Self {
+        model.reset_sequence();
+        let cal = Calibration::DEFAULT;
+        let start = DynamicSettings::new(cal.exposure_s, cal.gain_db);
+        Self { applied: start, predicted: start, previous: None }
+    }
+
+    /// Sets this frame's exposure and gain from the previous frame, renders, forms and detects.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        cx: &Context,
+        model: &mut JointModel,
+        sim: &Simulator,
+        camera: &PinholeCamera,
+        design: &CameraDesign,
+        episode: u64,
+        time_s: f64,
+        noise: &mut impl rand::Rng,
+    ) -> Result<Step, TrainError> {
+        let pitch = design.sensor().pixel_pitch_um;
+        if let Some(prev) = &self.previous {
+            if cx.config.method.neural() {
+                if let Some(p) =
+                    model.predict(prev, self.predicted.exposure_s, self.predicted.gain_db)
+                {
+                    self.predicted = DynamicSettings::new(p.exposure_s, p.gain_db);
+                    self.applied = compensate_for_pixel_size(
+                        self.predicted,
+                        pitch,
+                        Calibration::DEFAULT.pixel_pitch_um,
+                    );
+                }
+            } else {
+                self.applied = AverageAe::new(cx.ranges).step(self.applied, prev);
+            }
+        }
+        let request = FrameRequest {
+            episode,
+            time_s,
+            exposure_s: self.applied.exposure_s,
+            motion_scale: cx.config.scenario.motion_scale(),
+        };
+        let frame = sim.render(camera, &request)?;
+        let image = cx.formation.form(&frame.hdr, self.applied, pitch, noise);
+        let detections = model.observe(&image);
+        self.previous = Some(image.clone());
+        Ok(Step { frame, image, detections, settings: self.applied })
+    }
+}
+
+fn ambient(sim: &Simulator, episode: u64, time_s: f64) -> f32 {
+    let e = sim.episode(episode);
+    e.illumination.ambient(time_s, e.phase_s)
+}
+
+/// Closed-loop test of `design` with the trained controller on the test town. With `out`, also
+/// writes the per-frame trace and the showcase sequences there.
+pub(super) fn test(
+    cx: &mut Context,
+    model: &mut JointModel,
+    design: &CameraDesign,
+    out: Option<&Path>,
+) -> Result<(TaskScores, SettingsByLight), TrainError> {
+    let c = cx.config.clone();
+    let camera = design.pinhole(c.render_scale);
+    let mut metrics = TaskMetrics::default();
+    let mut sums: BTreeMap<String, (f64, f64, f64)> = BTreeMap::new();
+    let mut trace = String::new();
+    let map_seed = test_map_seed(0);
+    // Build the test town once; the borrow of `cx.sims` ends before the loop needs `cx`.
+    simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
+    for episode in 0..c.test_episodes {
+        let mut driver = Driver::new(model);
+        for k in 0..WARMUP_FRAMES + c.test_frames_per_episode {
+            let sim = &cx.sims[&map_seed];
+            let time_s = 1.0 + k as f64 * sim.frame_interval_s();
+            let mut noise = cx.streams.indexed("test-noise", episode * 10_000 + k as u64);
+            let s = driver.step(cx, model, sim, &camera, design, episode, time_s, &mut noise)?;
+            if k < WARMUP_FRAMES {
+                continue;
+            }
+            metrics.update(&s.frame.boxes, &s.detections, s.frame.visible_180);
+            let illumination = sim.episode(episode).illumination;
+            let e = sums.entry(illumination.name().to_owned()).or_default();
+            e.0 += s.settings.exposure_s * 1e3;
+            e.1 += s.settings.gain_db;
+            e.2 += 1.0;
+            let line = serde_json::json!({
+                "episode": episode,
+                "frame": k - WARMUP_FRAMES,
+                "time_s": time_s,
+                "illumination": illumination,
+                "ambient": ambient(sim, episode, time_s),
+                "exposure_ms": s.settings.exposure_s * 1e3,
+                "gain_db": s.settings.gain_db,
+                "objects": s.frame.boxes.len(),
+                "visible_180": s.frame.visible_180,
+                "detections": s.detections.len(),
+            });
+            let _ = writeln!(trace, "{line}");
+        }
+    }
+    let settings = sums.into_iter().map(|(k, (e, g, n))| (k, (e / n, g / n))).collect();
+    if let Some(dir) = out {
+        std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
+        write_atomic(&dir.join("trace.jsonl"), &trace)?;
+        let showcases = showcases(cx, model, design, &camera, dir)?;
+        write_atomic(
+            &dir.join("showcase.json"),
+            &serde_json::to_string(&showcases).unwrap_or_default(),
+        )?;
+    }
+    Ok((metrics.compute(), settings))
+}
+
+/// The showcase sequences: a tunnel transition (every frame saved), a day and a night drive
+/// (last frame saved). Same town, episodes and times for every run, so different methods are
+/// compared on the same scenes.
+fn showcases(
+    cx: &Context,
+    model: &mut JointModel,
+    design: &CameraDesign,
+    camera: &PinholeCamera,
+    dir: &Path,
+) -> Result<Vec<Showcase>, TrainError> {
+    let mut out = Vec::new();
+    for (index, (name, illumination)) in [
+        ("tunnel", Illumination::Tunnel),
+        ("day", Illumination::Day),
+        ("night", Illumination::Night),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let sim = Simulator::new(SimConfig {
+            map_seed: test_map_seed(0),
+            illumination: Some(illumination),
+            max_speed_mps: cx.config.max_speed_mps,
+            ..SimConfig::default()
+        });
+        let episode = 0;
+        let dt = sim.frame_interval_s();
+        let (start_s, frames) = if illumination == Illumination::Tunnel {
+            // Start 1.5 s before the first switch after t = 2.5 s, so the controller has settled
+            // and the sequence holds one abrupt change (switches are 4 s apart).
+            let phase = sim.episode(episode).phase_s;
+            let n = ((2.5 + phase) / TUNNEL_PHASE_S).ceil();
+            (n * TUNNEL_PHASE_S - phase - 1.5, TUNNEL_FRAMES)
+        } else {
+            (1.0, STEADY_FRAMES)
+        };
+        let frame_dir = dir.join(name);
+        std::fs::create_dir_all(&frame_dir).map_err(|e| TrainError::io(&frame_dir, e))?;
+        let mut driver = Driver::new(model);
+        let mut sequence = Showcase {
+            name: name.to_owned(),
+            illumination,
+            size_px: (camera.width_px, camera.height_px),
+            frames: Vec::with_capacity(frames),
+        };
+        for k in 0..frames {
+            let time_s = start_s + k as f64 * dt;
+            let mut noise = cx.streams.indexed("showcase-noise", index as u64 * 10_000 + k as u64);
+            let s = driver.step(cx, model, &sim, camera, design, episode, time_s, &mut noise)?;
+            let save = illumination == Illumination::Tunnel || k + 1 == frames;
+            let image = if save {
+                let rel = format!("{name}/{k:03}.png");
+                write_png(&dir.join(&rel), &s.image)?;
+                Some(rel)
+            } else {
+                None
+            };
+            sequence.frames.push(ShowcaseFrame {
+                frame: k,
+                time_s,
+                ambient: ambient(&sim, episode, time_s),
+                exposure_ms: s.settings.exposure_s * 1e3,
+                gain_db: s.settings.gain_db,
+                boxes: s.frame.boxes,
+                detections: s.detections,
+                image,
+            });
+        }
+        out.push(sequence);
+    }
+    Ok(out)
+}
+
+/// Writes an 8-bit RGB frame as PNG (temporary file, then rename).
+fn write_png(path: &Path, image: &Rgb8Image) -> Result<(), TrainError> {
+    let mut bytes = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
+    image::ImageEncoder::write_image(
+        encoder,
+        image.data(),
+        image.width() as u32,
+        image.height() as u32,
+        image::ExtendedColorType::Rgb8,
+    )
+    .map_err(|e| TrainError::io(path, std::io::Error::other(e)))?;
+    let tmp = path.with_extension("png.partial");
+    std::fs::write(&tmp, &bytes).map_err(|e| TrainError::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| TrainError::io(path, e))
+}
