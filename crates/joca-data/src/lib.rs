@@ -1,5 +1,18 @@
-//! Recorded sequences as frame sources: a documented folder format and Waymo Open v2 parquet,
-//! resize/crop to a sensor's grid, Dense Inverse Search optical flow and flow-based motion blur.
+//! Recorded sequences for joca's real-image mode: Dense Inverse Search optical flow
+//! ([`flow`]) and flow-based motion blur ([`blur`]). The folder and Waymo v2 sources are not
+//! built yet.
 //!
-//! Not implemented yet: this crate marks its boundary in the workspace (see ARCHITECTURE.md).
+//! ```
+//! use joca_data::flow::{DisParams, DisPreset, Gray, dis};
+//! // A smooth pattern moved 1.5 pixels to the right: I0(x) = I1(x + 1.5).
+//! let pattern = |x: f32, y: f32| 128.0 + 60.0 * (0.3 * x).sin() * (0.23 * y).cos();
+//! let (w, h) = (64, 48);
+//! let i0 = Gray::new(w, h, (0..w * h).map(|k| pattern((k % w) as f32, (k / w) as f32)).collect());
+//! let i1 = Gray::new(w, h, (0..w * h).map(|k| pattern((k % w) as f32 - 1.5, (k / w) as f32)).collect());
+//! let flow = dis(&i0, &i1, &DisParams::preset(DisPreset::Medium));
+//! let centre = flow.at(32, 24);
+//! assert!((centre[0] - 1.5).abs() < 0.2 && centre[1].abs() < 0.2, "{centre:?}");
+//! ```
 #![deny(missing_docs)]
+
+pub mod flow;

@@ -114,7 +114,8 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
     md.push_str(&table.markdown());
     md.push_str("\nAll numbers, at full precision: `results.csv`.\n\n");
-    let mut html_body = format!("<p class=\"meta\">{}</p>\n{}", escape(&meta), table.html());
+    let mut html_body =
+        format!("<p class=\"meta\">{}</p>\n{}", escape(&meta.replace('`', "")), table.html());
     let mut figures: Vec<Figure> = Vec::new();
     for group in table.groups() {
         let members: Vec<(String, &RunData)> = runs
@@ -130,10 +131,9 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     }
     write_text(&exp_dir.join("results.csv"), &table.csv())?;
     write_text(&exp_dir.join("report.md"), &md)?;
-    html_body.push_str(&format!(
-        "<p class=\"meta\">{}</p>",
-        escape("Figures are grouped by scenario (file names start with it).")
-    ));
+    html_body.push_str(
+        "<p class=\"meta\">All numbers, at full precision: results.csv. Figures follow, by scenario.</p>\n",
+    );
     let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
     write_text(&exp_dir.join("report.html"), &page)?;
     Ok(md)

@@ -10,7 +10,8 @@ const STYLE: &str = "
 body { font-family: 'DejaVu Sans', Verdana, sans-serif; margin: 2em auto; max-width: 1200px; color: #222; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; }
 table { border-collapse: collapse; font-size: 0.9em; margin: 1em 0; }
-th, td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
+th, td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; white-space: nowrap; }
+td.label { white-space: normal; }
 thead th { border-bottom: 2px solid #444; vertical-align: bottom; }
 tbody th { text-align: left; vertical-align: top; border-right: 1px solid #ddd; }
 tr.first td, tr.first th { border-top: 2px solid #888; }
@@ -34,10 +35,12 @@ pub(crate) fn page(
         escape(title),
         escape(title)
     );
-    if !figures.is_empty() {
-        html.push_str("<h2>Figures</h2>\n");
-    }
+    let mut section = None;
     for f in figures {
+        if section != Some(&f.section) {
+            html.push_str(&format!("<h2>{}</h2>\n", escape(&f.section)));
+            section = Some(&f.section);
+        }
         let path = dir.join(&f.file);
         let bytes = std::fs::read(&path).map_err(|e| io_err(&path, e))?;
         let mime = if f.file.ends_with(".gif") { "image/gif" } else { "image/png" };

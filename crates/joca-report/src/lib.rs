@@ -65,6 +65,8 @@ pub enum ReportError {
 /// A figure of a report: file relative to the report's directory, and its caption.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Figure {
+    /// Section it belongs to (the group it compares, e.g. a scenario).
+    pub section: String,
     /// Path relative to the report directory.
     pub file: String,
     /// Caption (Markdown-free text).
@@ -138,6 +140,7 @@ pub fn write_figures(
             (900, 480),
         )?;
         figures.push(Figure {
+            section: what.to_owned(),
             file,
             caption: format!(
                 "Fitness of the hardware GA's candidates per generation (solid: best, dashed: mean; {what}). \
@@ -188,6 +191,7 @@ pub fn write_figures(
             (900, 820),
         )?;
         figures.push(Figure {
+            section: what.to_owned(),
             file,
             caption: format!(
                 "What each exposure controller chose, frame by frame, while driving through an abrupt change of illumination on the test town (closed loop: each frame's settings come from the previous frame; {what})."
@@ -221,6 +225,7 @@ pub fn write_figures(
             (900, 480),
         )?;
         figures.push(Figure {
+            section: what.to_owned(),
             file,
             caption: format!("The detector's task loss (focal heat-map + size + offset) during joint training, logged every fifth step, moving average over 20 logs; {what}."),
         });
@@ -230,6 +235,7 @@ pub fn write_figures(
         let file = name("frames", "png");
         frames::qualitative_grid(&dir.join(&file), runs)?;
         figures.push(Figure {
+            section: what.to_owned(),
             file,
             caption: format!(
                 "The same test scenes through each method's camera and controller ({what}): ground truth in green, detections with score ≥ {DRAW_MIN_SCORE} in red."
@@ -242,6 +248,7 @@ pub fn write_figures(
     let file = name("fov", "png");
     plot::fov_diagram(&dir.join(&file), &designs)?;
     figures.push(Figure {
+        section: what.to_owned(),
         file,
         caption: format!("Top view of each design's mount position and horizontal field of view on the ego vehicle ({what}); the mount height z is in the legend."),
     });
@@ -250,6 +257,7 @@ pub fn write_figures(
         let file = name("tunnel", "gif");
         frames::tunnel_animation(&dir.join(&file), runs)?;
         figures.push(Figure {
+            section: what.to_owned(),
             file,
             caption: format!("Animation (10 frames/s) of the tunnel transition through each method's camera, with the exposure and gain its controller chose ({what})."),
         });

@@ -48,7 +48,22 @@ pub enum TrainError {
         /// What is wrong.
         reason: String,
     },
-    /// The deep-learning side failed (including a NaN loss).
+    /// A loss became NaN or infinite during joint training; nothing of that candidate was saved.
+    #[error(
+        "training diverged in generation {generation}, candidate {candidate}: {source}. The last checkpoint ({checkpoint}) is intact; after fixing the cause, --resume continues from it"
+    )]
+    Diverged {
+        /// Generation (0-based).
+        generation: usize,
+        /// Candidate in the generation (0-based).
+        candidate: usize,
+        /// The last checkpoint, described.
+        checkpoint: String,
+        /// The non-finite loss.
+        #[source]
+        source: joca_nn::NnError,
+    },
+    /// The deep-learning side failed.
     #[error(transparent)]
     Nn(#[from] joca_nn::NnError),
     /// A frame could not be produced.

@@ -119,3 +119,64 @@ fn every_method_runs() {
         .to_string();
     assert!(e.contains("run.detector_weights"), "{e}");
 }
+
+/// Overwrites every value of the first F32 tensor of a safetensors file with NaN (the format: an
+/// 8-byte little-endian header length, a JSON header with each tensor's byte range, the data).
+fn poison_first_tensor(path: &std::path::Path) {
+    let mut bytes = std::fs::read(path).unwrap();
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+    let (_, info) = header
+        .as_object()
+        .unwrap()
+        .iter()
+        .find(|(k, v)| *k != "__metadata__" && v["dtype"] == "F32")
+        .unwrap();
+    let (a, b) = (
+        info["data_offsets"][0].as_u64().unwrap() as usize,
+        info["data_offsets"][1].as_u64().unwrap() as usize,
+    );
+    for chunk in bytes[8 + n + a..8 + n + b].chunks_exact_mut(4) {
+        chunk.copy_from_slice(&f32::NAN.to_le_bytes());
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn a_nan_loss_mid_run_stops_cleanly_and_leaves_the_last_checkpoint_intact() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = tiny(Method::Joca);
+    let run_dir = dir.path().join("r");
+    let mut stop = |e: &RunEvent| match e {
+        RunEvent::Candidate { done: 1, .. } => ControlFlow::Break(()),
+        _ => ControlFlow::Continue(()),
+    };
+    assert!(run(&cfg, &run_dir, false, &mut stop).is_err());
+    // Divergence injected into the saved detector: the next step's loss is NaN.
+    let ckpt = run_dir.join("checkpoint");
+    poison_first_tensor(&ckpt.join("detector.safetensors"));
+    let snapshot: Vec<(std::ffi::OsString, Vec<u8>)> = std::fs::read_dir(&ckpt)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (e.file_name(), std::fs::read(e.path()).unwrap())
+        })
+        .collect();
+    let e = run(&cfg, &run_dir, true, &mut go).unwrap_err();
+    assert!(matches!(e, TrainError::Diverged { generation: 0, candidate: 1, .. }), "{e}");
+    let text = e.to_string();
+    assert!(
+        text.contains("training diverged in generation 0, candidate 1") && text.contains("NaN"),
+        "{text}"
+    );
+    assert!(text.contains("after 1 candidate(s)) is intact"), "{text}");
+    // Nothing was written over the last checkpoint, and no results were claimed.
+    for (name, bytes) in &snapshot {
+        assert_eq!(&std::fs::read(ckpt.join(name)).unwrap(), bytes, "{name:?} changed");
+    }
+    assert!(!run_dir.join("results.json").exists());
+    let state: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(ckpt.join("state.json")).unwrap()).unwrap();
+    assert_eq!(state["candidate"], 1);
+}

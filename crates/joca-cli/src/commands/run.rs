@@ -61,15 +61,36 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         out.display()
     );
     let started = Instant::now();
+    let generations = cfg.generations;
+    // Steps counted from this process's start, so the ETA of a resumed run is right too.
+    let mut first_step: Option<usize> = None;
     let mut progress = |e: &RunEvent| {
         match e {
-            RunEvent::Candidate { generation, fitness, best, done, of, .. } => {
+            RunEvent::Step { generation, candidate, candidates, step, of, best } => {
+                let done = (generation * candidates + candidate) * of + step;
+                let total = generations * candidates * of;
+                let first = *first_step.get_or_insert(done.saturating_sub(1));
                 let elapsed = started.elapsed().as_secs_f64();
-                let eta = elapsed / *done as f64 * (*of - *done) as f64;
+                let rate = elapsed / (done - first).max(1) as f64;
+                let eta = rate * (total - done) as f64;
+                let best = best.map_or("   -  ".to_owned(), |b| format!("{b:.3}"));
+                let filled = (24 * done / total.max(1)).min(24);
                 eprint!(
-                    "\r  candidate {done:>4}/{of}  generation {generation:>3}  fitness {fitness:.3}  best {best:.3}  ETA {eta:.0} s   "
+                    "\r  [{}{}] generation {:>2}/{generations}  candidate {:>2}/{candidates}  step {step:>3}/{of}  best fitness {best}  ETA {}   ",
+                    "#".repeat(filled),
+                    ".".repeat(24 - filled),
+                    generation + 1,
+                    candidate + 1,
+                    clock(eta)
                 );
                 let _ = std::io::stderr().flush();
+            }
+            RunEvent::Candidate { fitness, best, done, of, .. } => {
+                // One line per finished candidate stays on screen above the bar.
+                eprintln!(
+                    "\r  candidate {done:>4}/{of} done: fitness {fitness:.3}, best so far {best:.3}{:60}",
+                    ""
+                );
             }
             RunEvent::Testing => eprintln!("\n  testing the best design on the test town…"),
         }
@@ -82,6 +103,16 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         .with_context(|| format!("cannot write the report of {}", out.display()))?;
     println!("\nreport: {} (and report.html, figures/)", out.join("report.md").display());
     Ok(())
+}
+
+/// Seconds as `1h02m`, `12m05s` or `42s`.
+fn clock(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    match (s / 3600, s / 60 % 60, s % 60) {
+        (0, 0, s) => format!("{s}s"),
+        (0, m, s) => format!("{m}m{s:02}s"),
+        (h, m, _) => format!("{h}h{m:02}m"),
+    }
 }
 
 /// Relative weight paths are tried from the working directory, then from the repository root

@@ -354,6 +354,22 @@ pub enum RunEvent {
         /// Total candidates.
         of: usize,
     },
+    /// A training step finished (a run cannot be interrupted here: it stops between
+    /// candidates, where it checkpoints).
+    Step {
+        /// Generation (0-based).
+        generation: usize,
+        /// Candidate in the generation (0-based).
+        candidate: usize,
+        /// Candidates per generation.
+        candidates: usize,
+        /// Steps of this candidate done.
+        step: usize,
+        /// Steps per candidate.
+        of: usize,
+        /// Best fitness so far (None before the first candidate finished).
+        best: Option<f64>,
+    },
     /// Testing started.
     Testing,
 }
@@ -517,8 +533,30 @@ pub fn run(
         while state.candidate < members.len() {
             let design = cx.codec.decode(&members[state.candidate])?;
             let index = (state.generation * members.len() + state.candidate) as u64;
-            let scores =
-                train_candidate(&mut cx, &mut model, &mut state.perturbation, &design, index)?;
+            let (generation, candidate, candidates) =
+                (state.generation, state.candidate, members.len());
+            let best = state.best.as_ref().map(|b| b.1);
+            let mut on_step = |step: usize, of: usize| {
+                let _ =
+                    progress(&RunEvent::Step { generation, candidate, candidates, step, of, best });
+            };
+            let scores = match train_candidate(
+                &mut cx,
+                &mut model,
+                &mut state.perturbation,
+                &design,
+                index,
+                &mut on_step,
+            ) {
+                Err(TrainError::Nn(source @ joca_nn::NnError::NonFinite { .. })) => {
+                    let checkpoint = ckpt.existing().map_or_else(
+                        || "none: no candidate had finished".to_owned(),
+                        |d| format!("{}, after {index} candidate(s)", d.display()),
+                    );
+                    return Err(TrainError::Diverged { generation, candidate, checkpoint, source });
+                }
+                r => r?,
+            };
             let fitness = scores.fitness();
             state.fitness.push(fitness);
             if state.best.as_ref().is_none_or(|(_, f)| fitness > *f) {
@@ -691,9 +729,9 @@ pub fn bench_step(
     config.validate()?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     let mut perturbation = perturbation_ga(&config, &cx.streams)?;
-    train_candidate(&mut cx, &mut model, &mut perturbation, design, 0)?; // warm-up
+    train_candidate(&mut cx, &mut model, &mut perturbation, design, 0, &mut |_, _| {})?; // warm-up
     cx.timing = Some(StepBreakdown::default());
-    train_candidate(&mut cx, &mut model, &mut perturbation, design, 1)?;
+    train_candidate(&mut cx, &mut model, &mut perturbation, design, 1, &mut |_, _| {})?;
     let t = cx.timing.unwrap_or_default();
     Ok(t.scaled(1.0 / t.steps.max(1) as f64))
 }
@@ -731,6 +769,7 @@ fn train_candidate(
     perturbation: &mut Ga,
     design: &CameraDesign,
     index: u64,
+    on_step: &mut dyn FnMut(usize, usize),
 ) -> Result<TaskScores, TrainError> {
     let c = cx.config.clone();
     let mut rng = cx.streams.indexed("candidate", index);
@@ -876,6 +915,7 @@ fn train_candidate(
         }
         previous_pred = prediction.unwrap_or(applied);
         previous_frame = Some(report.frame);
+        on_step(step + 1, c.steps_per_candidate);
     }
     Ok(metrics.compute())
 }

@@ -1,0 +1,148 @@
+//! Grey images for optical flow: conversion from RGB, bilinear sampling with replicated borders,
+//! gradients, and the Gaussian pyramid.
+
+use joca_core::Rgb8Image;
+
+/// A single-channel f32 image, row-major (intensities 0–255 when made from 8-bit frames).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gray {
+    width: usize,
+    height: usize,
+    data: Vec<f32>,
+}
+
+impl Gray {
+    /// An image from its pixels; `data.len()` must be `width * height`.
+    pub fn new(width: usize, height: usize, data: Vec<f32>) -> Self {
+        assert_eq!(data.len(), width * height, "Gray::new: {width}×{height} needs {} values", width * height);
+        Self { width, height, data }
+    }
+
+    /// Luma (Rec. 601 weights) of an 8-bit RGB frame.
+    pub fn from_rgb8(image: &Rgb8Image) -> Self {
+        let data = image
+            .data()
+            .chunks_exact(3)
+            .map(|p| 0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2]))
+            .collect();
+        Self::new(image.width(), image.height(), data)
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Pixels, row-major.
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// The pixel at (x, y).
+    #[inline]
+    pub fn at(&self, x: usize, y: usize) -> f32 {
+        self.data[y * self.width + x]
+    }
+
+    /// Bilinear sample at (x, y) in pixel coordinates (pixel centres at integers); coordinates
+    /// outside the image take the nearest border value.
+    #[inline]
+    pub fn sample(&self, x: f32, y: f32) -> f32 {
+        let max_x = (self.width - 1) as f32;
+        let max_y = (self.height - 1) as f32;
+        let x = x.clamp(0.0, max_x);
+        let y = y.clamp(0.0, max_y);
+        let x0 = x.floor();
+        let y0 = y.floor();
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as usize, y0 as usize);
+        let x1 = (x0 + 1).min(self.width - 1);
+        let y1 = (y0 + 1).min(self.height - 1);
+        let top = self.at(x0, y0) * (1.0 - fx) + self.at(x1, y0) * fx;
+        let bottom = self.at(x0, y1) * (1.0 - fx) + self.at(x1, y1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// Horizontal and vertical derivatives by central differences (one-sided at the borders).
+    pub fn gradients(&self) -> (Gray, Gray) {
+        let (w, h) = (self.width, self.height);
+        let mut gx = vec![0.0; w * h];
+        let mut gy = vec![0.0; w * h];
+        for y in 0..h {
+            let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
+            for x in 0..w {
+                let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                gx[y * w + x] = (self.at(xb, y) - self.at(xa, y)) / (xb - xa).max(1) as f32;
+                gy[y * w + x] = (self.at(x, yb) - self.at(x, ya)) / (yb - ya).max(1) as f32;
+            }
+        }
+        (Gray::new(w, h, gx), Gray::new(w, h, gy))
+    }
+
+    /// Smoothed with the binomial kernel [1 4 6 4 1]/16 in both directions and subsampled by 2
+    /// (size rounded up): the next pyramid level.
+    pub fn half(&self) -> Gray {
+        let (w, h) = (self.width, self.height);
+        const K: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
+        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+        let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
+        // Horizontal pass at the kept columns only, then vertical at the kept rows.
+        let mut tmp = vec![0.0; nw * h];
+        for y in 0..h {
+            for nx in 0..nw {
+                let x = (2 * nx) as isize;
+                tmp[y * nw + nx] =
+                    (0..5).map(|k| K[k] * self.at(clamp(x + k as isize - 2, w), y)).sum();
+            }
+        }
+        let mut out = vec![0.0; nw * nh];
+        for ny in 0..nh {
+            let y = (2 * ny) as isize;
+            for nx in 0..nw {
+                out[ny * nw + nx] = (0..5).map(|k| K[k] * tmp[clamp(y + k as isize - 2, h) * nw + nx]).sum();
+            }
+        }
+        Gray::new(nw, nh, out)
+    }
+}
+
+/// Levels 0 (the image) to `levels - 1`, each half the size of the previous.
+pub fn pyramid(image: &Gray, levels: usize) -> Vec<Gray> {
+    let mut out = vec![image.clone()];
+    while out.len() < levels.max(1) {
+        let next = out[out.len() - 1].half();
+        out.push(next);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bilinear_sampling_is_exact_on_a_plane_and_clamps_outside() {
+        // f(x, y) = 3x + 5y + 1 is reproduced exactly by bilinear interpolation.
+        let img = Gray::new(8, 6, (0..48).map(|i| 3.0 * (i % 8) as f32 + 5.0 * (i / 8) as f32 + 1.0).collect());
+        assert!((img.sample(2.25, 3.5) - (3.0 * 2.25 + 5.0 * 3.5 + 1.0)).abs() < 1e-5);
+        assert_eq!(img.sample(-4.0, -1.0), 1.0);
+        assert_eq!(img.sample(100.0, 2.0), 3.0 * 7.0 + 5.0 * 2.0 + 1.0);
+        let (gx, gy) = img.gradients();
+        assert!(gx.data().iter().all(|&g| (g - 3.0).abs() < 1e-5));
+        assert!(gy.data().iter().all(|&g| (g - 5.0).abs() < 1e-5));
+    }
+
+    #[test]
+    fn halving_keeps_a_constant_and_rounds_the_size_up() {
+        let img = Gray::new(7, 5, vec![42.0; 35]);
+        let half = img.half();
+        assert_eq!((half.width(), half.height()), (4, 3));
+        assert!(half.data().iter().all(|&v| (v - 42.0).abs() < 1e-4));
+        assert_eq!(pyramid(&img, 3).len(), 3);
+    }
+}

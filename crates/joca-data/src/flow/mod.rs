@@ -1,0 +1,367 @@
+//! Dense Inverse Search optical flow (Kroeger, Timofte, Dai, Van Gool, ECCV 2016), in the form
+//! OpenCV's `DISOpticalFlow` popularised, written out in Rust.
+//!
+//! For a reference image `I0` and a target `I1`, the flow `u(x)` satisfies `I0(x) ≈ I1(x + u(x))`.
+//! Coarse to fine over a Gaussian pyramid, at each scale:
+//! 1. **Patch grid.** Square patches of `patch_size` pixels every `patch_stride` pixels.
+//! 2. **Inverse search.** Each patch's translation is refined by inverse-compositional
+//!    Lucas–Kanade: the template's gradients and 2×2 Hessian are computed once, each iteration
+//!    only samples `I1` at the current estimate (`u ← u − H⁻¹ Σ ∇T·(I1(x+u) − T)`). Patches are
+//!    mean-normalised (robust to brightness changes); an estimate worse than the initial one is
+//!    discarded.
+//! 3. **Densification.** A pixel's flow is the average of the flows of the patches covering it,
+//!    weighted by `1 / max(1, |I1(x + u_i) − I0(x)|)`.
+//! 4. **Variational refinement** (optional, [`variational`]): a few fixed-point iterations of a
+//!    robust brightness-constancy + smoothness energy, solved by SOR.
+//!
+//! The result is computed down to `finest_scale` (1 = half resolution) and upsampled bilinearly.
+
+mod image;
+pub mod variational;
+
+pub use image::{Gray, pyramid};
+use rayon::prelude::*;
+
+/// A dense flow field: `u(x) = (dx, dy)` in pixels with `I0(x) ≈ I1(x + u(x))`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Flow {
+    width: usize,
+    height: usize,
+    data: Vec<[f32; 2]>,
+}
+
+impl Flow {
+    /// A flow field from its vectors, row-major.
+    pub fn new(width: usize, height: usize, data: Vec<[f32; 2]>) -> Self {
+        assert_eq!(data.len(), width * height, "Flow::new: {width}×{height} needs {} vectors", width * height);
+        Self { width, height, data }
+    }
+
+    /// Zero flow.
+    pub fn zeros(width: usize, height: usize) -> Self {
+        Self::new(width, height, vec![[0.0; 2]; width * height])
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Vectors, row-major.
+    pub fn data(&self) -> &[[f32; 2]] {
+        &self.data
+    }
+
+    /// The vector at (x, y).
+    pub fn at(&self, x: usize, y: usize) -> [f32; 2] {
+        self.data[y * self.width + x]
+    }
+
+    /// Bilinear sample at (x, y), borders replicated.
+    pub fn sample(&self, x: f32, y: f32) -> [f32; 2] {
+        let x = x.clamp(0.0, (self.width - 1) as f32);
+        let y = y.clamp(0.0, (self.height - 1) as f32);
+        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let mut out = [0.0; 2];
+        for (c, o) in out.iter_mut().enumerate() {
+            let top = self.at(x0, y0)[c] * (1.0 - fx) + self.at(x1, y0)[c] * fx;
+            let bottom = self.at(x0, y1)[c] * (1.0 - fx) + self.at(x1, y1)[c] * fx;
+            *o = top * (1.0 - fy) + bottom * fy;
+        }
+        out
+    }
+
+    /// This field resampled to `width × height` (pixel centres aligned), vectors scaled with it.
+    pub fn resized(&self, width: usize, height: usize) -> Flow {
+        let (sx, sy) = (self.width as f32 / width as f32, self.height as f32 / height as f32);
+        let data = (0..width * height)
+            .map(|i| {
+                let (x, y) = ((i % width) as f32, (i / width) as f32);
+                let v = self.sample((x + 0.5) * sx - 0.5, (y + 0.5) * sy - 0.5);
+                [v[0] / sx, v[1] / sy]
+            })
+            .collect();
+        Flow::new(width, height, data)
+    }
+
+    /// Mean length of the vectors, pixels.
+    pub fn mean_magnitude(&self) -> f64 {
+        self.data.iter().map(|v| f64::from(v[0].hypot(v[1]))).sum::<f64>() / self.data.len().max(1) as f64
+    }
+
+    /// Average end-point error against `truth` (same size), pixels.
+    pub fn endpoint_error(&self, truth: &Flow) -> f64 {
+        assert_eq!((self.width, self.height), (truth.width, truth.height));
+        self.data
+            .iter()
+            .zip(&truth.data)
+            .map(|(a, b)| f64::from((a[0] - b[0]).hypot(a[1] - b[1])))
+            .sum::<f64>()
+            / self.data.len().max(1) as f64
+    }
+}
+
+/// OpenCV's presets of `DISOpticalFlow`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DisPreset {
+    /// Quarter resolution, 8-pixel patches every 6, no refinement.
+    UltraFast,
+    /// Quarter resolution, 8-pixel patches every 4, 5 refinement iterations.
+    Fast,
+    /// Half resolution, 12-pixel patches every 6, 25 search iterations, 5 refinement iterations.
+    Medium,
+}
+
+impl DisPreset {
+    /// Parses `ultrafast`, `fast` or `medium`, listing them on failure.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        match name {
+            "ultrafast" => Ok(Self::UltraFast),
+            "fast" => Ok(Self::Fast),
+            "medium" => Ok(Self::Medium),
+            _ => Err(format!("unknown flow preset {name:?}; valid: ultrafast, fast, medium")),
+        }
+    }
+}
+
+/// Parameters of [`dis`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DisParams {
+    /// Finest pyramid level computed (0 = full resolution); finer levels are upsampled.
+    pub finest_scale: usize,
+    /// Patch side, pixels.
+    pub patch_size: usize,
+    /// Distance between patches, pixels.
+    pub patch_stride: usize,
+    /// Inverse-search iterations per patch.
+    pub search_iterations: usize,
+    /// Variational refinement iterations per scale (0: none).
+    pub refinement_iterations: usize,
+}
+
+impl DisParams {
+    /// The parameters of a preset (OpenCV's values).
+    pub fn preset(preset: DisPreset) -> Self {
+        match preset {
+            DisPreset::UltraFast => Self {
+                finest_scale: 2,
+                patch_size: 8,
+                patch_stride: 6,
+                search_iterations: 16,
+                refinement_iterations: 0,
+            },
+            DisPreset::Fast => Self {
+                finest_scale: 2,
+                patch_size: 8,
+                patch_stride: 4,
+                search_iterations: 16,
+                refinement_iterations: 5,
+            },
+            DisPreset::Medium => Self {
+                finest_scale: 1,
+                patch_size: 12,
+                patch_stride: 6,
+                search_iterations: 25,
+                refinement_iterations: 5,
+            },
+        }
+    }
+
+    /// Coarsest level for an image of `width × height`: where the image is about four patches
+    /// across (OpenCV's rule), but never finer than `finest_scale`.
+    pub fn coarsest_scale(&self, width: usize, height: usize) -> usize {
+        let ratio = width.max(height) as f64 / (4.0 * self.patch_size as f64);
+        let s = if ratio > 1.0 { (ratio.log2() + 0.5) as usize } else { 0 };
+        s.max(self.finest_scale)
+    }
+}
+
+/// Patch origins along an axis of `n` pixels: every `stride`, plus one flush with the end.
+fn patch_origins(n: usize, size: usize, stride: usize) -> Vec<usize> {
+    if n <= size {
+        return vec![0];
+    }
+    let mut v: Vec<usize> = (0..=n - size).step_by(stride.max(1)).collect();
+    if v.last() != Some(&(n - size)) {
+        v.push(n - size);
+    }
+    v
+}
+
+/// Inverse-compositional search of one patch with origin (px, py), starting from `init`.
+#[allow(clippy::too_many_arguments)]
+fn search_patch(
+    i0: &Gray,
+    i1: &Gray,
+    gx: &Gray,
+    gy: &Gray,
+    (px, py): (usize, usize),
+    size: usize,
+    iterations: usize,
+    init: [f32; 2],
+) -> [f32; 2] {
+    let n = size * size;
+    let (w, h) = (i0.width(), i0.height());
+    let mut t = Vec::with_capacity(n);
+    let mut g = Vec::with_capacity(n);
+    let mut coords = Vec::with_capacity(n);
+    for j in 0..size {
+        for i in 0..size {
+            let (x, y) = ((px + i).min(w - 1), (py + j).min(h - 1));
+            t.push(i0.at(x, y));
+            g.push([gx.at(x, y), gy.at(x, y)]);
+            coords.push((x as f32, y as f32));
+        }
+    }
+    // Mean-normalised template and the correspondingly centred gradients.
+    let nf = n as f32;
+    let t_mean = t.iter().sum::<f32>() / nf;
+    let g_mean = g.iter().fold([0.0f32; 2], |a, v| [a[0] + v[0] / nf, a[1] + v[1] / nf]);
+    for v in &mut t {
+        *v -= t_mean;
+    }
+    for v in &mut g {
+        v[0] -= g_mean[0];
+        v[1] -= g_mean[1];
+    }
+    let (mut hxx, mut hxy, mut hyy) = (0.0f32, 0.0f32, 0.0f32);
+    for v in &g {
+        hxx += v[0] * v[0];
+        hxy += v[0] * v[1];
+        hyy += v[1] * v[1];
+    }
+    // A little regularisation keeps nearly textureless patches from jumping.
+    let reg = 1e-3 * (hxx + hyy) + 1e-6;
+    let (hxx, hyy) = (hxx + reg, hyy + reg);
+    let det = hxx * hyy - hxy * hxy;
+    if det <= 1e-9 {
+        return init;
+    }
+    let residuals = |u: [f32; 2], out: &mut Vec<f32>| -> f32 {
+        out.clear();
+        for &(x, y) in &coords {
+            out.push(i1.sample(x + u[0], y + u[1]));
+        }
+        let mean = out.iter().sum::<f32>() / nf;
+        let mut ssd = 0.0;
+        for (k, v) in out.iter_mut().enumerate() {
+            *v = *v - mean - t[k];
+            ssd += *v * *v;
+        }
+        ssd
+    };
+    let mut e = Vec::with_capacity(n);
+    let initial_ssd = residuals(init, &mut e);
+    let mut u = init;
+    let mut ssd = initial_ssd;
+    for it in 0..iterations {
+        if it > 0 {
+            ssd = residuals(u, &mut e);
+        }
+        let (mut bx, mut by) = (0.0f32, 0.0f32);
+        for (k, r) in e.iter().enumerate() {
+            bx += g[k][0] * r;
+            by += g[k][1] * r;
+        }
+        let dx = (hyy * bx - hxy * by) / det;
+        let dy = (hxx * by - hxy * bx) / det;
+        u = [u[0] - dx, u[1] - dy];
+        if dx * dx + dy * dy < 1e-6 {
+            break;
+        }
+    }
+    let _ = ssd;
+    if residuals(u, &mut e) > initial_ssd { init } else { u }
+}
+
+/// One scale: patch search from `init`, densification, optional refinement.
+fn scale_flow(i0: &Gray, i1: &Gray, init: &Flow, p: &DisParams) -> Flow {
+    let (w, h) = (i0.width(), i0.height());
+    let (gx, gy) = i0.gradients();
+    let size = p.patch_size;
+    let xs = patch_origins(w, size, p.patch_stride);
+    let ys = patch_origins(h, size, p.patch_stride);
+    let origins: Vec<(usize, usize)> = ys.iter().flat_map(|&y| xs.iter().map(move |&x| (x, y))).collect();
+    let half = size as f32 / 2.0 - 0.5;
+    let patch_flows: Vec<[f32; 2]> = origins
+        .par_iter()
+        .map(|&(px, py)| {
+            let start = init.sample(px as f32 + half, py as f32 + half);
+            search_patch(i0, i1, &gx, &gy, (px, py), size, p.search_iterations, start)
+        })
+        .collect();
+    // Densification: photometric-error-weighted average of the covering patches.
+    let mut acc = vec![[0.0f32; 3]; w * h];
+    for (&(px, py), u) in origins.iter().zip(&patch_flows) {
+        for y in py..(py + size).min(h) {
+            for x in px..(px + size).min(w) {
+                let diff = (i1.sample(x as f32 + u[0], y as f32 + u[1]) - i0.at(x, y)).abs();
+                let weight = 1.0 / diff.max(1.0);
+                let a = &mut acc[y * w + x];
+                a[0] += weight * u[0];
+                a[1] += weight * u[1];
+                a[2] += weight;
+            }
+        }
+    }
+    let data = acc
+        .iter()
+        .zip(init.data())
+        .map(|(a, fallback)| if a[2] > 0.0 { [a[0] / a[2], a[1] / a[2]] } else { *fallback })
+        .collect();
+    let mut flow = Flow::new(w, h, data);
+    if p.refinement_iterations > 0 {
+        variational::refine(i0, i1, &mut flow, &variational::RefineParams::default(), p.refinement_iterations);
+    }
+    flow
+}
+
+/// The flow from `i0` to `i1` (same size): `I0(x) ≈ I1(x + u(x))`.
+pub fn dis(i0: &Gray, i1: &Gray, params: &DisParams) -> Flow {
+    assert_eq!((i0.width(), i0.height()), (i1.width(), i1.height()), "dis: images differ in size");
+    let coarsest = params.coarsest_scale(i0.width(), i0.height());
+    let p0 = pyramid(i0, coarsest + 1);
+    let p1 = pyramid(i1, coarsest + 1);
+    let mut flow = Flow::zeros(p0[coarsest].width(), p0[coarsest].height());
+    for s in (params.finest_scale..=coarsest).rev() {
+        let (w, h) = (p0[s].width(), p0[s].height());
+        let init = if flow.width() == w && flow.height() == h { flow } else { flow.resized(w, h) };
+        flow = scale_flow(&p0[s], &p1[s], &init, params);
+    }
+    if params.finest_scale > 0 { flow.resized(i0.width(), i0.height()) } else { flow }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn patch_grid_covers_the_image() {
+        assert_eq!(patch_origins(20, 8, 4), vec![0, 4, 8, 12]);
+        assert_eq!(patch_origins(21, 8, 4), vec![0, 4, 8, 12, 13]);
+        assert_eq!(patch_origins(5, 8, 4), vec![0]);
+    }
+
+    #[test]
+    fn resizing_a_constant_flow_scales_its_vectors() {
+        let f = Flow::new(4, 3, vec![[1.0, -2.0]; 12]);
+        let g = f.resized(8, 6);
+        assert!(g.data().iter().all(|v| (v[0] - 2.0).abs() < 1e-6 && (v[1] + 4.0).abs() < 1e-6));
+    }
+
+    #[test]
+    fn coarsest_scale_follows_the_image_size() {
+        let p = DisParams::preset(DisPreset::Medium);
+        // 1920 / 48 = 40 → log2 ≈ 5.3 → 5.
+        assert_eq!(p.coarsest_scale(1920, 1280), 5);
+        assert_eq!(p.coarsest_scale(30, 20), 1);
+        assert!(DisPreset::from_name("slow").unwrap_err().contains("ultrafast, fast, medium"));
+    }
+}
