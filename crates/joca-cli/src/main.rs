@@ -47,6 +47,10 @@ enum Command {
     Experiment(commands::experiment::Args),
     /// Regenerate report.md, report.html and figures of a run or experiment directory.
     Report(commands::report::Args),
+    /// Dense Inverse Search optical flow between two frames: colour-coded flow and warp check.
+    Flow(commands::flow::FlowArgs),
+    /// Preview the real-image mode's flow-based motion blur on a folder of consecutive frames.
+    Blur(commands::flow::BlurArgs),
     /// Run or resume one experiment cell (used by `joca experiment` and its Slurm tasks).
     #[command(hide = true)]
     Cell(commands::experiment::CellArgs),
@@ -67,6 +71,8 @@ fn main() -> ExitCode {
         Command::Experiment(args) => commands::experiment::run(&args),
         Command::Report(args) => commands::report::run(&args),
         Command::Cell(args) => commands::experiment::run_cell(&args),
+        Command::Flow(args) => commands::flow::run_flow(&args),
+        Command::Blur(args) => commands::flow::run_blur(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,4 +15,5 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod blur;
 pub mod flow;

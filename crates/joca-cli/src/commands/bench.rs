@@ -22,6 +22,8 @@ pub enum Target {
     Detector,
     /// One step of the joint loop (method joca) broken down by part, on the FLIR camera.
     Step,
+    /// DIS optical flow on a 1920×1280 pair (each preset, 1 and 2 threads) and flow-based blur.
+    Flow,
 }
 
 /// Arguments of `joca bench`.
@@ -51,6 +53,7 @@ pub fn run(args: &Args) -> Result<()> {
         Target::Render => bench_render(args.repeats.max(1)),
         Target::Detector => bench_detector(args.repeats.max(1), args.threads, &args.python),
         Target::Step => bench_step(args.repeats.max(2), &args.preset),
+        Target::Flow => bench_flow(args.repeats.clamp(1, 5)),
     }
 }
 
@@ -106,6 +109,97 @@ fn bench_formation(repeats: usize) -> Result<()> {
     row(&format!("full formation, rayon ({threads} threads)"), parallel);
     row("normal samples only (3 per pixel), 1 thread", normals);
     row("scale+clip+round only (no noise), 1 thread", deterministic);
+    Ok(())
+}
+
+/// A textured 1920×1280 pair with a known motion (zoom 1 % about the centre plus a shift of
+/// (3.3, −1.2) px): the flow benchmark's input.
+fn flow_pair() -> (joca_data::flow::Gray, joca_data::flow::Gray, joca_data::flow::Flow) {
+    use joca_data::flow::{Flow, Gray};
+    let (w, h) = (1920usize, 1280usize);
+    let texture = |x: f32, y: f32| {
+        128.0
+            + 40.0 * (0.11 * x + 0.3 * (0.013 * y).sin()).sin()
+            + 30.0 * (0.07 * y + 0.2 * (0.021 * x).cos()).cos()
+            + 25.0 * (0.031 * (x + y)).sin() * (0.043 * (x - y)).cos()
+    };
+    let (cx, cy, k, t) = (w as f32 / 2.0, h as f32 / 2.0, 1.01f32, (3.3f32, -1.2f32));
+    let forward = |x: f32, y: f32| (cx + k * (x - cx) + t.0, cy + k * (y - cy) + t.1);
+    let inverse = |x: f32, y: f32| (cx + (x - t.0 - cx) / k, cy + (y - t.1 - cy) / k);
+    let grid = |f: &dyn Fn(f32, f32) -> f32| {
+        Gray::new(w, h, (0..w * h).map(|i| f((i % w) as f32, (i / w) as f32)).collect())
+    };
+    let i0 = grid(&|x, y| texture(x, y));
+    let i1 = grid(&|x, y| {
+        let (a, b) = inverse(x, y);
+        texture(a, b)
+    });
+    let truth = Flow::new(
+        w,
+        h,
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let (a, b) = forward(x, y);
+                [a - x, b - y]
+            })
+            .collect(),
+    );
+    (i0, i1, truth)
+}
+
+fn bench_flow(repeats: usize) -> Result<()> {
+    use joca_data::flow::{DisParams, DisPreset, dis};
+    let (i0, i1, truth) = flow_pair();
+    println!(
+        "DIS optical flow, 1920×1280 textured pair (zoom 1 % + shift), best of {repeats}; goal for `fast`: ≤ 300 ms on 2 threads"
+    );
+    println!(
+        "{:<10} {:>8} {:>10} {:>12} {:>10} {:>12}",
+        "preset", "threads", "ms", "vs 300 ms", "EPE px", "2t vs 1t"
+    );
+    for (name, preset) in [
+        ("ultrafast", DisPreset::UltraFast),
+        ("fast", DisPreset::Fast),
+        ("medium", DisPreset::Medium),
+    ] {
+        let params = DisParams::preset(preset);
+        let epe = dis(&i0, &i1, &params).endpoint_error(&truth);
+        let mut one = 0.0;
+        for threads in [1usize, 2] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+            let t = pool.install(|| {
+                best_of(repeats, || {
+                    black_box(dis(&i0, &i1, &params));
+                })
+            });
+            if threads == 1 {
+                one = t;
+            }
+            println!(
+                "{name:<10} {threads:>8} {:>10.1} {:>12.2} {epe:>10.3} {:>12}",
+                t * 1e3,
+                t * 1e3 / 300.0,
+                if threads == 2 { format!("{:.2}×", one / t) } else { String::new() }
+            );
+        }
+    }
+    // Blur: the true flow scaled to a 6-pixel mean smear (13 sub-samples per pixel).
+    let (w, h) = (i0.width(), i0.height());
+    let rgb: Vec<f32> = i0.data().iter().flat_map(|&v| [v, v * 0.8, v * 0.6]).collect();
+    let image = HdrImage::from_vec(w, h, rgb)?;
+    let travel = 6.0 / truth.mean_magnitude() as f32;
+    println!("\nflow-based motion blur, 1920×1280 RGB, mean smear 6 px");
+    println!("{:<8} {:>10} {:>12}", "threads", "ms", "Mpixel/s");
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+        let t = pool.install(|| {
+            best_of(repeats, || {
+                black_box(joca_data::blur::motion_blur(&image, &truth, travel));
+            })
+        });
+        println!("{threads:<8} {:>10.1} {:>12.1}", t * 1e3, (w * h) as f64 / t / 1e6);
+    }
     Ok(())
 }
 

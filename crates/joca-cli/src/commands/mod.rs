@@ -4,6 +4,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod eval;
 pub mod experiment;
+pub mod flow;
 pub mod form;
 pub mod metrics;
 pub mod render;

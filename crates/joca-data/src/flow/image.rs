@@ -14,7 +14,12 @@ pub struct Gray {
 impl Gray {
     /// An image from its pixels; `data.len()` must be `width * height`.
     pub fn new(width: usize, height: usize, data: Vec<f32>) -> Self {
-        assert_eq!(data.len(), width * height, "Gray::new: {width}×{height} needs {} values", width * height);
+        assert_eq!(
+            data.len(),
+            width * height,
+            "Gray::new: {width}×{height} needs {} values",
+            width * height
+        );
         Self { width, height, data }
     }
 
@@ -104,7 +109,8 @@ impl Gray {
         for ny in 0..nh {
             let y = (2 * ny) as isize;
             for nx in 0..nw {
-                out[ny * nw + nx] = (0..5).map(|k| K[k] * tmp[clamp(y + k as isize - 2, h) * nw + nx]).sum();
+                out[ny * nw + nx] =
+                    (0..5).map(|k| K[k] * tmp[clamp(y + k as isize - 2, h) * nw + nx]).sum();
             }
         }
         Gray::new(nw, nh, out)
@@ -128,7 +134,11 @@ mod tests {
     #[test]
     fn bilinear_sampling_is_exact_on_a_plane_and_clamps_outside() {
         // f(x, y) = 3x + 5y + 1 is reproduced exactly by bilinear interpolation.
-        let img = Gray::new(8, 6, (0..48).map(|i| 3.0 * (i % 8) as f32 + 5.0 * (i / 8) as f32 + 1.0).collect());
+        let img = Gray::new(
+            8,
+            6,
+            (0..48).map(|i| 3.0 * (i % 8) as f32 + 5.0 * (i / 8) as f32 + 1.0).collect(),
+        );
         assert!((img.sample(2.25, 3.5) - (3.0 * 2.25 + 5.0 * 3.5 + 1.0)).abs() < 1e-5);
         assert_eq!(img.sample(-4.0, -1.0), 1.0);
         assert_eq!(img.sample(100.0, 2.0), 3.0 * 7.0 + 5.0 * 2.0 + 1.0);

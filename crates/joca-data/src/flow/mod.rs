@@ -16,8 +16,11 @@
 //!
 //! The result is computed down to `finest_scale` (1 = half resolution) and upsampled bilinearly.
 
+mod colour;
 mod image;
 pub mod variational;
+
+pub use colour::colour_code;
 
 pub use image::{Gray, pyramid};
 use rayon::prelude::*;
@@ -33,7 +36,12 @@ pub struct Flow {
 impl Flow {
     /// A flow field from its vectors, row-major.
     pub fn new(width: usize, height: usize, data: Vec<[f32; 2]>) -> Self {
-        assert_eq!(data.len(), width * height, "Flow::new: {width}×{height} needs {} vectors", width * height);
+        assert_eq!(
+            data.len(),
+            width * height,
+            "Flow::new: {width}×{height} needs {} vectors",
+            width * height
+        );
         Self { width, height, data }
     }
 
@@ -93,7 +101,8 @@ impl Flow {
 
     /// Mean length of the vectors, pixels.
     pub fn mean_magnitude(&self) -> f64 {
-        self.data.iter().map(|v| f64::from(v[0].hypot(v[1]))).sum::<f64>() / self.data.len().max(1) as f64
+        self.data.iter().map(|v| f64::from(v[0].hypot(v[1]))).sum::<f64>()
+            / self.data.len().max(1) as f64
     }
 
     /// Average end-point error against `truth` (same size), pixels.
@@ -260,10 +269,9 @@ fn search_patch(
     let mut e = Vec::with_capacity(n);
     let initial_ssd = residuals(init, &mut e);
     let mut u = init;
-    let mut ssd = initial_ssd;
     for it in 0..iterations {
         if it > 0 {
-            ssd = residuals(u, &mut e);
+            residuals(u, &mut e);
         }
         let (mut bx, mut by) = (0.0f32, 0.0f32);
         for (k, r) in e.iter().enumerate() {
@@ -277,7 +285,6 @@ fn search_patch(
             break;
         }
     }
-    let _ = ssd;
     if residuals(u, &mut e) > initial_ssd { init } else { u }
 }
 
@@ -288,7 +295,8 @@ fn scale_flow(i0: &Gray, i1: &Gray, init: &Flow, p: &DisParams) -> Flow {
     let size = p.patch_size;
     let xs = patch_origins(w, size, p.patch_stride);
     let ys = patch_origins(h, size, p.patch_stride);
-    let origins: Vec<(usize, usize)> = ys.iter().flat_map(|&y| xs.iter().map(move |&x| (x, y))).collect();
+    let origins: Vec<(usize, usize)> =
+        ys.iter().flat_map(|&y| xs.iter().map(move |&x| (x, y))).collect();
     let half = size as f32 / 2.0 - 0.5;
     let patch_flows: Vec<[f32; 2]> = origins
         .par_iter()
@@ -318,7 +326,13 @@ fn scale_flow(i0: &Gray, i1: &Gray, init: &Flow, p: &DisParams) -> Flow {
         .collect();
     let mut flow = Flow::new(w, h, data);
     if p.refinement_iterations > 0 {
-        variational::refine(i0, i1, &mut flow, &variational::RefineParams::default(), p.refinement_iterations);
+        variational::refine(
+            i0,
+            i1,
+            &mut flow,
+            &variational::RefineParams::default(),
+            p.refinement_iterations,
+        );
     }
     flow
 }

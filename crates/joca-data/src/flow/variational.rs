@@ -93,10 +93,12 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
                         let (a, u) = (p.alpha, current[k]);
                         let d = psi[k];
                         // ∂E/∂du = 0 and ∂E/∂dv = 0, each solved for its own unknown.
-                        let rhs_u = -d * ix[k] * (iz[k] + iy[k] * du[k][1]) + a * (sum[0] - count * u[0]);
+                        let rhs_u =
+                            -d * ix[k] * (iz[k] + iy[k] * du[k][1]) + a * (sum[0] - count * u[0]);
                         let new_u = rhs_u / (d * ix[k] * ix[k] + a * count);
                         du[k][0] += p.omega * (new_u - du[k][0]);
-                        let rhs_v = -d * iy[k] * (iz[k] + ix[k] * du[k][0]) + a * (sum[1] - count * u[1]);
+                        let rhs_v =
+                            -d * iy[k] * (iz[k] + ix[k] * du[k][0]) + a * (sum[1] - count * u[1]);
                         let new_v = rhs_v / (d * iy[k] * iy[k] + a * count);
                         du[k][1] += p.omega * (new_v - du[k][1]);
                     }
