@@ -568,3 +568,68 @@ fn flow_and_blur_report_motion_and_refuse_bad_input() {
     ]);
     assert!(stderr(&o).contains("valid: srgb, none"), "{}", stderr(&o));
 }
+
+#[test]
+fn a_run_on_a_recorded_folder_reports_the_real_image_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    // `joca render` writes the folder format: frames plus annotations.json with timestamp_s and
+    // exposure_s. Its frames are linear 8-bit values, hence linearize = "none" below.
+    let o = joca(&[
+        "render",
+        "--frames",
+        "8",
+        "--render-scale",
+        "0.2",
+        "--illumination",
+        "day",
+        "--out",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cfg = dir.path().join("real.toml");
+    std::fs::write(&cfg, format!("{TINY_RUN}[run.real]\nlinearize = \"none\"\n")).unwrap();
+    let out = dir.path().join("run");
+    let source = format!("folder:{}", rec.display());
+    let args = [
+        "run",
+        "--source",
+        &source,
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = joca(&args);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains("| Scenario | Method | w×h (mm) | p (µm) | sensor | mAP@[.5:.95] ↑ | AP50 ↑ |"),
+        "{md}"
+    );
+    assert!(md.contains("Test on recorded frames (folder:"), "{md}");
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    // Only sensors whose grid fits inside the 800×600 recording can be chosen.
+    let sensor = results["design"]["sensor"].as_str().unwrap().to_owned();
+    let o = joca(&["sensors", "--format", "csv", "--fits", "800x600"]);
+    assert!(stdout(&o).contains(&format!(",{sensor},")), "{sensor} does not fit 800x600");
+
+    // Frames without exposure are refused with the fix; a bad setting names the field.
+    let text = std::fs::read_to_string(rec.join("annotations.json")).unwrap();
+    std::fs::write(rec.join("annotations.json"), text.replace("\"exposure_s\"", "\"exposure\""))
+        .unwrap();
+    let o = joca(&[&args[..5], &["--out", dir.path().join("run2").to_str().unwrap()]].concat());
+    assert!(
+        stderr(&o).contains("has no exposure_s") && stderr(&o).contains("default exposure"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::write(&cfg, format!("{TINY_RUN}[run.real]\non_bad_frame = \"ignore\"\n")).unwrap();
+    let o = joca(&args);
+    assert!(
+        stderr(&o).contains("run.real.on_bad_frame") && stderr(&o).contains("\"stop\" or \"skip\""),
+        "{}",
+        stderr(&o)
+    );
+}

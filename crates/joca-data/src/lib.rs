@@ -17,3 +17,4 @@
 
 pub mod blur;
 pub mod flow;
+pub mod folder;

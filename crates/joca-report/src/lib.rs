@@ -287,9 +287,17 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
         &[(r.method.clone(), &run)],
     )?;
     let mut md = format!("# {title}\n\n");
+    let tested_on = if r.real_images() {
+        format!(
+            "recorded frames ({}; only the sensor is designed, the recording fixes mount and lens)",
+            r.source
+        )
+    } else {
+        "the test town".to_owned()
+    };
     let _ = writeln!(
         md,
-        "Camera parameters marked ● were optimised, ○ fixed. Test on the test town, closed loop, {} frames; render scale {}.\n",
+        "Camera parameters marked ● were optimised, ○ fixed. Test on {tested_on}, closed loop, {} frames; render scale {}.\n",
         r.test.frames, r.render_scale
     );
     md.push_str(&table.markdown());
@@ -299,7 +307,8 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     md.push_str(&figures_markdown(&figures));
     write_text(&run_dir.join("report.md"), &md)?;
     let body = format!(
-        "<p>Camera parameters marked <span class=\"opt\">●</span> were optimised, <span class=\"fix\">○</span> fixed. Test on the test town, closed loop, {} frames; render scale {}; AP50 {:.3}.</p>\n{}",
+        "<p>Camera parameters marked <span class=\"opt\">●</span> were optimised, <span class=\"fix\">○</span> fixed. Test on {}, closed loop, {} frames; render scale {}; AP50 {:.3}.</p>\n{}",
+        table::escape(&tested_on),
         r.test.frames,
         r.render_scale,
         r.test.ap50,
@@ -312,7 +321,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
 
 fn settings_markdown(r: &Results) -> String {
     let mut md = String::from(
-        "## Exposure and gain on the test town\n\n| illumination | mean E (ms) | mean G (dB) |\n|---|---|---|\n",
+        "## Exposure and gain during the closed-loop test\n\n| illumination | mean E (ms) | mean G (dB) |\n|---|---|---|\n",
     );
     for (light, (e, g)) in &r.settings_by_illumination {
         let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} |");

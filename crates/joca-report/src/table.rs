@@ -68,7 +68,17 @@ impl Table {
         self.rows.iter().filter(|r| r.group == group).map(|r| f(&r.results)).collect()
     }
 
+    /// Whether every row was tested on recorded frames: then the real-image layout of the
+    /// paper's Table 2 is used (only the sensor is designed; mAP and AP50, since a recording has
+    /// no 180° object count).
+    pub fn real_images(&self) -> bool {
+        !self.rows.is_empty() && self.rows.iter().all(|r| r.results.real_images())
+    }
+
     fn cells(&self, style: Style) -> Vec<Vec<String>> {
+        if self.real_images() {
+            return self.real_cells(style);
+        }
         let mark = |optimised: bool, v: String| match (style, optimised) {
             (Style::Markdown, true) => format!("{v} ●"),
             (Style::Markdown, false) => format!("{v} ○"),
@@ -106,8 +116,53 @@ impl Table {
             .collect()
     }
 
-    fn headers(&self) -> [String; 10] {
-        [
+    fn real_cells(&self, style: Style) -> Vec<Vec<String>> {
+        let mark = |optimised: bool, v: String| match (style, optimised) {
+            (Style::Markdown, true) => format!("{v} ●"),
+            (Style::Markdown, false) => format!("{v} ○"),
+            (Style::Html, true) => format!("{v} <span class=\"opt\">●</span>"),
+            (Style::Html, false) => format!("{v} <span class=\"fix\">○</span>"),
+        };
+        self.rows
+            .iter()
+            .map(|r| {
+                let d = &r.results.design;
+                let maps = self.group_values(&r.group, |x| x.test.map);
+                let ap50s = self.group_values(&r.group, |x| x.test.ap50);
+                vec![
+                    r.group.clone(),
+                    r.label.clone(),
+                    mark(d.optimised, format!("{:.2}×{:.2}", d.sensor_mm.0, d.sensor_mm.1)),
+                    mark(d.optimised, format!("{:.2}", d.pixel_pitch_um)),
+                    d.sensor.clone(),
+                    emphasise(
+                        style,
+                        format!("{:.3}", r.results.test.map),
+                        rank(&maps, r.results.test.map),
+                    ),
+                    emphasise(
+                        style,
+                        format!("{:.3}", r.results.test.ap50),
+                        rank(&ap50s, r.results.test.ap50),
+                    ),
+                ]
+            })
+            .collect()
+    }
+
+    fn headers(&self) -> Vec<String> {
+        if self.real_images() {
+            return vec![
+                "Scenario".into(),
+                self.label_header.clone(),
+                "w×h (mm)".into(),
+                "p (µm)".into(),
+                "sensor".into(),
+                "mAP@[.5:.95] ↑".into(),
+                "AP50 ↑".into(),
+            ];
+        }
+        vec![
             "Scenario".into(),
             self.label_header.clone(),
             "x (m)".into(),
@@ -125,7 +180,7 @@ impl Table {
     pub fn markdown(&self) -> String {
         let mut md = String::new();
         let _ = writeln!(md, "| {} |", self.headers().join(" | "));
-        let _ = writeln!(md, "|{}", "---|".repeat(10));
+        let _ = writeln!(md, "|{}", "---|".repeat(self.headers().len()));
         let mut last_group = String::new();
         for mut row in self.cells(Style::Markdown) {
             if row[0] == last_group {
@@ -171,18 +226,19 @@ impl Table {
     /// The table as CSV, with every number at full precision.
     pub fn csv(&self) -> String {
         let mut c = String::from(
-            "scenario,label,cell,method,x_m,z_m,focal_length_mm,sensor,sensor_w_mm,sensor_h_mm,pixel_pitch_um,optimised,map,ap50,tp_ratio,test_frames\n",
+            "scenario,label,cell,method,source,x_m,z_m,focal_length_mm,sensor,sensor_w_mm,sensor_h_mm,pixel_pitch_um,optimised,map,ap50,tp_ratio,test_frames\n",
         );
         for r in &self.rows {
             let d = &r.results.design;
             let t = &r.results.test;
             let _ = writeln!(
                 c,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 csv_field(&r.group),
                 csv_field(&r.label),
                 csv_field(&r.cell),
                 csv_field(&r.results.method),
+                csv_field(&r.results.source),
                 d.x_m,
                 d.z_m,
                 d.focal_length_mm,
@@ -235,6 +291,7 @@ mod tests {
             test: Scores { map, ap50: 0.5, tp_ratio: tp, frames: 10 },
             settings_by_illumination: Default::default(),
             render_scale: 0.08,
+            source: "sim".into(),
         }
     }
 
@@ -280,6 +337,25 @@ mod tests {
     }
 
     #[test]
+    fn real_image_runs_get_the_sensor_only_layout() {
+        let mut t = table();
+        for r in &mut t.rows {
+            r.results.source = "folder:/data/waymo".into();
+        }
+        let md = t.markdown();
+        assert!(
+            md.starts_with(
+                "| Scenario | Method | w×h (mm) | p (µm) | sensor | mAP@[.5:.95] ↑ | AP50 ↑ |"
+            ),
+            "{md}"
+        );
+        assert!(
+            md.contains("| Calibrated | FLIR | 7.37×4.92 ○ | 2.40 ○ | IMX178 | <u>0.318</u> |"),
+            "{md}"
+        );
+    }
+
+    #[test]
     fn html_spans_groups_and_csv_keeps_full_precision() {
         let t = table();
         let h = t.html();
@@ -289,6 +365,7 @@ mod tests {
         assert!(h.contains("TaCOS, AverageAE"));
         let c = t.csv();
         assert_eq!(c.lines().count(), 7);
-        assert!(c.contains("Calibrated,\"TaCOS, AverageAE\",\"TaCOS, AverageAE-Calibrated\",joca,1.35,1.3,5.19,IMX178,7.3728,4.9152,2.4,true,0.303,0.5,0.358,10"), "{c}");
+        assert!(c.starts_with("scenario,label,cell,method,source,"));
+        assert!(c.contains("Calibrated,\"TaCOS, AverageAE\",\"TaCOS, AverageAE-Calibrated\",joca,sim,1.35,1.3,5.19,IMX178,7.3728,4.9152,2.4,true,0.303,0.5,0.358,10"), "{c}");
     }
 }

@@ -22,6 +22,6 @@ pub use pretrain::{
     EvalReport, PretrainConfig, PretrainEvent, differing_fields, pretrain, reference_design,
 };
 pub use run::{
-    DesignSummary, FixedCamera, Method, RunConfig, RunEvent, RunResults, Scenario, Showcase,
-    ShowcaseFrame, StepBreakdown, bench_step, evaluate_run, run,
+    DesignSummary, FixedCamera, Method, RealConfig, RunConfig, RunEvent, RunResults, Scenario,
+    Showcase, ShowcaseFrame, StepBreakdown, bench_step, evaluate_run, run,
 };

@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 use joca_nn::detector::DetectorConfig;
-use joca_train::{FixedCamera, Method, RunConfig, RunEvent, Scenario, TrainError, run};
+use joca_train::{FixedCamera, Method, RealConfig, RunConfig, RunEvent, Scenario, TrainError, run};
 use std::ops::ControlFlow;
 use std::sync::Mutex;
 
@@ -30,6 +30,9 @@ fn tiny(method: Method) -> RunConfig {
         detector_weights: String::new(),
         test_episodes: 1,
         test_frames_per_episode: 3,
+        source: String::new(),
+        test_source: String::new(),
+        real: RealConfig::default(),
     }
 }
 

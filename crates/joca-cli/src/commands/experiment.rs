@@ -356,7 +356,13 @@ fn run_local(dir: &Path, todo: &[&Cell], jobs: usize) -> Result<()> {
                 .append(true)
                 .open(cell_dir.join("cell.log"))
                 .with_context(|| format!("cannot open {}", cell_dir.join("cell.log").display()))?;
-            let child = Command::new(&exe)
+            let mut command = Command::new(&exe);
+            if jobs > 1 && std::env::var_os("OMP_WAIT_POLICY").is_none() {
+                // libtorch's OpenMP threads spin while waiting for work; with several cells
+                // sharing the cores that spinning takes the time the others need.
+                command.env("OMP_WAIT_POLICY", "PASSIVE");
+            }
+            let child = command
                 .arg("cell")
                 .arg(&cell_dir)
                 .stdout(Stdio::from(log.try_clone()?))

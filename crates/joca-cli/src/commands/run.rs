@@ -29,6 +29,13 @@ pub struct Args {
     /// Continue the run in the run directory from its last checkpoint.
     #[arg(long)]
     resume: bool,
+    /// Frames to train on: `sim` (the built-in simulator) or `folder:DIR` (a recorded sequence in
+    /// the folder format: the real-image mode).
+    #[arg(long)]
+    source: Option<String>,
+    /// Frames to test on in real-image mode [default: the training folder].
+    #[arg(long)]
+    test_source: Option<String>,
 }
 
 /// Runs `joca run`.
@@ -40,8 +47,21 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(s) = &args.scenario {
         cfg.scenario = Scenario::from_name(s).map_err(|e| anyhow!(e))?;
     }
+    if let Some(s) = &args.source {
+        cfg.source.clone_from(s);
+    }
+    if let Some(s) = &args.test_source {
+        cfg.test_source.clone_from(s);
+    }
+    let real = !(cfg.source.is_empty() || cfg.source == "sim");
     let out = args.out.clone().unwrap_or_else(|| {
-        PathBuf::from(format!("runs/{}-{}-{}", args.preset, cfg.method.name(), cfg.scenario.name()))
+        let mode = if real { "-real" } else { "" };
+        PathBuf::from(format!(
+            "runs/{}{mode}-{}-{}",
+            args.preset,
+            cfg.method.name(),
+            cfg.scenario.name()
+        ))
     });
     execute(cfg, &out, args.resume)
 }

@@ -100,7 +100,7 @@ impl Driver {
         &mut self,
         cx: &Context,
         model: &mut JointModel,
-        sim: &Simulator,
+        sim: &dyn FrameSource,
         camera: &PinholeCamera,
         design: &CameraDesign,
         episode: u64,
@@ -159,19 +159,32 @@ pub(super) fn test(
     let map_seed = test_map_seed(0);
     // Build the test town once; the borrow of `cx.sims` ends before the loop needs `cx`.
     simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
+    let real = cx.real.clone();
+    // Recorded sequences are played from their start; the test town from t = 1 s.
+    let start_s = if real.is_some() { 0.0 } else { 1.0 };
     for episode in 0..c.test_episodes {
         let mut driver = Driver::new(model);
         for k in 0..WARMUP_FRAMES + c.test_frames_per_episode {
-            let sim = &cx.sims[&map_seed];
-            let time_s = 1.0 + k as f64 * sim.frame_interval_s();
+            let town = &cx.sims[&map_seed];
+            let source: &dyn FrameSource = match &real {
+                Some(r) => &r.test,
+                None => town,
+            };
+            let time_s = start_s + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed("test-noise", episode * 10_000 + k as u64);
-            let s = driver.step(cx, model, sim, &camera, design, episode, time_s, &mut noise)?;
+            let s = driver.step(cx, model, source, &camera, design, episode, time_s, &mut noise)?;
             if k < WARMUP_FRAMES {
                 continue;
             }
             metrics.update(&s.frame.boxes, &s.detections, s.frame.visible_180);
-            let illumination = sim.episode(episode).illumination;
-            let e = sums.entry(illumination.name().to_owned()).or_default();
+            let (illumination, ambient) = match &real {
+                Some(_) => ("recorded", None),
+                None => (
+                    town.episode(episode).illumination.name(),
+                    Some(ambient(town, episode, time_s)),
+                ),
+            };
+            let e = sums.entry(illumination.to_owned()).or_default();
             e.0 += s.settings.exposure_s * 1e3;
             e.1 += s.settings.gain_db;
             e.2 += 1.0;
@@ -180,7 +193,7 @@ pub(super) fn test(
                 "frame": k - WARMUP_FRAMES,
                 "time_s": time_s,
                 "illumination": illumination,
-                "ambient": ambient(sim, episode, time_s),
+                "ambient": ambient,
                 "exposure_ms": s.settings.exposure_s * 1e3,
                 "gain_db": s.settings.gain_db,
                 "objects": s.frame.boxes.len(),
@@ -194,7 +207,9 @@ pub(super) fn test(
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
         write_atomic(&dir.join("trace.jsonl"), &trace)?;
-        let showcases = showcases(cx, model, design, &camera, dir)?;
+        // The showcases drive the test town (tunnel, day, night): not part of a real-image run.
+        let showcases =
+            if real.is_some() { Vec::new() } else { showcases(cx, model, design, &camera, dir)? };
         write_atomic(
             &dir.join("showcase.json"),
             &serde_json::to_string(&showcases).unwrap_or_default(),

@@ -13,6 +13,8 @@ use joca_camera::{
     ImageFormation, SensorEncoding, compensate_for_pixel_size, sensor_by_name,
 };
 use joca_core::{FrameRequest, FrameSource, SeedStreams};
+use joca_data::blur::Linearize;
+use joca_data::folder::{FolderConfig, FolderSource, OnBadFrame};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::Engine;
@@ -27,6 +29,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The methods of the paper's comparison and ablations.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -222,6 +225,85 @@ pub struct RunConfig {
     pub test_episodes: u64,
     /// Scored frames per test episode.
     pub test_frames_per_episode: usize,
+    /// Frame source for training: empty (or `sim`) for the built-in simulator, `folder:DIR` for
+    /// a recorded sequence in the folder format (the real-image mode).
+    #[serde(default)]
+    pub source: String,
+    /// Frame source for testing; empty: the test town (simulator) or, in real-image mode, the
+    /// training folder itself (say so when you report it).
+    #[serde(default)]
+    pub test_source: String,
+    /// How recorded frames are read (real-image mode only).
+    #[serde(default)]
+    pub real: RealConfig,
+}
+
+/// How the real-image mode reads recorded frames (`[run.real]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RealConfig {
+    /// `srgb` (undo the sRGB curve of 8-bit frames) or `none` (frames are linear).
+    pub linearize: String,
+    /// Exposure of frames without `exposure_s`, ms; 0 refuses such frames.
+    pub default_exposure_ms: f64,
+    /// A frame that cannot be read: `stop` the run naming it, or `skip` it with a warning.
+    pub on_bad_frame: String,
+}
+
+impl Default for RealConfig {
+    fn default() -> Self {
+        Self { linearize: "srgb".into(), default_exposure_ms: 0.0, on_bad_frame: "stop".into() }
+    }
+}
+
+impl RealConfig {
+    fn folder_config(&self) -> Result<FolderConfig, TrainError> {
+        let bad = |field: &str, value: String, allowed: &str| TrainError::Config {
+            field: format!("run.real.{field}"),
+            value,
+            allowed: allowed.into(),
+        };
+        let cal = Calibration::DEFAULT;
+        Ok(FolderConfig {
+            linearize: Linearize::from_name(&self.linearize).map_err(|_| {
+                bad("linearize", format!("{:?}", self.linearize), "\"srgb\" or \"none\"")
+            })?,
+            default_exposure_s: if self.default_exposure_ms > 0.0 {
+                Some(self.default_exposure_ms * 1e-3)
+            } else if self.default_exposure_ms == 0.0 {
+                None
+            } else {
+                return Err(bad(
+                    "default_exposure_ms",
+                    self.default_exposure_ms.to_string(),
+                    "0 (none) or above",
+                ));
+            },
+            on_bad_frame: match self.on_bad_frame.as_str() {
+                "stop" => OnBadFrame::Stop,
+                "skip" => OnBadFrame::Skip,
+                other => {
+                    return Err(bad("on_bad_frame", format!("{other:?}"), "\"stop\" or \"skip\""));
+                }
+            },
+            calibration_exposure_s: cal.exposure_s,
+            calibration_gain_db: cal.gain_db,
+            ..FolderConfig::default()
+        })
+    }
+}
+
+/// A `source` value: the folder of `folder:DIR`, or `None` for the simulator.
+fn folder_of(source: &str, field: &str) -> Result<Option<PathBuf>, TrainError> {
+    match source {
+        "" | "sim" => Ok(None),
+        s if s.starts_with("folder:") && s.len() > 7 => Ok(Some(PathBuf::from(&s[7..]))),
+        s => Err(TrainError::Config {
+            field: format!("run.{field}"),
+            value: format!("{s:?}"),
+            allowed: "\"sim\" (the built-in simulator) or \"folder:DIR\" (a recorded sequence in the folder format; Waymo parquet is not supported yet)".into(),
+        }),
+    }
 }
 
 impl RunConfig {
@@ -272,6 +354,9 @@ impl RunConfig {
                 "a weights file from `joca train-detector` (frozen-detector freezes it)",
             );
         }
+        folder_of(&self.source, "source")?;
+        folder_of(&self.test_source, "test_source")?;
+        self.real.folder_config()?;
         if self.test_episodes == 0 || self.test_frames_per_episode == 0 {
             return bad(
                 "test_episodes",
@@ -300,6 +385,9 @@ pub struct RunResults {
     pub best_fitness: f64,
     /// Output resolution factor.
     pub render_scale: f64,
+    /// The test frames' source: `sim` or `folder:DIR`.
+    #[serde(default)]
+    pub source: String,
 }
 
 /// A design as the result tables show it.
@@ -450,12 +538,20 @@ struct RunState {
     best: Option<(Vec<f64>, f64)>,
 }
 
+/// Training and test folders of the real-image mode.
+struct RealSources {
+    train: FolderSource,
+    test: FolderSource,
+}
+
 struct Context {
     config: RunConfig,
     streams: SeedStreams,
     codec: GenomeCodec,
     formation: ImageFormation,
     sims: HashMap<u64, Simulator>,
+    /// The recorded sources of the real-image mode (None: the simulator).
+    real: Option<Arc<RealSources>>,
     ranges: AccRanges,
     log: Box<dyn Write>,
     log_path: PathBuf,
@@ -655,12 +751,32 @@ fn setup(
         model.load_detector(Path::new(&config.detector_weights))?;
     }
     model.set_detector_trainable(config.method != Method::FrozenDetector);
+    let (real, space) = match folder_of(&config.source, "source")? {
+        None => (None, DesignSpace::synthetic()),
+        Some(dir) => {
+            let folder = config.real.folder_config()?;
+            let train = FolderSource::open(&dir, folder.clone())?;
+            let test = match folder_of(&config.test_source, "test_source")? {
+                Some(test_dir) => FolderSource::open(&test_dir, folder)?,
+                None => FolderSource::open(&dir, folder)?,
+            };
+            // The recording fixes mount and lens (the nuScenes-like values stand in for them in
+            // the tables); only sensors whose pixel grid fits inside the recording are designed.
+            let (w, h) = train.recording_size_px();
+            let fixed = FixedCamera::Flir.design();
+            let space = DesignSpace::synthetic()
+                .with_fixed_mount(fixed.x_m, fixed.z_m, fixed.focal_length_mm)
+                .restricted_to_recording(w as usize, h as usize)?;
+            (Some(Arc::new(RealSources { train, test })), space)
+        }
+    };
     let cx = Context {
         config: config.clone(),
         streams,
-        codec: GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?,
+        codec: GenomeCodec::new(space, SensorEncoding::QuantisedContinuous)?,
         formation,
         sims: HashMap::new(),
+        real,
         ranges,
         log,
         log_path,
@@ -762,6 +878,19 @@ fn simulator(
     })
 }
 
+/// The illumination schedule of a training episode, as logged (`recorded` for real frames).
+fn illumination_name(
+    sims: &HashMap<u64, Simulator>,
+    real: Option<&RealSources>,
+    map_seed: u64,
+    episode: u64,
+) -> &'static str {
+    match (real, sims.get(&map_seed)) {
+        (None, Some(sim)) => sim.episode(episode).illumination.name(),
+        _ => "recorded",
+    }
+}
+
 /// One hardware candidate: k steps of joint training; its fitness scores the k frames together.
 fn train_candidate(
     cx: &mut Context,
@@ -775,8 +904,19 @@ fn train_candidate(
     let mut rng = cx.streams.indexed("candidate", index);
     let map_seed = train_map_seed(rng.random_range(0..c.train_maps));
     let episode: u64 = rng.random_range(0..1_000_000);
-    let span = 59.0 - c.steps_per_candidate as f64 * 0.1;
-    let t0: f64 = rng.random_range(1.0..span.max(1.5));
+    let real = cx.real.clone();
+    let t0: f64 = match &real {
+        None => {
+            let span = 59.0 - c.steps_per_candidate as f64 * 0.1;
+            rng.random_range(1.0..span.max(1.5))
+        }
+        Some(r) => {
+            // A window of k frames inside the recorded sequence (from its start if shorter).
+            let room = r.train.duration_s(episode)
+                - c.steps_per_candidate as f64 * r.train.frame_interval_s();
+            if room > 0.0 { rng.random_range(0.0..room) } else { 0.0 }
+        }
+    };
     let camera = design.pinhole(c.render_scale);
     let pitch = design.sensor().pixel_pitch_um;
     let cal = Calibration::DEFAULT;
@@ -799,7 +939,10 @@ fn train_candidate(
     for step in 0..c.steps_per_candidate {
         let global = index * c.steps_per_candidate as u64 + step as u64;
         lap(&mut None, |t| &mut t.decode_ms);
-        let sim = simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
+        let sim: &dyn FrameSource = match &real {
+            Some(r) => &r.train,
+            None => simulator(&mut cx.sims, map_seed, c.max_speed_mps, None),
+        };
         let t = t0 + step as f64 * sim.frame_interval_s();
         // 1. Exposure and gain for this frame.
         let mut prediction = None;
@@ -910,7 +1053,7 @@ fn train_candidate(
         }
         metrics.update(&frame.boxes, &report.detections, frame.visible_180);
         if step % 5 == 0 {
-            let line = serde_json::json!({"step": global, "loss": report.loss, "ga_loss": report.ga_loss, "exposure_ms": report.exposure_s * 1e3, "gain_db": report.gain_db, "illumination": sim.episode(episode).illumination});
+            let line = serde_json::json!({"step": global, "loss": report.loss, "ga_loss": report.ga_loss, "exposure_ms": report.exposure_s * 1e3, "gain_db": report.gain_db, "illumination": illumination_name(&cx.sims, real.as_deref(), map_seed, episode)});
             writeln!(cx.log, "{line}").map_err(|e| TrainError::io(&cx.log_path, e))?;
         }
         previous_pred = prediction.unwrap_or(applied);
@@ -945,5 +1088,12 @@ fn test_design(
         settings_by_illumination: settings,
         best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
         render_scale: config.render_scale,
+        source: if config.source.is_empty() || config.source == "sim" {
+            "sim".into()
+        } else if config.test_source.is_empty() {
+            config.source.clone()
+        } else {
+            config.test_source.clone()
+        },
     })
 }

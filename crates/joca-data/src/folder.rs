@@ -1,0 +1,465 @@
+//! The folder format for recorded sequences, as a [`FrameSource`].
+//!
+//! A folder holds the frames (PNG or JPEG) and one COCO JSON file, `annotations.json`, whose
+//! `images` carry, besides COCO's `id`, `file_name`, `width`, `height`:
+//! - `timestamp_s` (required): capture time; frames of a sequence are ordered by it;
+//! - `exposure_s` (required unless the source is given a default exposure): the recorded
+//!   exposure time;
+//! - `gain_db` (optional, default: the calibration gain G0);
+//! - `sequence` (optional string, default one sequence): which drive the frame belongs to.
+//!
+//! `annotations` are COCO boxes (`[x, y, w, h]` in recorded pixels); `categories` map to joca's
+//! classes by name (`vehicle`/`car`/`truck`/`bus`, `walker`/`pedestrian`/`person`/`cyclist`,
+//! `traffic_sign`/`sign`) or by an explicit `"joca_class"` field (`vehicle`, `walker`,
+//! `traffic_sign` or `ignore`).
+//!
+//! Emulation (the paper's real-image experiment): a recorded frame is linearised (a setting,
+//! [`Linearize`]), put in calibrated units by `E0·G0 / (E_rec·G_rec)` (linear gains), centre-cropped
+//! to the requested camera's aspect ratio and resized bilinearly to its pixel grid; the motion
+//! blur of the requested exposure is added along the optical flow to the next frame
+//! ([`crate::blur`]). Boxes are cropped and scaled with the image. Image formation then adds the
+//! sensor's noise as for simulated frames.
+
+use crate::blur::{Linearize, motion_blur};
+use crate::flow::{DisParams, DisPreset, Gray, dis};
+use joca_core::{
+    Annotation, BBox, Class, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError,
+};
+use serde::Deserialize;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// What to do with a frame that cannot be read or decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OnBadFrame {
+    /// Leave it out (with a warning) and go on.
+    Skip,
+    /// Stop with an error naming the frame.
+    Stop,
+}
+
+/// Settings of a [`FolderSource`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FolderConfig {
+    /// How 8-bit values map to linear intensity.
+    pub linearize: Linearize,
+    /// Exposure of frames without `exposure_s`; `None` refuses such frames.
+    pub default_exposure_s: Option<f64>,
+    /// Calibration exposure E0, s.
+    pub calibration_exposure_s: f64,
+    /// Calibration gain G0, dB.
+    pub calibration_gain_db: f64,
+    /// Frames that fail to read.
+    pub on_bad_frame: OnBadFrame,
+    /// Smallest box width and height kept after resizing, pixels.
+    pub min_box_px: f32,
+    /// Optical flow for the motion blur.
+    pub flow: DisParams,
+}
+
+impl Default for FolderConfig {
+    fn default() -> Self {
+        Self {
+            linearize: Linearize::Srgb,
+            default_exposure_s: None,
+            calibration_exposure_s: 0.005,
+            calibration_gain_db: 10.0,
+            on_bad_frame: OnBadFrame::Stop,
+            min_box_px: 8.0,
+            flow: DisParams::preset(DisPreset::Medium),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+struct CocoFile {
+    images: Vec<CocoImage>,
+    #[serde(default)]
+    annotations: Vec<CocoAnnotation>,
+    categories: Vec<CocoCategory>,
+}
+
+#[derive(Debug, Deserialize)]
+struct CocoImage {
+    id: u64,
+    file_name: String,
+    width: u32,
+    height: u32,
+    timestamp_s: Option<f64>,
+    exposure_s: Option<f64>,
+    gain_db: Option<f64>,
+    sequence: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+struct CocoAnnotation {
+    image_id: u64,
+    bbox: [f32; 4],
+    category_id: u64,
+}
+
+#[derive(Debug, Deserialize)]
+struct CocoCategory {
+    id: u64,
+    name: String,
+    joca_class: Option<String>,
+}
+
+/// One recorded frame.
+#[derive(Debug, Clone)]
+pub struct RecordedFrame {
+    /// Image file.
+    pub path: PathBuf,
+    /// Capture time, s.
+    pub timestamp_s: f64,
+    /// Recorded exposure, s.
+    pub exposure_s: f64,
+    /// Recorded gain, dB.
+    pub gain_db: f64,
+    /// Size, pixels.
+    pub size_px: (u32, u32),
+    /// Ground truth in recorded pixels.
+    pub boxes: Vec<Annotation>,
+}
+
+/// Maps a category to a joca class (`Ok(None)`: ignored).
+fn class_of(c: &CocoCategory) -> Result<Option<Class>, String> {
+    let name = c.joca_class.as_deref().unwrap_or(&c.name).to_ascii_lowercase().replace(' ', "_");
+    Ok(match name.as_str() {
+        "vehicle" | "car" | "truck" | "bus" | "van" => Some(Class::Vehicle),
+        "walker" | "pedestrian" | "person" | "cyclist" => Some(Class::Walker),
+        "traffic_sign" | "sign" => Some(Class::TrafficSign),
+        "ignore" => None,
+        _ => {
+            return Err(format!(
+                "category {} {:?} is not a joca class; name it vehicle, walker or traffic_sign (or car, truck, bus, pedestrian, person, cyclist, sign), or add \"joca_class\": \"vehicle\" | \"walker\" | \"traffic_sign\" | \"ignore\"",
+                c.id, c.name
+            ));
+        }
+    })
+}
+
+/// Decoded, resized frames and flows, by (sequence, frame, width, height).
+type Cache<T> = Mutex<HashMap<(usize, usize, usize, usize), Arc<T>>>;
+
+/// Recorded sequences from a folder, as a frame source.
+#[derive(Debug)]
+pub struct FolderSource {
+    dir: PathBuf,
+    sequences: Vec<Vec<RecordedFrame>>,
+    frame_interval_s: f64,
+    config: FolderConfig,
+    frames: Cache<(image::RgbImage, Vec<Annotation>, u32)>,
+    flows: Cache<crate::flow::Flow>,
+    /// Frames left out while opening (with `OnBadFrame::Skip`), with the reason.
+    pub skipped: Vec<String>,
+}
+
+fn read_err(path: &Path, reason: impl std::fmt::Display) -> SourceError {
+    SourceError::Read { path: path.display().to_string(), reason: reason.to_string() }
+}
+
+impl FolderSource {
+    /// Opens `dir/annotations.json` and checks every frame's header.
+    pub fn open(dir: &Path, config: FolderConfig) -> Result<Self, SourceError> {
+        let json_path = dir.join("annotations.json");
+        let text = std::fs::read_to_string(&json_path).map_err(|e| read_err(&json_path, e))?;
+        let coco: CocoFile = serde_json::from_str(&text).map_err(|e| read_err(&json_path, e))?;
+        let mut classes = HashMap::new();
+        for c in &coco.categories {
+            classes.insert(c.id, class_of(c).map_err(|e| read_err(&json_path, e))?);
+        }
+        let mut boxes: HashMap<u64, Vec<Annotation>> = HashMap::new();
+        for a in &coco.annotations {
+            let class = *classes.get(&a.category_id).ok_or_else(|| {
+                read_err(
+                    &json_path,
+                    format!(
+                        "an annotation of image {} has category_id {} that no category declares",
+                        a.image_id, a.category_id
+                    ),
+                )
+            })?;
+            if let Some(class) = class {
+                let [x, y, w, h] = a.bbox;
+                boxes
+                    .entry(a.image_id)
+                    .or_default()
+                    .push(Annotation { bbox: BBox::new(x, y, x + w, y + h), class });
+            }
+        }
+        let mut sequences: BTreeMap<String, Vec<RecordedFrame>> = BTreeMap::new();
+        let mut skipped = Vec::new();
+        for img in &coco.images {
+            let path = dir.join(&img.file_name);
+            let timestamp_s = img.timestamp_s.ok_or_else(|| {
+                read_err(&json_path, format!("image {} ({}) has no timestamp_s; every frame needs its capture time in seconds", img.id, img.file_name))
+            })?;
+            let exposure_s = img.exposure_s.or(config.default_exposure_s).ok_or_else(|| {
+                read_err(&json_path, format!("image {} ({}) has no exposure_s: add the recorded exposure time in seconds to each image, or set a default exposure (--default-exposure-ms) if the whole recording used one", img.id, img.file_name))
+            })?;
+            if exposure_s.is_nan() || exposure_s <= 0.0 {
+                return Err(read_err(
+                    &json_path,
+                    format!("image {} has exposure_s = {exposure_s}; it must be above 0", img.id),
+                ));
+            }
+            let header = image::ImageReader::open(&path)
+                .and_then(|r| r.with_guessed_format())
+                .map_err(|e| e.to_string())
+                .and_then(|r| r.into_dimensions().map_err(|e| e.to_string()));
+            match header {
+                Ok(size) if size == (img.width, img.height) => {}
+                Ok(size) => {
+                    let why = format!(
+                        "{} is {}×{} but annotations.json says {}×{}",
+                        path.display(),
+                        size.0,
+                        size.1,
+                        img.width,
+                        img.height
+                    );
+                    match config.on_bad_frame {
+                        OnBadFrame::Stop => return Err(read_err(&path, why)),
+                        OnBadFrame::Skip => {
+                            skipped.push(why);
+                            continue;
+                        }
+                    }
+                }
+                Err(e) => match config.on_bad_frame {
+                    OnBadFrame::Stop => {
+                        return Err(read_err(
+                            &path,
+                            format!("cannot decode frame (image {}): {e}", img.id),
+                        ));
+                    }
+                    OnBadFrame::Skip => {
+                        skipped.push(format!("{}: {e}", path.display()));
+                        continue;
+                    }
+                },
+            }
+            sequences.entry(img.sequence.clone().unwrap_or_default()).or_default().push(
+                RecordedFrame {
+                    path,
+                    timestamp_s,
+                    exposure_s,
+                    gain_db: img.gain_db.unwrap_or(config.calibration_gain_db),
+                    size_px: (img.width, img.height),
+                    boxes: boxes.remove(&img.id).unwrap_or_default(),
+                },
+            );
+        }
+        let mut sequences: Vec<Vec<RecordedFrame>> =
+            sequences.into_values().filter(|s| s.len() >= 2).collect();
+        for s in &mut sequences {
+            s.sort_by(|a, b| a.timestamp_s.total_cmp(&b.timestamp_s));
+        }
+        if sequences.is_empty() {
+            return Err(read_err(&json_path, "no sequence with at least 2 readable frames"));
+        }
+        let mut gaps: Vec<f64> = sequences
+            .iter()
+            .flat_map(|s| s.windows(2).map(|w| w[1].timestamp_s - w[0].timestamp_s))
+            .collect();
+        gaps.sort_by(f64::total_cmp);
+        let frame_interval_s = gaps[gaps.len() / 2];
+        if frame_interval_s.is_nan() || frame_interval_s <= 0.0 {
+            return Err(read_err(
+                &json_path,
+                "frames of a sequence share timestamps; timestamp_s must increase",
+            ));
+        }
+        Ok(Self {
+            dir: dir.to_owned(),
+            sequences,
+            frame_interval_s,
+            config,
+            frames: Mutex::default(),
+            flows: Mutex::default(),
+            skipped,
+        })
+    }
+
+    /// The sequences, each in time order.
+    pub fn sequences(&self) -> &[Vec<RecordedFrame>] {
+        &self.sequences
+    }
+
+    /// The largest recorded frame size: the design space keeps sensors whose grid fits inside.
+    pub fn recording_size_px(&self) -> (u32, u32) {
+        self.sequences
+            .iter()
+            .flatten()
+            .fold((0, 0), |a, f| (a.0.max(f.size_px.0), a.1.max(f.size_px.1)))
+    }
+
+    /// Frames in all sequences.
+    pub fn len(&self) -> usize {
+        self.sequences.iter().map(Vec::len).sum()
+    }
+
+    /// Whether the source holds no frame (never true for an opened source).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Length of the sequence that episode `episode` plays, s.
+    pub fn duration_s(&self, episode: u64) -> f64 {
+        let seq = &self.sequences[(episode % self.sequences.len() as u64) as usize];
+        seq[seq.len() - 1].timestamp_s - seq[0].timestamp_s
+    }
+
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Frame `k` of sequence `s` cropped to the aspect ratio of `w × h` and resized to it, with
+    /// its boxes, and the number of annotated objects in the whole recorded frame.
+    fn resized(
+        &self,
+        s: usize,
+        k: usize,
+        w: usize,
+        h: usize,
+    ) -> Result<Arc<(image::RgbImage, Vec<Annotation>, u32)>, SourceError> {
+        let key = (s, k, w, h);
+        if let Some(hit) =
+            self.frames.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get(&key)
+        {
+            return Ok(hit.clone());
+        }
+        let rec = &self.sequences[s][k];
+        let img = image::open(&rec.path)
+            .map_err(|e| read_err(&rec.path, format!("cannot decode frame: {e}")))?
+            .to_rgb8();
+        let (rw, rh) = (img.width() as f64, img.height() as f64);
+        // Centre crop to the target aspect ratio.
+        let target = w as f64 / h as f64;
+        let (cw, ch) = if rw / rh > target { (rh * target, rh) } else { (rw, rw / target) };
+        let (cx, cy) = ((rw - cw) / 2.0, (rh - ch) / 2.0);
+        let crop = image::imageops::crop_imm(
+            &img,
+            cx.round() as u32,
+            cy.round() as u32,
+            cw.round() as u32,
+            ch.round() as u32,
+        )
+        .to_image();
+        let resized = image::imageops::resize(
+            &crop,
+            w as u32,
+            h as u32,
+            image::imageops::FilterType::Triangle,
+        );
+        let (sx, sy) = (w as f32 / cw as f32, h as f32 / ch as f32);
+        let boxes = rec
+            .boxes
+            .iter()
+            .filter_map(|a| {
+                let b = a.bbox;
+                let moved = BBox::new(
+                    ((b.x_min - cx as f32) * sx).clamp(0.0, w as f32),
+                    ((b.y_min - cy as f32) * sy).clamp(0.0, h as f32),
+                    ((b.x_max - cx as f32) * sx).clamp(0.0, w as f32),
+                    ((b.y_max - cy as f32) * sy).clamp(0.0, h as f32),
+                );
+                let big = moved.x_max - moved.x_min >= self.config.min_box_px
+                    && moved.y_max - moved.y_min >= self.config.min_box_px;
+                big.then_some(Annotation { bbox: moved, class: a.class })
+            })
+            .collect();
+        let entry = Arc::new((resized, boxes, rec.boxes.len() as u32));
+        let mut cache = self.frames.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if cache.len() > 64 {
+            cache.clear();
+        }
+        cache.insert(key, entry.clone());
+        Ok(entry)
+    }
+
+    fn flow(
+        &self,
+        s: usize,
+        k: usize,
+        w: usize,
+        h: usize,
+    ) -> Result<Arc<crate::flow::Flow>, SourceError> {
+        let key = (s, k, w, h);
+        if let Some(hit) =
+            self.flows.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get(&key)
+        {
+            return Ok(hit.clone());
+        }
+        let a = self.resized(s, k, w, h)?;
+        let b = self.resized(s, k + 1, w, h)?;
+        let gray = |img: &image::RgbImage| {
+            Gray::new(
+                w,
+                h,
+                img.pixels()
+                    .map(|p| {
+                        0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2])
+                    })
+                    .collect(),
+            )
+        };
+        let flow = Arc::new(dis(&gray(&a.0), &gray(&b.0), &self.config.flow));
+        let mut cache = self.flows.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if cache.len() > 64 {
+            cache.clear();
+        }
+        cache.insert(key, flow.clone());
+        Ok(flow)
+    }
+}
+
+impl FrameSource for FolderSource {
+    /// Episode e is sequence e mod the number of sequences; the frame is the one nearest to
+    /// `time_s` after the sequence's start (the last frame has no successor for the flow, so
+    /// requests beyond it get the one before).
+    fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError> {
+        let s = (request.episode % self.sequences.len() as u64) as usize;
+        let seq = &self.sequences[s];
+        let t0 = seq[0].timestamp_s;
+        let k = seq
+            .iter()
+            .enumerate()
+            .min_by(|a, b| {
+                (a.1.timestamp_s - t0 - request.time_s)
+                    .abs()
+                    .total_cmp(&(b.1.timestamp_s - t0 - request.time_s).abs())
+            })
+            .map_or(0, |(i, _)| i)
+            .min(seq.len() - 2);
+        let (w, h) = (camera.width_px, camera.height_px);
+        let frame = self.resized(s, k, w, h)?;
+        let rec = &seq[k];
+        let cal_gain = joca_core::units::linear_from_db(self.config.calibration_gain_db);
+        let rec_gain = joca_core::units::linear_from_db(rec.gain_db);
+        let to_calibrated =
+            (self.config.calibration_exposure_s * cal_gain / (rec.exposure_s * rec_gain)) as f32;
+        let lin = self.config.linearize;
+        let data: Vec<f32> =
+            frame.0.as_raw().iter().map(|&v| lin.to_linear(v) * to_calibrated).collect();
+        let sharp = HdrImage::from_vec(w, h, data).map_err(|e| read_err(&rec.path, e))?;
+        let dt = seq[k + 1].timestamp_s - rec.timestamp_s;
+        let travel = (request.exposure_s / dt.max(1e-6) * request.motion_scale) as f32;
+        let (hdr, subframes) = if travel > 0.0 {
+            let flow = self.flow(s, k, w, h)?;
+            let longest =
+                flow.data().iter().map(|v| v[0].hypot(v[1])).fold(0.0f32, f32::max) * travel;
+            (motion_blur(&sharp, &flow, travel), crate::blur::samples_for(longest) as u32)
+        } else {
+            (sharp, 1)
+        };
+        Ok(Frame { hdr, boxes: frame.1.clone(), visible_180: frame.2, subframes })
+    }
+
+    fn frame_interval_s(&self) -> f64 {
+        self.frame_interval_s
+    }
+}

@@ -1,0 +1,134 @@
+//! The folder format: a generated sequence is read, resized to a camera and blurred; bad input is
+//! refused or skipped with the file named.
+#![allow(clippy::unwrap_used)]
+
+use joca_core::{FrameRequest, FrameSource, PinholeCamera};
+use joca_data::blur::Linearize;
+use joca_data::folder::{FolderConfig, FolderSource, OnBadFrame};
+use std::path::Path;
+
+/// Writes `n` frames of 200×100: a bright 40×20 "vehicle" moving 4 px per frame to the right
+/// over a textured background; timestamps 0.1 s apart; exposures 5 ms.
+fn write_sequence(dir: &Path, n: usize, exposure: bool) {
+    std::fs::create_dir_all(dir.join("frames")).unwrap();
+    let mut images = Vec::new();
+    let mut annotations = Vec::new();
+    for k in 0..n {
+        let x0 = 40 + 4 * k as u32;
+        let img = image::RgbImage::from_fn(200, 100, |x, y| {
+            if (x0..x0 + 40).contains(&x) && (40..60).contains(&y) {
+                image::Rgb([220, 200, 180])
+            } else {
+                let v = (60.0 + 30.0 * ((x as f32 * 0.3).sin() + (y as f32 * 0.45).cos())) as u8;
+                image::Rgb([v, v, v])
+            }
+        });
+        let name = format!("frames/{k:03}.png");
+        img.save(dir.join(&name)).unwrap();
+        let mut image = serde_json::json!({"id": k + 1, "file_name": name, "width": 200, "height": 100,
+            "timestamp_s": 10.0 + 0.1 * k as f64});
+        if exposure {
+            image["exposure_s"] = serde_json::json!(0.005);
+        }
+        images.push(image);
+        annotations.push(serde_json::json!({"id": k + 1, "image_id": k + 1, "bbox": [x0, 40, 40, 20], "category_id": 7}));
+    }
+    let coco = serde_json::json!({"images": images, "annotations": annotations,
+        "categories": [{"id": 7, "name": "car"}, {"id": 8, "name": "traffic light", "joca_class": "ignore"}]});
+    std::fs::write(dir.join("annotations.json"), coco.to_string()).unwrap();
+}
+
+fn camera(w: usize, h: usize) -> PinholeCamera {
+    PinholeCamera {
+        width_px: w,
+        height_px: h,
+        fx_px: 50.0,
+        fy_px: 50.0,
+        cx_px: w as f64 / 2.0,
+        cy_px: h as f64 / 2.0,
+        mount_m: [0.43, 0.0, 1.65],
+    }
+}
+
+#[test]
+fn a_generated_sequence_is_cropped_resized_calibrated_and_blurred() {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), 6, true);
+    let config = FolderConfig { linearize: Linearize::None, ..FolderConfig::default() };
+    let src = FolderSource::open(dir.path(), config).unwrap();
+    assert_eq!(src.sequences().len(), 1);
+    assert!((src.frame_interval_s() - 0.1).abs() < 1e-9);
+    assert_eq!(src.recording_size_px(), (200, 100));
+    // A 4:3 camera of 80×60: the 200×100 frame is centre-cropped to 133×100 (x from 33.5) and
+    // scaled by 60/100.
+    let sharp = FrameRequest { episode: 0, time_s: 0.0, exposure_s: 0.0, motion_scale: 1.0 };
+    let f = src.render(&camera(80, 60), &sharp).unwrap();
+    assert_eq!((f.hdr.width(), f.hdr.height()), (80, 60));
+    assert_eq!(f.boxes.len(), 1);
+    let b = f.boxes[0].bbox;
+    let s = 60.0 / 100.0;
+    assert!((b.x_min - (40.0 - 33.5) * s).abs() < 0.6 && (b.y_min - 40.0 * s).abs() < 0.6, "{b:?}");
+    assert!(((b.x_max - b.x_min) - 40.0 * s).abs() < 1.2);
+    // Recorded at E0 and G0 (defaults), linear: the vehicle keeps its recorded value.
+    let inside = f.hdr.pixel(((b.x_min + b.x_max) / 2.0) as usize, 30);
+    assert!((inside[0] - 220.0).abs() < 3.0, "{inside:?}");
+    // A shutter of 1.5 frame intervals smears the vehicle over 1.5 × 4 × 0.6 = 3.6 px: its edge
+    // pixels fall between vehicle and background, and more sub-samples are used.
+    let blurred = src.render(&camera(80, 60), &FrameRequest { exposure_s: 0.15, ..sharp }).unwrap();
+    assert!(blurred.subframes > 1);
+    let edge = (b.x_max as usize).min(79);
+    let (a, c) = (f.hdr.pixel(edge + 1, 30)[0], blurred.hdr.pixel(edge + 1, 30)[0]);
+    assert!(c > a + 20.0, "edge pixel after blur {c} vs sharp {a}");
+    // Recorded with twice E0: in calibrated units (what E0, G0 would record) it is half.
+    let text = std::fs::read_to_string(dir.path().join("annotations.json")).unwrap();
+    std::fs::write(dir.path().join("annotations.json"), text.replace("0.005", "0.01")).unwrap();
+    let src = FolderSource::open(
+        dir.path(),
+        FolderConfig { linearize: Linearize::None, ..FolderConfig::default() },
+    )
+    .unwrap();
+    let half = src.render(&camera(80, 60), &sharp).unwrap();
+    let v = half.hdr.pixel(((b.x_min + b.x_max) / 2.0) as usize, 30)[0];
+    assert!((v - inside[0] / 2.0).abs() < 0.01, "{v} vs {}", inside[0]);
+}
+
+#[test]
+fn missing_exposure_bad_frames_and_unknown_categories_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), 4, false);
+    let e = FolderSource::open(dir.path(), FolderConfig::default()).unwrap_err().to_string();
+    assert!(e.contains("has no exposure_s") && e.contains("default exposure"), "{e}");
+    let ok = FolderSource::open(
+        dir.path(),
+        FolderConfig { default_exposure_s: Some(0.005), ..FolderConfig::default() },
+    );
+    assert!(ok.is_ok());
+
+    write_sequence(dir.path(), 4, true);
+    std::fs::write(dir.path().join("frames/002.png"), b"not a png at all").unwrap();
+    let e = FolderSource::open(dir.path(), FolderConfig::default()).unwrap_err().to_string();
+    assert!(e.contains("frames/002.png") && e.contains("cannot decode frame"), "{e}");
+    let skip = FolderSource::open(
+        dir.path(),
+        FolderConfig { on_bad_frame: OnBadFrame::Skip, ..FolderConfig::default() },
+    )
+    .unwrap();
+    assert_eq!(skip.len(), 3);
+    assert!(skip.skipped[0].contains("frames/002.png"), "{:?}", skip.skipped);
+
+    let text = std::fs::read_to_string(dir.path().join("annotations.json")).unwrap();
+    std::fs::write(dir.path().join("annotations.json"), text.replace("\"car\"", "\"zeppelin\""))
+        .unwrap();
+    let e = FolderSource::open(
+        dir.path(),
+        FolderConfig { on_bad_frame: OnBadFrame::Skip, ..FolderConfig::default() },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("annotations.json")
+            && e.contains("\"zeppelin\" is not a joca class")
+            && e.contains("joca_class"),
+        "{e}"
+    );
+}
