@@ -39,7 +39,7 @@ pub enum OnBadFrame {
     Stop,
 }
 
-/// Settings of a [`FolderSource`].
+/// Settings of a [`Recording`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct FolderConfig {
     /// How 8-bit values map to linear intensity.
@@ -106,11 +106,67 @@ struct CocoCategory {
     joca_class: Option<String>,
 }
 
+/// Where a recorded frame's encoded image is.
+#[derive(Debug, Clone)]
+pub enum FrameOrigin {
+    /// An image file (PNG or JPEG).
+    File(PathBuf),
+    /// Encoded bytes held in memory (a JPEG from a parquet file), with a label for messages.
+    Encoded {
+        /// How messages name the frame (file, segment, timestamp).
+        label: String,
+        /// The encoded image.
+        bytes: Arc<Vec<u8>>,
+    },
+}
+
+impl FrameOrigin {
+    /// How messages name the frame.
+    pub fn label(&self) -> String {
+        match self {
+            FrameOrigin::File(p) => p.display().to_string(),
+            FrameOrigin::Encoded { label, .. } => label.clone(),
+        }
+    }
+
+    /// Width and height from the header only.
+    pub(crate) fn dimensions(&self) -> Result<(u32, u32), String> {
+        let reader = match self {
+            FrameOrigin::File(p) => {
+                let bytes = std::fs::read(p).map_err(|e| e.to_string())?;
+                return image::ImageReader::new(std::io::Cursor::new(bytes))
+                    .with_guessed_format()
+                    .map_err(|e| e.to_string())?
+                    .into_dimensions()
+                    .map_err(|e| e.to_string());
+            }
+            FrameOrigin::Encoded { bytes, .. } => {
+                image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
+            }
+        };
+        reader
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?
+            .into_dimensions()
+            .map_err(|e| e.to_string())
+    }
+
+    /// The decoded image.
+    fn decode(&self) -> Result<image::RgbImage, String> {
+        match self {
+            FrameOrigin::File(p) => image::open(p).map(|i| i.to_rgb8()).map_err(|e| e.to_string()),
+            FrameOrigin::Encoded { bytes, .. } => {
+                image::load_from_memory(bytes).map(|i| i.to_rgb8()).map_err(|e| e.to_string())
+            }
+        }
+    }
+}
+
 /// One recorded frame.
 #[derive(Debug, Clone)]
 pub struct RecordedFrame {
-    /// Image file.
-    pub path: PathBuf,
+    /// Its encoded image.
+    pub origin: FrameOrigin,
     /// Capture time, s.
     pub timestamp_s: f64,
     /// Recorded exposure, s.
@@ -145,7 +201,7 @@ type Cache<T> = Mutex<HashMap<(usize, usize, usize, usize), Arc<T>>>;
 
 /// Recorded sequences from a folder, as a frame source.
 #[derive(Debug)]
-pub struct FolderSource {
+pub struct Recording {
     dir: PathBuf,
     sequences: Vec<Vec<RecordedFrame>>,
     frame_interval_s: f64,
@@ -156,11 +212,27 @@ pub struct FolderSource {
     pub skipped: Vec<String>,
 }
 
-fn read_err(path: &Path, reason: impl std::fmt::Display) -> SourceError {
+/// Checks a frame's header against the size its metadata claims.
+pub(crate) fn check_header(
+    origin: &FrameOrigin,
+    claimed: (u32, u32),
+    id: impl std::fmt::Display,
+) -> Result<(), String> {
+    match origin.dimensions() {
+        Ok(size) if size == claimed => Ok(()),
+        Ok(size) => Err(format!(
+            "frame {id} is {}×{} but its metadata says {}×{}",
+            size.0, size.1, claimed.0, claimed.1
+        )),
+        Err(e) => Err(format!("cannot decode frame {id}: {e}")),
+    }
+}
+
+pub(crate) fn read_err(path: &Path, reason: impl std::fmt::Display) -> SourceError {
     SourceError::Read { path: path.display().to_string(), reason: reason.to_string() }
 }
 
-impl FolderSource {
+impl Recording {
     /// Opens `dir/annotations.json` and checks every frame's header.
     pub fn open(dir: &Path, config: FolderConfig) -> Result<Self, SourceError> {
         let json_path = dir.join("annotations.json");
@@ -205,45 +277,19 @@ impl FolderSource {
                     format!("image {} has exposure_s = {exposure_s}; it must be above 0", img.id),
                 ));
             }
-            let header = image::ImageReader::open(&path)
-                .and_then(|r| r.with_guessed_format())
-                .map_err(|e| e.to_string())
-                .and_then(|r| r.into_dimensions().map_err(|e| e.to_string()));
-            match header {
-                Ok(size) if size == (img.width, img.height) => {}
-                Ok(size) => {
-                    let why = format!(
-                        "{} is {}×{} but annotations.json says {}×{}",
-                        path.display(),
-                        size.0,
-                        size.1,
-                        img.width,
-                        img.height
-                    );
-                    match config.on_bad_frame {
-                        OnBadFrame::Stop => return Err(read_err(&path, why)),
-                        OnBadFrame::Skip => {
-                            skipped.push(why);
-                            continue;
-                        }
-                    }
-                }
-                Err(e) => match config.on_bad_frame {
-                    OnBadFrame::Stop => {
-                        return Err(read_err(
-                            &path,
-                            format!("cannot decode frame (image {}): {e}", img.id),
-                        ));
-                    }
+            let origin = FrameOrigin::File(path);
+            if let Err(why) = check_header(&origin, (img.width, img.height), img.id) {
+                match config.on_bad_frame {
+                    OnBadFrame::Stop => return Err(read_err(Path::new(&origin.label()), why)),
                     OnBadFrame::Skip => {
-                        skipped.push(format!("{}: {e}", path.display()));
+                        skipped.push(format!("{}: {why}", origin.label()));
                         continue;
                     }
-                },
+                }
             }
             sequences.entry(img.sequence.clone().unwrap_or_default()).or_default().push(
                 RecordedFrame {
-                    path,
+                    origin,
                     timestamp_s,
                     exposure_s,
                     gain_db: img.gain_db.unwrap_or(config.calibration_gain_db),
@@ -252,13 +298,23 @@ impl FolderSource {
                 },
             );
         }
+        Self::from_sequences(dir, sequences.into_values().collect(), config, skipped)
+    }
+
+    /// A recording from frames grouped by sequence (any order inside a sequence).
+    pub(crate) fn from_sequences(
+        dir: &Path,
+        sequences: Vec<Vec<RecordedFrame>>,
+        config: FolderConfig,
+        skipped: Vec<String>,
+    ) -> Result<Self, SourceError> {
         let mut sequences: Vec<Vec<RecordedFrame>> =
-            sequences.into_values().filter(|s| s.len() >= 2).collect();
+            sequences.into_iter().filter(|s| s.len() >= 2).collect();
         for s in &mut sequences {
             s.sort_by(|a, b| a.timestamp_s.total_cmp(&b.timestamp_s));
         }
         if sequences.is_empty() {
-            return Err(read_err(&json_path, "no sequence with at least 2 readable frames"));
+            return Err(read_err(dir, "no sequence with at least 2 readable frames"));
         }
         let mut gaps: Vec<f64> = sequences
             .iter()
@@ -268,8 +324,8 @@ impl FolderSource {
         let frame_interval_s = gaps[gaps.len() / 2];
         if frame_interval_s.is_nan() || frame_interval_s <= 0.0 {
             return Err(read_err(
-                &json_path,
-                "frames of a sequence share timestamps; timestamp_s must increase",
+                dir,
+                "frames of a sequence share timestamps; timestamps must increase",
             ));
         }
         Ok(Self {
@@ -333,9 +389,9 @@ impl FolderSource {
             return Ok(hit.clone());
         }
         let rec = &self.sequences[s][k];
-        let img = image::open(&rec.path)
-            .map_err(|e| read_err(&rec.path, format!("cannot decode frame: {e}")))?
-            .to_rgb8();
+        let img = rec.origin.decode().map_err(|e| {
+            read_err(Path::new(&rec.origin.label()), format!("cannot decode frame: {e}"))
+        })?;
         let (rw, rh) = (img.width() as f64, img.height() as f64);
         // Centre crop to the target aspect ratio.
         let target = w as f64 / h as f64;
@@ -417,7 +473,7 @@ impl FolderSource {
     }
 }
 
-impl FrameSource for FolderSource {
+impl FrameSource for Recording {
     /// Episode e is sequence e mod the number of sequences; the frame is the one nearest to
     /// `time_s` after the sequence's start (the last frame has no successor for the flow, so
     /// requests beyond it get the one before).
@@ -445,7 +501,8 @@ impl FrameSource for FolderSource {
         let lin = self.config.linearize;
         let data: Vec<f32> =
             frame.0.as_raw().iter().map(|&v| lin.to_linear(v) * to_calibrated).collect();
-        let sharp = HdrImage::from_vec(w, h, data).map_err(|e| read_err(&rec.path, e))?;
+        let sharp = HdrImage::from_vec(w, h, data)
+            .map_err(|e| read_err(Path::new(&rec.origin.label()), e))?;
         let dt = seq[k + 1].timestamp_s - rec.timestamp_s;
         let travel = (request.exposure_s / dt.max(1e-6) * request.motion_scale) as f32;
         let (hdr, subframes) = if travel > 0.0 {

@@ -18,3 +18,4 @@
 pub mod blur;
 pub mod flow;
 pub mod folder;
+pub mod waymo;

@@ -4,7 +4,7 @@
 
 use joca_core::{FrameRequest, FrameSource, PinholeCamera};
 use joca_data::blur::Linearize;
-use joca_data::folder::{FolderConfig, FolderSource, OnBadFrame};
+use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use std::path::Path;
 
 /// Writes `n` frames of 200×100: a bright 40×20 "vehicle" moving 4 px per frame to the right
@@ -55,7 +55,7 @@ fn a_generated_sequence_is_cropped_resized_calibrated_and_blurred() {
     let dir = tempfile::tempdir().unwrap();
     write_sequence(dir.path(), 6, true);
     let config = FolderConfig { linearize: Linearize::None, ..FolderConfig::default() };
-    let src = FolderSource::open(dir.path(), config).unwrap();
+    let src = Recording::open(dir.path(), config).unwrap();
     assert_eq!(src.sequences().len(), 1);
     assert!((src.frame_interval_s() - 0.1).abs() < 1e-9);
     assert_eq!(src.recording_size_px(), (200, 100));
@@ -82,7 +82,7 @@ fn a_generated_sequence_is_cropped_resized_calibrated_and_blurred() {
     // Recorded with twice E0: in calibrated units (what E0, G0 would record) it is half.
     let text = std::fs::read_to_string(dir.path().join("annotations.json")).unwrap();
     std::fs::write(dir.path().join("annotations.json"), text.replace("0.005", "0.01")).unwrap();
-    let src = FolderSource::open(
+    let src = Recording::open(
         dir.path(),
         FolderConfig { linearize: Linearize::None, ..FolderConfig::default() },
     )
@@ -96,9 +96,9 @@ fn a_generated_sequence_is_cropped_resized_calibrated_and_blurred() {
 fn missing_exposure_bad_frames_and_unknown_categories_are_named() {
     let dir = tempfile::tempdir().unwrap();
     write_sequence(dir.path(), 4, false);
-    let e = FolderSource::open(dir.path(), FolderConfig::default()).unwrap_err().to_string();
+    let e = Recording::open(dir.path(), FolderConfig::default()).unwrap_err().to_string();
     assert!(e.contains("has no exposure_s") && e.contains("default exposure"), "{e}");
-    let ok = FolderSource::open(
+    let ok = Recording::open(
         dir.path(),
         FolderConfig { default_exposure_s: Some(0.005), ..FolderConfig::default() },
     );
@@ -106,9 +106,9 @@ fn missing_exposure_bad_frames_and_unknown_categories_are_named() {
 
     write_sequence(dir.path(), 4, true);
     std::fs::write(dir.path().join("frames/002.png"), b"not a png at all").unwrap();
-    let e = FolderSource::open(dir.path(), FolderConfig::default()).unwrap_err().to_string();
+    let e = Recording::open(dir.path(), FolderConfig::default()).unwrap_err().to_string();
     assert!(e.contains("frames/002.png") && e.contains("cannot decode frame"), "{e}");
-    let skip = FolderSource::open(
+    let skip = Recording::open(
         dir.path(),
         FolderConfig { on_bad_frame: OnBadFrame::Skip, ..FolderConfig::default() },
     )
@@ -119,7 +119,7 @@ fn missing_exposure_bad_frames_and_unknown_categories_are_named() {
     let text = std::fs::read_to_string(dir.path().join("annotations.json")).unwrap();
     std::fs::write(dir.path().join("annotations.json"), text.replace("\"car\"", "\"zeppelin\""))
         .unwrap();
-    let e = FolderSource::open(
+    let e = Recording::open(
         dir.path(),
         FolderConfig { on_bad_frame: OnBadFrame::Skip, ..FolderConfig::default() },
     )

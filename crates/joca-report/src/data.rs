@@ -61,7 +61,8 @@ pub struct Results {
     pub settings_by_illumination: BTreeMap<String, (f64, f64)>,
     /// Output resolution factor.
     pub render_scale: f64,
-    /// The test frames' source: `sim` (or empty, older runs) or `folder:DIR` (real images).
+    /// The test frames' source: `sim` (or empty, older runs), `folder:DIR` or `waymo:DIR`
+    /// (real images).
     #[serde(default)]
     pub source: String,
 }
@@ -69,7 +70,7 @@ pub struct Results {
 impl Results {
     /// Whether the run was tested on recorded frames (the real-image mode).
     pub fn real_images(&self) -> bool {
-        self.source.starts_with("folder:")
+        self.source.starts_with("folder:") || self.source.starts_with("waymo:")
     }
 }
 

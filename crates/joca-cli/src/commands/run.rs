@@ -29,8 +29,8 @@ pub struct Args {
     /// Continue the run in the run directory from its last checkpoint.
     #[arg(long)]
     resume: bool,
-    /// Frames to train on: `sim` (the built-in simulator) or `folder:DIR` (a recorded sequence in
-    /// the folder format: the real-image mode).
+    /// Frames to train on: `sim` (the built-in simulator), or for the real-image mode
+    /// `folder:DIR` (the folder format) or `waymo:DIR` (Waymo Open Dataset v2 parquet).
     #[arg(long)]
     source: Option<String>,
     /// Frames to test on in real-image mode [default: the training folder].

@@ -14,7 +14,7 @@ use joca_camera::{
 };
 use joca_core::{FrameRequest, FrameSource, SeedStreams};
 use joca_data::blur::Linearize;
-use joca_data::folder::{FolderConfig, FolderSource, OnBadFrame};
+use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::Engine;
@@ -248,11 +248,18 @@ pub struct RealConfig {
     pub default_exposure_ms: f64,
     /// A frame that cannot be read: `stop` the run naming it, or `skip` it with a warning.
     pub on_bad_frame: String,
+    /// Waymo camera to use (`key.camera_name`; FRONT_LEFT = 2, the paper's).
+    pub waymo_camera: i64,
 }
 
 impl Default for RealConfig {
     fn default() -> Self {
-        Self { linearize: "srgb".into(), default_exposure_ms: 0.0, on_bad_frame: "stop".into() }
+        Self {
+            linearize: "srgb".into(),
+            default_exposure_ms: 0.0,
+            on_bad_frame: "stop".into(),
+            waymo_camera: joca_data::waymo::FRONT_LEFT,
+        }
     }
 }
 
@@ -293,15 +300,33 @@ impl RealConfig {
     }
 }
 
-/// A `source` value: the folder of `folder:DIR`, or `None` for the simulator.
-fn folder_of(source: &str, field: &str) -> Result<Option<PathBuf>, TrainError> {
+/// A recorded `source`: `folder:DIR` or `waymo:DIR`.
+#[derive(Debug, Clone, PartialEq)]
+enum Recorded {
+    Folder(PathBuf),
+    Waymo(PathBuf),
+}
+
+impl Recorded {
+    fn open(&self, real: &RealConfig) -> Result<Recording, TrainError> {
+        let folder = real.folder_config()?;
+        Ok(match self {
+            Recorded::Folder(dir) => Recording::open(dir, folder)?,
+            Recorded::Waymo(dir) => Recording::open_waymo(dir, real.waymo_camera, folder)?,
+        })
+    }
+}
+
+/// A `source` value: a recording, or `None` for the simulator.
+fn folder_of(source: &str, field: &str) -> Result<Option<Recorded>, TrainError> {
     match source {
         "" | "sim" => Ok(None),
-        s if s.starts_with("folder:") && s.len() > 7 => Ok(Some(PathBuf::from(&s[7..]))),
+        s if s.starts_with("folder:") && s.len() > 7 => Ok(Some(Recorded::Folder(PathBuf::from(&s[7..])))),
+        s if s.starts_with("waymo:") && s.len() > 6 => Ok(Some(Recorded::Waymo(PathBuf::from(&s[6..])))),
         s => Err(TrainError::Config {
             field: format!("run.{field}"),
             value: format!("{s:?}"),
-            allowed: "\"sim\" (the built-in simulator) or \"folder:DIR\" (a recorded sequence in the folder format; Waymo parquet is not supported yet)".into(),
+            allowed: "\"sim\" (the built-in simulator), \"folder:DIR\" (a recording in the folder format) or \"waymo:DIR\" (Waymo Open Dataset v2 parquet: DIR/camera_image, DIR/camera_box)".into(),
         }),
     }
 }
@@ -540,8 +565,8 @@ struct RunState {
 
 /// Training and test folders of the real-image mode.
 struct RealSources {
-    train: FolderSource,
-    test: FolderSource,
+    train: Recording,
+    test: Recording,
 }
 
 struct Context {
@@ -753,12 +778,11 @@ fn setup(
     model.set_detector_trainable(config.method != Method::FrozenDetector);
     let (real, space) = match folder_of(&config.source, "source")? {
         None => (None, DesignSpace::synthetic()),
-        Some(dir) => {
-            let folder = config.real.folder_config()?;
-            let train = FolderSource::open(&dir, folder.clone())?;
+        Some(recorded) => {
+            let train = recorded.open(&config.real)?;
             let test = match folder_of(&config.test_source, "test_source")? {
-                Some(test_dir) => FolderSource::open(&test_dir, folder)?,
-                None => FolderSource::open(&dir, folder)?,
+                Some(test) => test.open(&config.real)?,
+                None => recorded.open(&config.real)?,
             };
             // The recording fixes mount and lens (the nuScenes-like values stand in for them in
             // the tables); only sensors whose pixel grid fits inside the recording are designed.
