@@ -21,19 +21,20 @@ use std::process::{Child, Command, Stdio};
 use std::time::Instant;
 
 /// The experiments shipped with joca, by name.
-pub const EXPERIMENTS: [(&str, &str); 5] = [
+pub const EXPERIMENTS: [(&str, &str); 6] = [
     ("table1", include_str!("../../../../experiments/table1.toml")),
     ("ablation", include_str!("../../../../experiments/ablation.toml")),
     ("sweep-weight", include_str!("../../../../experiments/sweep-weight.toml")),
     ("sweep-population", include_str!("../../../../experiments/sweep-population.toml")),
     ("sweep-frequency", include_str!("../../../../experiments/sweep-frequency.toml")),
+    ("real", include_str!("../../../../experiments/real.toml")),
 ];
 
 /// Arguments of `joca experiment`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A built-in experiment (table1, ablation, sweep-weight, sweep-population, sweep-frequency)
-    /// or the path of your own experiment TOML file.
+    /// A built-in experiment (table1, ablation, sweep-weight, sweep-population, sweep-frequency,
+    /// real) or the path of your own experiment TOML file.
     name: String,
     /// Preset of every cell: quick, standard or paper.
     #[arg(long, default_value = "quick")]
@@ -82,6 +83,9 @@ struct ExperimentFile {
     scenarios: Vec<String>,
     #[serde(default)]
     run: toml::Table,
+    /// The grid only makes sense on recorded frames (the real-image mode).
+    #[serde(default)]
+    needs_recording: bool,
     variant: Vec<Variant>,
 }
 
@@ -178,6 +182,11 @@ pub fn resolve(name: &str, preset: &str, user_config: Option<&Path>) -> Result<E
             config
                 .validate()
                 .with_context(|| format!("{source}: variant {:?}, scenario {scenario}", v.id))?;
+            if file.needs_recording && (config.source.is_empty() || config.source == "sim") {
+                bail!(
+                    "{source} runs on recorded frames: pass --config FILE whose [run] sets source = \"waymo:DIR\" or \"folder:DIR\" (and test_source for held-out frames)"
+                );
+            }
             let id = format!("{}-{scenario}", v.id);
             cells.push(Cell {
                 spec: CellSpec {
