@@ -42,6 +42,16 @@ enum Style {
     Html,
 }
 
+/// A camera parameter marked optimised (●, green in HTML) or fixed (○).
+fn mark(style: Style, optimised: bool, v: String) -> String {
+    match (style, optimised) {
+        (Style::Markdown, true) => format!("{v} ●"),
+        (Style::Markdown, false) => format!("{v} ○"),
+        (Style::Html, true) => format!("{v} <span class=\"opt\">●</span>"),
+        (Style::Html, false) => format!("{v} <span class=\"fix\">○</span>"),
+    }
+}
+
 fn emphasise(style: Style, text: String, rank: Option<usize>) -> String {
     match (style, rank) {
         (Style::Markdown, Some(0)) => format!("**{text}**"),
@@ -79,12 +89,7 @@ impl Table {
         if self.real_images() {
             return self.real_cells(style);
         }
-        let mark = |optimised: bool, v: String| match (style, optimised) {
-            (Style::Markdown, true) => format!("{v} ●"),
-            (Style::Markdown, false) => format!("{v} ○"),
-            (Style::Html, true) => format!("{v} <span class=\"opt\">●</span>"),
-            (Style::Html, false) => format!("{v} <span class=\"fix\">○</span>"),
-        };
+        let mark = |optimised: bool, v: String| mark(style, optimised, v);
         self.rows
             .iter()
             .map(|r| {
@@ -117,12 +122,7 @@ impl Table {
     }
 
     fn real_cells(&self, style: Style) -> Vec<Vec<String>> {
-        let mark = |optimised: bool, v: String| match (style, optimised) {
-            (Style::Markdown, true) => format!("{v} ●"),
-            (Style::Markdown, false) => format!("{v} ○"),
-            (Style::Html, true) => format!("{v} <span class=\"opt\">●</span>"),
-            (Style::Html, false) => format!("{v} <span class=\"fix\">○</span>"),
-        };
+        let mark = |optimised: bool, v: String| mark(style, optimised, v);
         self.rows
             .iter()
             .map(|r| {
