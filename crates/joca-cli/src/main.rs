@@ -35,6 +35,8 @@ enum Command {
     Form(commands::form::Args),
     /// Estimate the noise parameters σp², σr² from frames of a static scene (photon transfer).
     CalibrateNoise(commands::calibrate::Args),
+    /// Run detector weights on frames and write COCO detections (score them with `metrics`).
+    Detect(commands::detect::Args),
     /// Score COCO-format detections against ground truth (the 12 numbers pycocotools prints).
     Metrics(commands::metrics::Args),
     /// Render frames from the built-in driving simulator, with ground truth and a contact sheet.
@@ -65,6 +67,7 @@ fn main() -> ExitCode {
         Command::Form(args) => commands::form::run(&args),
         Command::CalibrateNoise(args) => commands::calibrate::run(&args),
         Command::Metrics(args) => commands::metrics::run(&args),
+        Command::Detect(args) => commands::detect::run(&args),
         Command::Render(args) => commands::render::run(&args),
         Command::TrainDetector(args) => commands::train_detector::run(&args),
         Command::Bench(args) => commands::bench::run(&args),

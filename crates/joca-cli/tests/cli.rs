@@ -633,3 +633,51 @@ fn a_run_on_a_recorded_folder_reports_the_real_image_layout() {
         stderr(&o)
     );
 }
+
+#[test]
+fn detect_writes_coco_results_that_metrics_scores() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o =
+        joca(&["render", "--frames", "2", "--illumination", "day", "--out", rec.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let weights =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector-paper.safetensors");
+    let gt = rec.join("annotations.json");
+    let dt = dir.path().join("dt.json");
+    let o = joca(&[
+        "detect",
+        "--weights",
+        weights.to_str().unwrap(),
+        "--images",
+        gt.to_str().unwrap(),
+        "--out",
+        dt.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dets: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&dt).unwrap()).unwrap();
+    let first = &dets.as_array().unwrap()[0];
+    assert!(
+        first["image_id"].as_u64().unwrap() >= 1 && first["bbox"].as_array().unwrap().len() == 4
+    );
+    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    assert!(stdout(&o).contains("area= small"), "{}", stdout(&o));
+    // Weights of another width are refused naming a tensor.
+    let o = joca(&[
+        "detect",
+        "--weights",
+        weights.to_str().unwrap(),
+        "--images",
+        gt.to_str().unwrap(),
+        "--out",
+        dt.to_str().unwrap(),
+        "--width",
+        "8",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("detector-paper.safetensors"),
+        "{}",
+        stderr(&o)
+    );
+}

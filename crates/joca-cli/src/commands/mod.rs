@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod detect;
 pub mod eval;
 pub mod experiment;
 pub mod flow;

@@ -1,0 +1,81 @@
+//! `joca detect`: run a detector weights file on 8-bit frames and write COCO detections, so that
+//! `joca metrics` can score them with all 12 COCO numbers (AP by object size included).
+
+use crate::io::read_rgb8;
+use anyhow::{Context, Result, bail};
+use joca_nn::AdamConfig;
+use joca_nn::Engine;
+use joca_nn::detector::{DetectorConfig, DetectorModel};
+use serde::Deserialize;
+use std::path::PathBuf;
+
+/// Arguments of `joca detect`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Detector weights (from `joca train-detector`, or a run's checkpoint/detector.safetensors).
+    #[arg(long)]
+    weights: PathBuf,
+    /// A COCO file listing the frames (`images[].id`, `file_name` relative to its folder), e.g.
+    /// the annotations.json that `joca render` writes.
+    #[arg(long)]
+    images: PathBuf,
+    /// Output: a COCO results list (`image_id`, `category_id`, `bbox`, `score`).
+    #[arg(long)]
+    out: PathBuf,
+    /// Detector width the weights were trained with.
+    #[arg(long, default_value_t = 16)]
+    width: i64,
+    /// libtorch threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+}
+
+#[derive(Debug, Deserialize)]
+struct Images {
+    images: Vec<Image>,
+}
+
+#[derive(Debug, Deserialize)]
+struct Image {
+    id: u64,
+    file_name: String,
+}
+
+/// Runs `joca detect`.
+pub fn run(args: &Args) -> Result<()> {
+    if args.width < 1 {
+        bail!("--width must be at least 1");
+    }
+    let text = std::fs::read_to_string(&args.images)
+        .with_context(|| format!("cannot read {}", args.images.display()))?;
+    let list: Images = serde_json::from_str(&text).with_context(|| {
+        format!("{} is not a COCO file with an images list", args.images.display())
+    })?;
+    let root = args.images.parent().map(PathBuf::from).unwrap_or_default();
+    let engine = Engine::cpu(args.threads.max(1));
+    let mut model = DetectorModel::new(
+        &engine,
+        DetectorConfig { width: args.width, classes: 3 },
+        AdamConfig::DETECTOR,
+    );
+    model
+        .load_weights(&args.weights)
+        .with_context(|| format!("cannot load {}", args.weights.display()))?;
+    let mut out = Vec::new();
+    for image in &list.images {
+        let frame = read_rgb8(&root.join(&image.file_name))?;
+        for d in model.detect(&frame) {
+            let b = d.bbox;
+            out.push(serde_json::json!({
+                "image_id": image.id,
+                "category_id": d.class.coco_id(),
+                "bbox": [b.x_min, b.y_min, b.x_max - b.x_min, b.y_max - b.y_min],
+                "score": d.score,
+            }));
+        }
+    }
+    std::fs::write(&args.out, serde_json::to_string(&out)?)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!("{} detections on {} frames: {}", out.len(), list.images.len(), args.out.display());
+    Ok(())
+}
