@@ -468,3 +468,31 @@ pub fn run_cell(args: &CellArgs) -> Result<()> {
     }
     execute(cell.run, dir, true)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_built_in_experiment_resolves_with_every_preset() {
+        for (name, _) in EXPERIMENTS {
+            for (preset, _) in config::PRESETS {
+                let result = resolve(name, preset, None);
+                if name == "real" {
+                    // Needs a recording; without one it is refused.
+                    assert!(result.unwrap_err().to_string().contains("runs on recorded frames"));
+                    continue;
+                }
+                let exp = result.unwrap_or_else(|e| panic!("{name} / {preset}: {e:#}"));
+                assert!(!exp.cells.is_empty());
+                let ids: std::collections::HashSet<_> =
+                    exp.cells.iter().map(|c| &c.spec.id).collect();
+                assert_eq!(ids.len(), exp.cells.len(), "{name}: duplicate cell ids");
+            }
+        }
+        let table1 = resolve("table1", "quick", None).unwrap();
+        assert_eq!(table1.cells.len(), 20);
+        assert_eq!(table1.cells[0].spec.id, "flir-calibrated");
+        assert_eq!(table1.cells[0].config.method, Method::FixedNeural);
+    }
+}
