@@ -271,7 +271,11 @@ impl JointModel {
         self.det.optimizer.zero_grad();
         self.acc_opt.zero_grad();
         lap(&mut timings.detector_forward_ms);
-        objective.backward();
+        // With a frozen detector and no prediction (the first frame of a sequence runs at fixed
+        // settings) nothing in the graph is trainable: there is nothing to back-propagate.
+        if objective.requires_grad() {
+            objective.backward();
+        }
         lap(&mut timings.backward_ms);
         if self.train_detector {
             self.det.optimizer.step();

@@ -121,6 +121,25 @@ fn every_method_runs() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("run.detector_weights"), "{e}");
+    // With weights it trains NeuralAE only: the detector leaves the run exactly as it came in.
+    let weights = dir.path().join("frozen.safetensors");
+    let engine = joca_nn::Engine::cpu(1);
+    joca_nn::detector::DetectorModel::new(
+        &engine,
+        DetectorConfig { width: 8, classes: 3 },
+        joca_nn::AdamConfig::DETECTOR,
+    )
+    .save_weights(&weights)
+    .unwrap();
+    let mut cfg = tiny(Method::FrozenDetector);
+    cfg.generations = 1;
+    cfg.detector_weights = weights.display().to_string();
+    let r = run(&cfg, &dir.path().join("frozen"), false, &mut go).unwrap();
+    assert_eq!(r.method, Method::FrozenDetector);
+    assert_eq!(
+        std::fs::read(dir.path().join("frozen/checkpoint/detector.safetensors")).unwrap(),
+        std::fs::read(&weights).unwrap()
+    );
 }
 
 /// Overwrites every value of the first F32 tensor of a safetensors file with NaN (the format: an
