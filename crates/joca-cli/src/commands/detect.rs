@@ -25,6 +25,9 @@ pub struct Args {
     /// Detector width the weights were trained with.
     #[arg(long, default_value_t = 16)]
     width: i64,
+    /// The weights have the stride-32 stage (`detector = { deep = true }`).
+    #[arg(long)]
+    deep: bool,
     /// libtorch threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
@@ -55,7 +58,7 @@ pub fn run(args: &Args) -> Result<()> {
     let engine = Engine::cpu(args.threads.max(1));
     let mut model = DetectorModel::new(
         &engine,
-        DetectorConfig { width: args.width, classes: 3 },
+        DetectorConfig { width: args.width, classes: 3, deep: args.deep },
         AdamConfig::DETECTOR,
     );
     model

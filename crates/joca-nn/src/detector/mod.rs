@@ -7,6 +7,7 @@
 //!  layer1  conv3×3 s2, GN, ReLU + BasicBlock              [2c, H/4,  W/4]   ← "conv2" features
 //!  layer2  BasicBlock s2 + BasicBlock                     [4c, H/8,  W/8]
 //!  layer3  BasicBlock s2 + BasicBlock                     [8c, H/16, W/16]
+//!  layer4  (deep only) BasicBlock s2 + BasicBlock         [16c, H/32, W/32]
 //!  neck    top-down: 1×1 laterals, nearest upsampling, 3×3 smoothing  [4c, H/4, W/4]
 //!  heads   heatmap (one channel per class, sigmoid), log box size, sub-cell centre offset
 //! ```
@@ -41,11 +42,15 @@ pub struct DetectorConfig {
     pub width: i64,
     /// Number of classes.
     pub classes: i64,
+    /// Add a fourth stage at stride 32 (16× width channels) to the backbone and the neck: a
+    /// receptive field for large objects. Off in the shipped weights.
+    #[serde(default)]
+    pub deep: bool,
 }
 
 impl Default for DetectorConfig {
     fn default() -> Self {
-        Self { width: 16, classes: Class::ALL.len() as i64 }
+        Self { width: 16, classes: Class::ALL.len() as i64, deep: false }
     }
 }
 
@@ -147,6 +152,8 @@ pub struct Detector {
     layer1: BasicBlock,
     layer2: [BasicBlock; 2],
     layer3: [BasicBlock; 2],
+    /// Optional stride-32 stage with its lateral and smoothing convolutions.
+    layer4: Option<([BasicBlock; 2], nn::Conv2D, nn::Conv2D)>,
     lateral3: nn::Conv2D,
     lateral2: nn::Conv2D,
     lateral1: nn::Conv2D,
@@ -180,6 +187,16 @@ impl Detector {
                 BasicBlock::new(&(&b / "layer3_0"), 4 * c, 8 * c, 2),
                 BasicBlock::new(&(&b / "layer3_1"), 8 * c, 8 * c, 1),
             ],
+            layer4: config.deep.then(|| {
+                (
+                    [
+                        BasicBlock::new(&(&b / "layer4_0"), 8 * c, 16 * c, 2),
+                        BasicBlock::new(&(&b / "layer4_1"), 16 * c, 16 * c, 1),
+                    ],
+                    conv(&n, "lateral4", 16 * c, 4 * c, 1, 1),
+                    conv(&n, "smooth3", 4 * c, 4 * c, 3, 1),
+                )
+            }),
             lateral3: conv(&n, "lateral3", 8 * c, 4 * c, 1, 1),
             lateral2: conv(&n, "lateral2", 4 * c, 4 * c, 1, 1),
             lateral1: conv(&n, "lateral1", 2 * c, 4 * c, 1, 1),
@@ -207,7 +224,13 @@ impl Detector {
             let s = like.size();
             t.upsample_nearest2d([s[2], s[3]], None, None)
         };
-        let p4 = c4.apply(&self.lateral3);
+        let p4 = match &self.layer4 {
+            Some((blocks, lateral4, smooth3)) => {
+                let c5 = blocks[1].forward(&blocks[0].forward(&c4)); // [16c, H/32, W/32]
+                (up(&c5.apply(lateral4), &c4) + c4.apply(&self.lateral3)).apply(smooth3).relu()
+            }
+            None => c4.apply(&self.lateral3),
+        };
         let p3 = (up(&p4, &c3) + c3.apply(&self.lateral2)).apply(&self.smooth2).relu();
         let p2 = (up(&p3, &c2) + c2.apply(&self.lateral1)).apply(&self.smooth1).relu(); // [4c, H/4, W/4]
         DetectorOutput {

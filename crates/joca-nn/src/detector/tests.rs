@@ -47,7 +47,7 @@ fn learns_to_find_a_box_in_a_few_hundred_steps() {
     let engine = Engine::cpu(2);
     engine.seed(3);
     let vs = VarStore::new(engine.device());
-    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3 });
+    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3, deep: false });
     let mut opt = Adam::new(&vs, AdamConfig { lr: 2e-3, ..AdamConfig::DETECTOR });
     let b = BBox::new(20.0, 16.0, 44.0, 36.0);
     let frame = frame_with_box(64, 48, b);
@@ -92,28 +92,49 @@ fn weights_round_trip_and_refuse_another_architecture() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("det.safetensors");
     let vs = VarStore::new(Device::Cpu);
-    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3 });
+    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3, deep: false });
     save_weights(&vs, &path).unwrap();
     let mut same = VarStore::new(Device::Cpu);
-    let d2 = Detector::new(&same.root(), DetectorConfig { width: 8, classes: 3 });
+    let d2 = Detector::new(&same.root(), DetectorConfig { width: 8, classes: 3, deep: false });
     load_weights(&mut same, &path).unwrap();
     let x = Tensor::rand([1, 3, 32, 32], (Kind::Float, Device::Cpu));
     let diff = (d.forward(&x).heatmap - d2.forward(&x).heatmap).abs().max().double_value(&[]);
     assert_eq!(diff, 0.0);
 
     let mut wider = VarStore::new(Device::Cpu);
-    let _ = Detector::new(&wider.root(), DetectorConfig { width: 16, classes: 3 });
+    let _ = Detector::new(&wider.root(), DetectorConfig { width: 16, classes: 3, deep: false });
     let e = load_weights(&mut wider, &path).unwrap_err().to_string();
     assert!(e.contains("det.safetensors") && e.contains("backbone.") && e.contains("shape"), "{e}");
+    // Weights without the stride-32 stage do not load into a deep detector: the error names a
+    // tensor of that stage.
+    let mut deep = VarStore::new(Device::Cpu);
+    let _ = Detector::new(&deep.root(), DetectorConfig { width: 8, classes: 3, deep: true });
+    let e = load_weights(&mut deep, &path).unwrap_err().to_string();
+    assert!(e.contains("layer4") || e.contains("lateral4") || e.contains("smooth3"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_deep_detector_keeps_the_quarter_resolution_heads_on_any_input() {
+    let vs = VarStore::new(Device::Cpu);
+    let d = Detector::new(&vs.root(), DetectorConfig { width: 4, classes: 3, deep: true });
+    for (h, w) in [(48i64, 64i64), (77, 102), (33, 35)] {
+        let out = d.forward(&Tensor::rand([1, 3, h, w], (Kind::Float, Device::Cpu)));
+        let expect = [1, 3, (h + 3) / 4, (w + 3) / 4];
+        assert_eq!(out.heatmap.size(), expect, "{h}×{w}");
+        assert_eq!(out.size.size()[2..], expect[2..]);
+    }
 }
 
 #[test]
 fn a_non_finite_loss_is_refused_before_any_weight_changes() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(1);
-    let mut model =
-        DetectorModel::new(&engine, DetectorConfig { width: 8, classes: 3 }, AdamConfig::DETECTOR);
+    let mut model = DetectorModel::new(
+        &engine,
+        DetectorConfig { width: 8, classes: 3, deep: false },
+        AdamConfig::DETECTOR,
+    );
     let frame = frame_with_box(32, 32, BBox::new(4.0, 4.0, 12.0, 12.0));
     let before = model.detect(&frame);
     let bad = [Annotation { bbox: BBox::new(4.0, 4.0, f32::INFINITY, 12.0), class: Class::Walker }];
