@@ -78,6 +78,12 @@ impl Table {
         self.rows.iter().filter(|r| r.group == group).map(|r| f(&r.results)).collect()
     }
 
+    /// A score of `row`, to 3 decimals, bold if best and underlined if second in its group.
+    fn scored(&self, style: Style, row: &Row, f: fn(&Results) -> f64) -> String {
+        let v = f(&row.results);
+        emphasise(style, format!("{v:.3}"), rank(&self.group_values(&row.group, f), v))
+    }
+
     /// Whether every row was tested on recorded frames: then the real-image layout of the
     /// paper's Table 2 is used (only the sensor is designed; mAP and AP50, since a recording has
     /// no 180° object count).
@@ -95,8 +101,6 @@ impl Table {
             .map(|r| {
                 let d = &r.results.design;
                 let o = d.optimised;
-                let maps = self.group_values(&r.group, |x| x.test.map);
-                let tps = self.group_values(&r.group, |x| x.test.tp_ratio);
                 vec![
                     r.group.clone(),
                     r.label.clone(),
@@ -106,16 +110,8 @@ impl Table {
                     mark(o, format!("{:.2}×{:.2}", d.sensor_mm.0, d.sensor_mm.1)),
                     mark(o, format!("{:.2}", d.pixel_pitch_um)),
                     d.sensor.clone(),
-                    emphasise(
-                        style,
-                        format!("{:.3}", r.results.test.map),
-                        rank(&maps, r.results.test.map),
-                    ),
-                    emphasise(
-                        style,
-                        format!("{:.3}", r.results.test.tp_ratio),
-                        rank(&tps, r.results.test.tp_ratio),
-                    ),
+                    self.scored(style, r, |x| x.test.map),
+                    self.scored(style, r, |x| x.test.tp_ratio),
                 ]
             })
             .collect()
@@ -127,24 +123,14 @@ impl Table {
             .iter()
             .map(|r| {
                 let d = &r.results.design;
-                let maps = self.group_values(&r.group, |x| x.test.map);
-                let ap50s = self.group_values(&r.group, |x| x.test.ap50);
                 vec![
                     r.group.clone(),
                     r.label.clone(),
                     mark(d.optimised, format!("{:.2}×{:.2}", d.sensor_mm.0, d.sensor_mm.1)),
                     mark(d.optimised, format!("{:.2}", d.pixel_pitch_um)),
                     d.sensor.clone(),
-                    emphasise(
-                        style,
-                        format!("{:.3}", r.results.test.map),
-                        rank(&maps, r.results.test.map),
-                    ),
-                    emphasise(
-                        style,
-                        format!("{:.3}", r.results.test.ap50),
-                        rank(&ap50s, r.results.test.ap50),
-                    ),
+                    self.scored(style, r, |x| x.test.map),
+                    self.scored(style, r, |x| x.test.ap50),
                 ]
             })
             .collect()
