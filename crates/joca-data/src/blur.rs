@@ -94,6 +94,12 @@ impl Linearize {
         }
     }
 
+    /// [`Linearize::to_linear`] of every 8-bit value: frames are linearised by lookup, not by a
+    /// `powf` per sub-pixel.
+    pub fn table(self) -> [f32; 256] {
+        std::array::from_fn(|v| self.to_linear(v as u8))
+    }
+
     /// Stored 8-bit value of a linear value (0–255), rounded and clipped.
     pub fn to_stored(self, v: f32) -> u8 {
         let l = (v / 255.0).clamp(0.0, 1.0);

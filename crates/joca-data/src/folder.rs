@@ -131,24 +131,20 @@ impl FrameOrigin {
 
     /// Width and height from the header only.
     pub(crate) fn dimensions(&self) -> Result<(u32, u32), String> {
-        let reader = match self {
-            FrameOrigin::File(p) => {
-                let bytes = std::fs::read(p).map_err(|e| e.to_string())?;
-                return image::ImageReader::new(std::io::Cursor::new(bytes))
+        // Only the header is read: opening a folder must not read every frame in full.
+        let size = match self {
+            FrameOrigin::File(p) => image::ImageReader::open(p)
+                .and_then(image::ImageReader::with_guessed_format)
+                .map_err(|e| e.to_string())?
+                .into_dimensions(),
+            FrameOrigin::Encoded { bytes, .. } => {
+                image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
                     .with_guessed_format()
                     .map_err(|e| e.to_string())?
                     .into_dimensions()
-                    .map_err(|e| e.to_string());
-            }
-            FrameOrigin::Encoded { bytes, .. } => {
-                image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
             }
         };
-        reader
-            .with_guessed_format()
-            .map_err(|e| e.to_string())?
-            .into_dimensions()
-            .map_err(|e| e.to_string())
+        size.map_err(|e| e.to_string())
     }
 
     /// The decoded image.
@@ -498,9 +494,9 @@ impl FrameSource for Recording {
         let rec_gain = joca_core::units::linear_from_db(rec.gain_db);
         let to_calibrated =
             (self.config.calibration_exposure_s * cal_gain / (rec.exposure_s * rec_gain)) as f32;
-        let lin = self.config.linearize;
+        let lin = self.config.linearize.table();
         let data: Vec<f32> =
-            frame.0.as_raw().iter().map(|&v| lin.to_linear(v) * to_calibrated).collect();
+            frame.0.as_raw().iter().map(|&v| lin[usize::from(v)] * to_calibrated).collect();
         let sharp = HdrImage::from_vec(w, h, data)
             .map_err(|e| read_err(Path::new(&rec.origin.label()), e))?;
         let dt = seq[k + 1].timestamp_s - rec.timestamp_s;

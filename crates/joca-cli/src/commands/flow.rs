@@ -152,6 +152,7 @@ pub fn run_blur(args: &BlurArgs) -> Result<()> {
             files.len()
         );
     }
+    let table = lin.table();
     let travel = (args.exposure_ms / args.frame_interval_ms * args.blur_scale) as f32;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -166,7 +167,7 @@ pub fn run_blur(args: &BlurArgs) -> Result<()> {
         let linear = HdrImage::from_vec(
             frame.width(),
             frame.height(),
-            frame.data().iter().map(|&v| lin.to_linear(v)).collect(),
+            frame.data().iter().map(|&v| table[usize::from(v)]).collect(),
         )?;
         let blurred = motion_blur(&linear, &flow, travel);
         let stored: Vec<u8> = blurred.data().iter().map(|&v| lin.to_stored(v)).collect();
