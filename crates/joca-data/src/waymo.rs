@@ -45,8 +45,16 @@ fn parquet_files(dir: &Path) -> Result<Vec<PathBuf>, SourceError> {
     Ok(files)
 }
 
-/// The rows of `path` restricted to `columns` (each must exist), as name → value maps.
-fn rows(path: &Path, columns: &[&str]) -> Result<Vec<HashMap<String, Field>>, SourceError> {
+/// A row as column name → value, borrowed from the reader (JPEG bytes are not copied).
+type Row<'a> = HashMap<&'a str, &'a Field>;
+
+/// Calls `f` on every row of `path` restricted to `columns` (each must exist). Rows are streamed:
+/// a camera_image file holds every camera's JPEGs and only the kept camera's are copied.
+fn for_each_row(
+    path: &Path,
+    columns: &[&str],
+    mut f: impl FnMut(&Row<'_>) -> Result<(), SourceError>,
+) -> Result<(), SourceError> {
     let file = std::fs::File::open(path).map_err(|e| read_err(path, e))?;
     let reader = SerializedFileReader::new(file).map_err(|e| read_err(path, e))?;
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
@@ -68,16 +76,16 @@ fn rows(path: &Path, columns: &[&str]) -> Result<Vec<HashMap<String, Field>>, So
         .build()
         .map_err(|e| read_err(path, e))?;
     let iter = reader.get_row_iter(Some(projection)).map_err(|e| read_err(path, e))?;
-    let mut out = Vec::new();
     for row in iter {
         let row = row.map_err(|e| read_err(path, e))?;
-        out.push(row.get_column_iter().map(|(n, f)| (n.clone(), f.clone())).collect());
+        let fields: Row<'_> = row.get_column_iter().map(|(n, v)| (n.as_str(), v)).collect();
+        f(&fields)?;
     }
-    Ok(out)
+    Ok(())
 }
 
-fn int(row: &HashMap<String, Field>, c: &str, path: &Path) -> Result<i64, SourceError> {
-    match row.get(c) {
+fn int(row: &Row<'_>, c: &str, path: &Path) -> Result<i64, SourceError> {
+    match row.get(c).copied() {
         Some(Field::Byte(v)) => Ok(i64::from(*v)),
         Some(Field::Short(v)) => Ok(i64::from(*v)),
         Some(Field::Int(v)) => Ok(i64::from(*v)),
@@ -89,16 +97,16 @@ fn int(row: &HashMap<String, Field>, c: &str, path: &Path) -> Result<i64, Source
     }
 }
 
-fn float(row: &HashMap<String, Field>, c: &str, path: &Path) -> Result<f64, SourceError> {
-    match row.get(c) {
+fn float(row: &Row<'_>, c: &str, path: &Path) -> Result<f64, SourceError> {
+    match row.get(c).copied() {
         Some(Field::Float(v)) => Ok(f64::from(*v)),
         Some(Field::Double(v)) => Ok(*v),
         other => Err(read_err(path, format!("column `{c}`: expected a number, found {other:?}"))),
     }
 }
 
-fn text(row: &HashMap<String, Field>, c: &str, path: &Path) -> Result<String, SourceError> {
-    match row.get(c) {
+fn text(row: &Row<'_>, c: &str, path: &Path) -> Result<String, SourceError> {
+    match row.get(c).copied() {
         Some(Field::Str(v)) => Ok(v.clone()),
         Some(Field::Bytes(v)) => Ok(String::from_utf8_lossy(v.data()).into_owned()),
         other => Err(read_err(path, format!("column `{c}`: expected a string, found {other:?}"))),
@@ -116,42 +124,43 @@ impl Recording {
         let mut boxes: HashMap<(String, i64), Vec<Annotation>> = HashMap::new();
         for path in parquet_files(&dir.join("camera_box"))? {
             let cols = [SEGMENT, TIMESTAMP, CAMERA, CENTER_X, CENTER_Y, SIZE_X, SIZE_Y, TYPE];
-            for row in rows(&path, &cols)? {
-                if int(&row, CAMERA, &path)? != camera_name {
-                    continue;
+            for_each_row(&path, &cols, |row| {
+                if int(row, CAMERA, &path)? != camera_name {
+                    return Ok(());
                 }
-                let class = match int(&row, TYPE, &path)? {
+                let class = match int(row, TYPE, &path)? {
                     1 => Class::Vehicle,
                     2 | 4 => Class::Walker,
                     3 => Class::TrafficSign,
-                    _ => continue,
+                    _ => return Ok(()),
                 };
-                let (cx, cy) = (float(&row, CENTER_X, &path)?, float(&row, CENTER_Y, &path)?);
-                let (w, h) = (float(&row, SIZE_X, &path)?, float(&row, SIZE_Y, &path)?);
+                let (cx, cy) = (float(row, CENTER_X, &path)?, float(row, CENTER_Y, &path)?);
+                let (w, h) = (float(row, SIZE_X, &path)?, float(row, SIZE_Y, &path)?);
                 let bbox = BBox::new(
                     (cx - w / 2.0) as f32,
                     (cy - h / 2.0) as f32,
                     (cx + w / 2.0) as f32,
                     (cy + h / 2.0) as f32,
                 );
-                let key = (text(&row, SEGMENT, &path)?, int(&row, TIMESTAMP, &path)?);
+                let key = (text(row, SEGMENT, &path)?, int(row, TIMESTAMP, &path)?);
                 boxes.entry(key).or_default().push(Annotation { bbox, class });
-            }
+                Ok(())
+            })?;
         }
         let mut sequences: BTreeMap<String, Vec<RecordedFrame>> = BTreeMap::new();
         let mut skipped = Vec::new();
         for path in parquet_files(&dir.join("camera_image"))? {
-            for row in rows(&path, &[SEGMENT, TIMESTAMP, CAMERA, IMAGE, SHUTTER])? {
-                if int(&row, CAMERA, &path)? != camera_name {
-                    continue;
+            for_each_row(&path, &[SEGMENT, TIMESTAMP, CAMERA, IMAGE, SHUTTER], |row| {
+                if int(row, CAMERA, &path)? != camera_name {
+                    return Ok(());
                 }
-                let segment = text(&row, SEGMENT, &path)?;
-                let micros = int(&row, TIMESTAMP, &path)?;
+                let segment = text(row, SEGMENT, &path)?;
+                let micros = int(row, TIMESTAMP, &path)?;
                 let label = format!(
                     "{} (segment {segment}, timestamp {micros} µs, camera {camera_name})",
                     path.display()
                 );
-                let bytes = match row.get(IMAGE) {
+                let bytes = match row.get(IMAGE).copied() {
                     Some(Field::Bytes(b)) => b.data().to_vec(),
                     other => {
                         return Err(read_err(
@@ -160,7 +169,7 @@ impl Recording {
                         ));
                     }
                 };
-                let shutter = float(&row, SHUTTER, &path)?;
+                let shutter = float(row, SHUTTER, &path)?;
                 let exposure_s = if shutter > 0.0 {
                     shutter
                 } else {
@@ -182,7 +191,7 @@ impl Recording {
                         }
                         OnBadFrame::Skip => {
                             skipped.push(format!("{label}: {e}"));
-                            continue;
+                            return Ok(());
                         }
                     },
                 };
@@ -194,7 +203,8 @@ impl Recording {
                     size_px: size,
                     boxes: boxes.remove(&(segment, micros)).unwrap_or_default(),
                 });
-            }
+                Ok(())
+            })?;
         }
         Self::from_sequences(dir, sequences.into_values().collect(), config, skipped)
     }
