@@ -81,7 +81,6 @@ struct Driver {
 /// What one closed-loop frame produced.
 struct Step {
     frame: Frame,
-    image: Rgb8Image,
     detections: Vec<Detection>,
     settings: DynamicSettings,
 }
@@ -133,8 +132,8 @@ impl Driver {
         let frame = sim.render(camera, &request)?;
         let image = cx.formation.form(&frame.hdr, self.applied, pitch, noise);
         let detections = model.observe(&image);
-        self.previous = Some(image.clone());
-        Ok(Step { frame, image, detections, settings: self.applied })
+        self.previous = Some(image);
+        Ok(Step { frame, detections, settings: self.applied })
     }
 }
 
@@ -157,18 +156,24 @@ pub(super) fn test(
     let mut sums: BTreeMap<String, (f64, f64, f64)> = BTreeMap::new();
     let mut trace = String::new();
     let map_seed = test_map_seed(0);
-    // Build the test town once; the borrow of `cx.sims` ends before the loop needs `cx`.
-    simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
     let real = cx.real.clone();
+    // Build the test town once (not at all for recorded frames); the borrow of `cx.sims` ends
+    // before the loop needs `cx`.
+    if real.is_none() {
+        simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
+    }
     // Recorded sequences are played from their start; the test town from t = 1 s.
     let start_s = if real.is_some() { 0.0 } else { 1.0 };
     for episode in 0..c.test_episodes {
         let mut driver = Driver::new(model);
         for k in 0..WARMUP_FRAMES + c.test_frames_per_episode {
-            let town = &cx.sims[&map_seed];
-            let source: &dyn FrameSource = match &real {
-                Some(r) => &r.test,
-                None => town,
+            let town = cx.sims.get(&map_seed);
+            let source: &dyn FrameSource = match (&real, town) {
+                (Some(r), _) => &r.test,
+                (None, Some(town)) => town,
+                (None, None) => {
+                    unreachable!("the test town is built above when no recording is used")
+                }
             };
             let time_s = start_s + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed("test-noise", episode * 10_000 + k as u64);
@@ -177,12 +182,12 @@ pub(super) fn test(
                 continue;
             }
             metrics.update(&s.frame.boxes, &s.detections, s.frame.visible_180);
-            let (illumination, ambient) = match &real {
-                Some(_) => ("recorded", None),
-                None => (
+            let (illumination, ambient) = match (&real, town) {
+                (None, Some(town)) => (
                     town.episode(episode).illumination.name(),
                     Some(ambient(town, episode, time_s)),
                 ),
+                _ => ("recorded", None),
             };
             let e = sums.entry(illumination.to_owned()).or_default();
             e.0 += s.settings.exposure_s * 1e3;
@@ -270,7 +275,9 @@ fn showcases(
             let save = illumination == Illumination::Tunnel || k + 1 == frames;
             let image = if save {
                 let rel = format!("{name}/{k:03}.png");
-                write_png(&dir.join(&rel), &s.image)?;
+                if let Some(image) = &driver.previous {
+                    write_png(&dir.join(&rel), image)?;
+                }
                 Some(rel)
             } else {
                 None
