@@ -448,17 +448,7 @@ impl Recording {
         }
         let a = self.resized(s, k, w, h)?;
         let b = self.resized(s, k + 1, w, h)?;
-        let gray = |img: &image::RgbImage| {
-            Gray::new(
-                w,
-                h,
-                img.pixels()
-                    .map(|p| {
-                        0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2])
-                    })
-                    .collect(),
-            )
-        };
+        let gray = |img: &image::RgbImage| Gray::from_rgb_bytes(w, h, img.as_raw());
         let flow = Arc::new(dis(&gray(&a.0), &gray(&b.0), &self.config.flow));
         let mut cache = self.flows.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if cache.len() > 64 {

@@ -25,12 +25,16 @@ impl Gray {
 
     /// Luma (Rec. 601 weights) of an 8-bit RGB frame.
     pub fn from_rgb8(image: &Rgb8Image) -> Self {
-        let data = image
-            .data()
+        Self::from_rgb_bytes(image.width(), image.height(), image.data())
+    }
+
+    /// Luma (Rec. 601 weights) of interleaved 8-bit RGB pixels, row-major.
+    pub fn from_rgb_bytes(width: usize, height: usize, rgb: &[u8]) -> Self {
+        let data = rgb
             .chunks_exact(3)
             .map(|p| 0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2]))
             .collect();
-        Self::new(image.width(), image.height(), data)
+        Self::new(width, height, data)
     }
 
     /// Width in pixels.
