@@ -11,8 +11,9 @@ pub fn class_colour(class: Class) -> [u8; 3] {
     }
 }
 
-/// Draws 1-px box outlines onto `frame`.
-pub fn draw_boxes(frame: &mut Rgb8Image, boxes: &[Annotation]) {
+/// Draws each box's outline in its class colour, 1 px wide, inside the frame; ignore regions
+/// (`dashed`) with every other pixel.
+pub fn draw_boxes(frame: &mut Rgb8Image, boxes: &[Annotation], dashed: bool) {
     let (w, h) = (frame.width() as i64, frame.height() as i64);
     for a in boxes {
         let c = class_colour(a.class);
@@ -23,8 +24,10 @@ pub fn draw_boxes(frame: &mut Rgb8Image, boxes: &[Annotation]) {
         let width = frame.width();
         let data = frame.data_mut();
         let mut put = |x: i64, y: i64| {
-            let i = (y as usize * width + x as usize) * 3;
-            data[i..i + 3].copy_from_slice(&c);
+            if !dashed || (x + y) % 2 == 0 {
+                let i = (y as usize * width + x as usize) * 3;
+                data[i..i + 3].copy_from_slice(&c);
+            }
         };
         for x in x0..=x1 {
             put(x, y0);

@@ -64,6 +64,11 @@ pub struct Frame {
     pub hdr: HdrImage,
     /// Ground truth boxes of visible objects, at the shutter midpoint.
     pub boxes: Vec<Annotation>,
+    /// Ignore regions: tight boxes of classed objects that are in view but outside the
+    /// annotation rules (too small, too far, mostly occluded). A detection on one is neither a
+    /// true nor a false positive (COCO's `iscrowd`, KITTI's "DontCare"), and training does not
+    /// punish the detector for firing there: a 7-px-wide walker looks like an 8-px-wide one.
+    pub ignore: Vec<Annotation>,
     /// Objects visible within a 180° horizontal field of view around the heading (the
     /// denominator of the TP-ratio metric); independent of the camera's own field of view.
     pub visible_180: u32,

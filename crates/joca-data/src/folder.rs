@@ -97,6 +97,8 @@ struct CocoAnnotation {
     image_id: u64,
     bbox: [f32; 4],
     category_id: u64,
+    #[serde(default)]
+    iscrowd: u8,
 }
 
 #[derive(Debug, Deserialize)]
@@ -104,6 +106,16 @@ struct CocoCategory {
     id: u64,
     name: String,
     joca_class: Option<String>,
+}
+
+/// A recorded frame resized for one camera, with its ground truth moved along.
+#[derive(Debug)]
+struct Resized {
+    image: image::RgbImage,
+    boxes: Vec<Annotation>,
+    ignore: Vec<Annotation>,
+    /// Annotated objects in the whole recorded frame (the TP ratio's denominator).
+    visible: u32,
 }
 
 /// Where a recorded frame's encoded image is.
@@ -173,6 +185,8 @@ pub struct RecordedFrame {
     pub size_px: (u32, u32),
     /// Ground truth in recorded pixels.
     pub boxes: Vec<Annotation>,
+    /// Ignore regions in recorded pixels (COCO `iscrowd = 1`).
+    pub ignore: Vec<Annotation>,
 }
 
 /// Maps a category to a joca class (`Ok(None)`: ignored).
@@ -202,7 +216,7 @@ pub struct Recording {
     sequences: Vec<Vec<RecordedFrame>>,
     frame_interval_s: f64,
     config: FolderConfig,
-    frames: Cache<(image::RgbImage, Vec<Annotation>, u32)>,
+    frames: Cache<Resized>,
     flows: Cache<crate::flow::Flow>,
     /// Frames left out while opening (with `OnBadFrame::Skip`), with the reason.
     pub skipped: Vec<String>,
@@ -239,6 +253,7 @@ impl Recording {
             classes.insert(c.id, class_of(c).map_err(|e| read_err(&json_path, e))?);
         }
         let mut boxes: HashMap<u64, Vec<Annotation>> = HashMap::new();
+        let mut crowds: HashMap<u64, Vec<Annotation>> = HashMap::new();
         for a in &coco.annotations {
             let class = *classes.get(&a.category_id).ok_or_else(|| {
                 read_err(
@@ -251,8 +266,8 @@ impl Recording {
             })?;
             if let Some(class) = class {
                 let [x, y, w, h] = a.bbox;
-                boxes
-                    .entry(a.image_id)
+                let list = if a.iscrowd == 0 { &mut boxes } else { &mut crowds };
+                list.entry(a.image_id)
                     .or_default()
                     .push(Annotation { bbox: BBox::new(x, y, x + w, y + h), class });
             }
@@ -291,6 +306,7 @@ impl Recording {
                     gain_db: img.gain_db.unwrap_or(config.calibration_gain_db),
                     size_px: (img.width, img.height),
                     boxes: boxes.remove(&img.id).unwrap_or_default(),
+                    ignore: crowds.remove(&img.id).unwrap_or_default(),
                 },
             );
         }
@@ -370,14 +386,9 @@ impl Recording {
     }
 
     /// Frame `k` of sequence `s` cropped to the aspect ratio of `w × h` and resized to it, with
-    /// its boxes, and the number of annotated objects in the whole recorded frame.
-    fn resized(
-        &self,
-        s: usize,
-        k: usize,
-        w: usize,
-        h: usize,
-    ) -> Result<Arc<(image::RgbImage, Vec<Annotation>, u32)>, SourceError> {
+    /// its boxes (those left under the minimum size become ignore regions), its ignore regions,
+    /// and the number of annotated objects in the whole recorded frame.
+    fn resized(&self, s: usize, k: usize, w: usize, h: usize) -> Result<Arc<Resized>, SourceError> {
         let key = (s, k, w, h);
         if let Some(hit) =
             self.frames.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get(&key)
@@ -408,23 +419,33 @@ impl Recording {
             image::imageops::FilterType::Triangle,
         );
         let (sx, sy) = (w as f32 / cw as f32, h as f32 / ch as f32);
-        let boxes = rec
-            .boxes
-            .iter()
-            .filter_map(|a| {
-                let b = a.bbox;
-                let moved = BBox::new(
-                    ((b.x_min - cx as f32) * sx).clamp(0.0, w as f32),
-                    ((b.y_min - cy as f32) * sy).clamp(0.0, h as f32),
-                    ((b.x_max - cx as f32) * sx).clamp(0.0, w as f32),
-                    ((b.y_max - cy as f32) * sy).clamp(0.0, h as f32),
-                );
-                let big = moved.x_max - moved.x_min >= self.config.min_box_px
-                    && moved.y_max - moved.y_min >= self.config.min_box_px;
-                big.then_some(Annotation { bbox: moved, class: a.class })
-            })
-            .collect();
-        let entry = Arc::new((resized, boxes, rec.boxes.len() as u32));
+        let moved = |b: BBox| {
+            BBox::new(
+                ((b.x_min - cx as f32) * sx).clamp(0.0, w as f32),
+                ((b.y_min - cy as f32) * sy).clamp(0.0, h as f32),
+                ((b.x_max - cx as f32) * sx).clamp(0.0, w as f32),
+                ((b.y_max - cy as f32) * sy).clamp(0.0, h as f32),
+            )
+        };
+        let (mut boxes, mut ignore) = (Vec::new(), Vec::new());
+        for a in &rec.boxes {
+            let bbox = moved(a.bbox);
+            let big =
+                bbox.width() >= self.config.min_box_px && bbox.height() >= self.config.min_box_px;
+            if big {
+                boxes.push(Annotation { bbox, class: a.class });
+            } else if bbox.width() > 0.0 && bbox.height() > 0.0 {
+                ignore.push(Annotation { bbox, class: a.class });
+            }
+        }
+        ignore.extend(
+            rec.ignore
+                .iter()
+                .map(|a| Annotation { bbox: moved(a.bbox), class: a.class })
+                .filter(|a| a.bbox.width() > 0.0 && a.bbox.height() > 0.0),
+        );
+        let entry =
+            Arc::new(Resized { image: resized, boxes, ignore, visible: rec.boxes.len() as u32 });
         let mut cache = self.frames.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if cache.len() > 64 {
             cache.clear();
@@ -449,7 +470,7 @@ impl Recording {
         let a = self.resized(s, k, w, h)?;
         let b = self.resized(s, k + 1, w, h)?;
         let gray = |img: &image::RgbImage| Gray::from_rgb_bytes(w, h, img.as_raw());
-        let flow = Arc::new(dis(&gray(&a.0), &gray(&b.0), &self.config.flow));
+        let flow = Arc::new(dis(&gray(&a.image), &gray(&b.image), &self.config.flow));
         let mut cache = self.flows.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if cache.len() > 64 {
             cache.clear();
@@ -486,7 +507,7 @@ impl FrameSource for Recording {
             (self.config.calibration_exposure_s * cal_gain / (rec.exposure_s * rec_gain)) as f32;
         let lin = self.config.linearize.table();
         let data: Vec<f32> =
-            frame.0.as_raw().iter().map(|&v| lin[usize::from(v)] * to_calibrated).collect();
+            frame.image.as_raw().iter().map(|&v| lin[usize::from(v)] * to_calibrated).collect();
         let sharp = HdrImage::from_vec(w, h, data)
             .map_err(|e| read_err(Path::new(&rec.origin.label()), e))?;
         let dt = seq[k + 1].timestamp_s - rec.timestamp_s;
@@ -499,7 +520,13 @@ impl FrameSource for Recording {
         } else {
             (sharp, 1)
         };
-        Ok(Frame { hdr, boxes: frame.1.clone(), visible_180: frame.2, subframes })
+        Ok(Frame {
+            hdr,
+            boxes: frame.boxes.clone(),
+            ignore: frame.ignore.clone(),
+            visible_180: frame.visible,
+            subframes,
+        })
     }
 
     fn frame_interval_s(&self) -> f64 {

@@ -202,6 +202,7 @@ impl Recording {
                     gain_db: config.calibration_gain_db,
                     size_px: size,
                     boxes: boxes.remove(&(segment, micros)).unwrap_or_default(),
+                    ignore: Vec::new(),
                 });
                 Ok(())
             })?;

@@ -8,7 +8,8 @@ use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use std::path::Path;
 
 /// Writes `n` frames of 200×100: a bright 40×20 "vehicle" moving 4 px per frame to the right
-/// over a textured background; timestamps 0.1 s apart; exposures 5 ms.
+/// over a textured background, and a 30×20 crowd region of cars at (120, 10); timestamps 0.1 s
+/// apart; exposures 5 ms.
 fn write_sequence(dir: &Path, n: usize, exposure: bool) {
     std::fs::create_dir_all(dir.join("frames")).unwrap();
     let mut images = Vec::new();
@@ -32,6 +33,7 @@ fn write_sequence(dir: &Path, n: usize, exposure: bool) {
         }
         images.push(image);
         annotations.push(serde_json::json!({"id": k + 1, "image_id": k + 1, "bbox": [x0, 40, 40, 20], "category_id": 7}));
+        annotations.push(serde_json::json!({"id": 1000 + k, "image_id": k + 1, "bbox": [120, 10, 30, 20], "category_id": 7, "iscrowd": 1}));
     }
     let coco = serde_json::json!({"images": images, "annotations": annotations,
         "categories": [{"id": 7, "name": "car"}, {"id": 8, "name": "traffic light", "joca_class": "ignore"}]});
@@ -48,6 +50,30 @@ fn camera(w: usize, h: usize) -> PinholeCamera {
         cy_px: h as f64 / 2.0,
         mount_m: [0.43, 0.0, 1.65],
     }
+}
+
+#[test]
+fn crowd_regions_and_boxes_shrunk_under_the_minimum_become_ignore_regions() {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), 3, true);
+    let src = Recording::open(dir.path(), FolderConfig::default()).unwrap();
+    let sharp = FrameRequest { episode: 0, time_s: 0.0, exposure_s: 0.0, motion_scale: 1.0 };
+    // 80×60: the 4:3 crop is 133⅓ px wide from x = 33⅓, scaled by 0.6; the vehicle (24×12 px)
+    // stays a box.
+    let f = src.render(&camera(80, 60), &sharp).unwrap();
+    assert_eq!((f.boxes.len(), f.ignore.len()), (1, 1));
+    let r = f.ignore[0].bbox;
+    let s = 0.6;
+    let crop_x = (200.0 - 100.0 * 4.0 / 3.0) / 2.0;
+    assert!((r.x_min - (120.0 - crop_x) * s).abs() < 0.01 && (r.y_min - 10.0 * s).abs() < 0.01);
+    assert!((r.width() - 30.0 * s).abs() < 0.01 && (r.height() - 20.0 * s).abs() < 0.01);
+    // 20×15: scale 0.15; the vehicle is 6×3 px, under the 8 px minimum: an ignore region too.
+    let f = src.render(&camera(20, 15), &sharp).unwrap();
+    assert!(f.boxes.is_empty());
+    assert_eq!(f.ignore.len(), 2);
+    assert!((f.ignore[0].bbox.width() - 40.0 * 0.15).abs() < 0.01, "{:?}", f.ignore);
+    // The TP ratio still counts the vehicle as an object of the recorded frame.
+    assert_eq!(f.visible_180, 1);
 }
 
 #[test]

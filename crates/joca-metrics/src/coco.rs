@@ -88,6 +88,11 @@ impl GroundTruth {
     pub fn new(bbox: [f64; 4], category: u32) -> Self {
         Self { bbox, category, area: bbox[2] * bbox[3], crowd: false }
     }
+
+    /// A crowd (ignore) region with area `w·h`.
+    pub fn crowd(bbox: [f64; 4], category: u32) -> Self {
+        Self { crowd: true, ..Self::new(bbox, category) }
+    }
 }
 
 /// A detection.

@@ -204,6 +204,7 @@ impl JointModel {
         &mut self,
         scene: &Scene<'_>,
         truth: &[Annotation],
+        ignore: &[Annotation],
         exposure: Exposure,
         ga_target: Option<(f64, f64)>,
         weights: DfGradWeights,
@@ -241,7 +242,8 @@ impl JointModel {
         lap(&mut timings.formation_ms);
         let out = self.det.net.forward(&to_detector_input(&frame_dn));
         let s = out.heatmap.size();
-        let targets = Targets::new(truth, self.det.net.config().classes, s[2], s[3], self.device);
+        let classes = self.det.net.config().classes;
+        let targets = Targets::new(truth, ignore, classes, s[2], s[3], self.device);
         let loss = DetectionLoss::new(&out, &targets);
         let task = loss.total.double_value(&[]);
         if !task.is_finite() {

@@ -287,14 +287,15 @@ impl Simulator {
         acc
     }
 
-    /// Ground truth of the middle sub-frame: tight boxes of visible classed objects.
+    /// Ground truth of the middle sub-frame: tight boxes of the classed objects that pass the
+    /// visibility rules, and (second) of those in view that do not — the ignore regions.
     fn annotations(
         &self,
         episode: &Episode,
         camera: &PinholeCamera,
         time_s: f64,
         mid: &Target,
-    ) -> Vec<Annotation> {
+    ) -> (Vec<Annotation>, Vec<Annotation>) {
         let rules = self.config.visibility;
         let mut stats: HashMap<u32, (u32, [usize; 4])> = HashMap::new();
         for y in 0..mid.height {
@@ -309,30 +310,27 @@ impl Simulator {
             }
         }
         let cam = CameraFrame::new(camera, episode.ego.pose_at(time_s));
-        let mut out: Vec<(u32, Annotation)> = stats
+        let mut out: Vec<(u32, bool, Annotation)> = stats
             .into_iter()
             .filter_map(|(id, (count, b))| {
                 let object = &self.city.objects[id as usize - 1];
                 let class = object.class?;
-                let pos = object.position_at(time_s);
-                let (dx, dy) = (pos.x - cam.origin.x, pos.y - cam.origin.y);
-                if (dx * dx + dy * dy).sqrt() > rules.max_range_m {
-                    return None;
-                }
-                let coverage = mid.coverage[id as usize].max(count);
-                if (count as f32) < rules.min_visible_fraction * coverage as f32 {
-                    return None;
-                }
                 let bbox =
                     BBox::new(b[0] as f32, b[1] as f32, (b[2] + 1) as f32, (b[3] + 1) as f32);
-                if bbox.width() < rules.min_box_px || bbox.height() < rules.min_box_px {
-                    return None;
-                }
-                Some((id, Annotation { bbox, class }))
+                let pos = object.position_at(time_s);
+                let (dx, dy) = (pos.x - cam.origin.x, pos.y - cam.origin.y);
+                let coverage = mid.coverage[id as usize].max(count);
+                let annotated = (dx * dx + dy * dy).sqrt() <= rules.max_range_m
+                    && count as f32 >= rules.min_visible_fraction * coverage as f32
+                    && bbox.width() >= rules.min_box_px
+                    && bbox.height() >= rules.min_box_px;
+                Some((id, annotated, Annotation { bbox, class }))
             })
             .collect();
-        out.sort_by_key(|(id, _)| *id);
-        out.into_iter().map(|(_, a)| a).collect()
+        out.sort_by_key(|(id, _, _)| *id);
+        let (boxes, ignore): (Vec<_>, Vec<_>) = out.into_iter().partition(|(_, a, _)| *a);
+        let strip = |v: Vec<(u32, bool, Annotation)>| v.into_iter().map(|(_, _, a)| a).collect();
+        (strip(boxes), strip(ignore))
     }
 
     /// Objects visible within a 180° horizontal field around the heading, from an eye at the
@@ -473,13 +471,13 @@ impl FrameSource for Simulator {
         self.render_at(&episode, camera, t_mid, &mut mid);
         let n = self.subframes(&episode, camera, t0, t1, &mid);
         // Ground truth and the 180° count run beside the sub-frame renders.
-        let ((boxes, visible_180), colour) = rayon::join(
+        let (((boxes, ignore), visible_180), colour) = rayon::join(
             || (self.annotations(&episode, camera, t_mid, &mid), self.visible_180(&episode, t_mid)),
             || self.blurred(&episode, camera, t0, shutter, n, &mid),
         );
         let hdr = HdrImage::from_vec(w, h, colour)
             .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
-        Ok(Frame { hdr, boxes, visible_180, subframes: n as u32 })
+        Ok(Frame { hdr, boxes, ignore, visible_180, subframes: n as u32 })
     }
 
     fn frame_interval_s(&self) -> f64 {

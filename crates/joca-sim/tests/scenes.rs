@@ -101,6 +101,40 @@ fn a_known_box_projects_to_the_predicted_pixels_and_scales_with_focal_length() {
     assert!((widths[1] / widths[0] - 2.0).abs() < 0.05, "{widths:?}");
 }
 
+#[test]
+fn objects_outside_the_annotation_rules_become_ignore_regions() {
+    // The 2 m cube 20 m ahead is ≈ 21 px wide at f = 200 px; 60 m ahead it is ≈ 6.7 px, under
+    // the 8 px minimum: no box to find, but an ignore region of the same class where it is.
+    for (distance, annotated) in [(20.0f64, true), (60.0, false)] {
+        let cube = block(
+            V3::new(1.0 + distance as f32, 0.0, 1.5),
+            V3::new(1.0, 1.0, 1.0),
+            Material::Flat([0.5; 3]),
+            Some(Class::Vehicle),
+        );
+        let sim = scene(
+            vec![cube],
+            Pose2 { x: 0.0, y: 0.0, yaw: 0.0 },
+            0.0,
+            0.0,
+            Illumination::Day,
+            50.0,
+        );
+        let frame = sim.render(&camera(640, 480, 200.0, [1.0, 0.0, 1.5]), &request(1.0, 1e-3, 1.0));
+        let frame = frame.unwrap();
+        let (found, ignored) =
+            if annotated { (&frame.boxes, &frame.ignore) } else { (&frame.ignore, &frame.boxes) };
+        assert!(ignored.is_empty(), "{distance} m: {frame:?}");
+        assert_eq!(found.len(), 1, "{distance} m");
+        assert_eq!(found[0].class, Class::Vehicle);
+        // Centred on the principal point, 2·200/(d − 1) px wide (the near face).
+        let expected = 2.0 * 200.0 / (distance - 1.0);
+        let b = found[0].bbox;
+        assert!((f64::from(b.width()) - expected).abs() <= 1.0, "{distance} m: {b:?}");
+        assert!((f64::from(b.x_min + b.x_max) / 2.0 - 320.0).abs() <= 1.0);
+    }
+}
+
 /// Pixels of row `y` (green channel) lying strictly between 10 % and 90 % of the way from the
 /// darkest to the brightest value of the row: the width of the blurred edges.
 fn edge_spread(frame: &joca_core::Frame, y: usize) -> usize {

@@ -86,7 +86,12 @@ pub fn evaluate(
                 &mut streams.indexed("eval-noise", episode * 10_000 + k as u64),
             );
             if k >= spec.warmup_frames {
-                metrics.update(&frame.boxes, &model.detect(&image), frame.visible_180);
+                metrics.update(
+                    &frame.boxes,
+                    &frame.ignore,
+                    &model.detect(&image),
+                    frame.visible_180,
+                );
             }
             settings = control.next(settings, &image);
         }

@@ -12,7 +12,7 @@ use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, GenomeCodec,
     ImageFormation, SensorEncoding, sensor_by_name,
 };
-use joca_core::{FrameRequest, FrameSource, SeedStreams};
+use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
 use joca_metrics::TaskScores;
 use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts};
 use joca_nn::{AdamConfig, Engine};
@@ -36,10 +36,9 @@ pub struct PretrainConfig {
     pub steps: usize,
     /// Frames per random camera design (45 in the paper).
     pub frames_per_design: usize,
-    /// Consecutive frames per episode; a design's frames come from several episodes, because 45
-    /// consecutive frames at 10 frames/s are nearly the same scene and a detector trained from
-    /// scratch with batch size 1 learns measurably faster from more varied frames (test-town
-    /// mAP after 5000 day frames: 0.033 with 45, 0.056 with 5).
+    /// Consecutive frames per episode: a design's frames come from several episodes (each in a
+    /// random training town, with its own drive, time and light), because 45 consecutive frames
+    /// at 10 frames/s are nearly the same scene.
     pub frames_per_episode: usize,
     /// Output resolution = sensor grid × this.
     pub render_scale: f64,
@@ -59,7 +58,8 @@ pub struct PretrainConfig {
     pub eval_every: usize,
     /// Test episodes per illumination in each evaluation (10 scored frames each).
     pub eval_episodes: u64,
-    /// Write a checkpoint every this many designs.
+    /// Write a checkpoint every this many designs; the designs between two checkpoints have
+    /// their frames interleaved.
     pub checkpoint_every_designs: usize,
     /// Ego top speed, m/s.
     pub max_speed_mps: f64,
@@ -86,6 +86,13 @@ impl PretrainConfig {
                 "frames_per_design",
                 self.frames_per_design.to_string(),
                 "1 to 400 (episodes last 60 s at 10 frames/s)",
+            );
+        }
+        if self.frames_per_episode == 0 || self.frames_per_episode > self.frames_per_design {
+            return bad(
+                "frames_per_episode",
+                self.frames_per_episode.to_string(),
+                "1 to frames_per_design",
             );
         }
         if !(self.render_scale > 0.0 && self.render_scale <= 1.0) {
@@ -219,53 +226,43 @@ pub fn pretrain(
         .map_err(|e| TrainError::io(&log_path, e))?;
 
     let codec = GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?;
-    let formation = ImageFormation::new(Calibration::DEFAULT)?;
-    let ae = AverageAe::new(AccRanges::PAPER);
+    let world = World {
+        config,
+        streams: &streams,
+        formation: ImageFormation::new(Calibration::DEFAULT)?,
+        ae: AverageAe::new(AccRanges::PAPER),
+        sim_config: SimConfig { max_speed_mps: config.max_speed_mps, ..SimConfig::default() },
+    };
     let mut sims: HashMap<u64, Simulator> = HashMap::new();
-    let sim_config = SimConfig { max_speed_mps: config.max_speed_mps, ..SimConfig::default() };
     let mut step = start;
     let mut last_eval = None;
     while step < config.steps {
-        let design_index = step / config.frames_per_design;
-        let mut rng = streams.indexed("pretrain-design", design_index as u64);
-        let genes: Vec<f64> =
-            codec.genes().iter().map(|g| rng.random_range(g.bounds.min..=g.bounds.max)).collect();
-        let design = codec.decode(&genes)?;
-        let map_seed = train_map_seed(rng.random_range(0..config.train_maps));
-        let episode: u64 = rng.random_range(0..1_000_000);
-        let t0: f64 = rng
-            .random_range(
-                1.0..sim_config.episode_s
-                    - 1.0
-                    - config.frames_per_design as f64 * sim_config.frame_interval_s,
-            )
-            .max(0.0);
-        let sim = sims
-            .entry(map_seed)
-            .or_insert_with(|| Simulator::new(SimConfig { map_seed, ..sim_config }));
-        let camera = design.pinhole(config.render_scale);
-        let pitch = design.sensor().pixel_pitch_um;
-        let mut settings =
-            DynamicSettings::new(Calibration::DEFAULT.exposure_s, Calibration::DEFAULT.gain_db);
-        for j in 0..config.frames_per_design {
-            if step >= config.steps {
-                break;
+        let block = Block::containing(config, step);
+        let mut runs = (block.first_design..block.first_design + block.designs)
+            .map(|d| DesignRun::new(d, &codec, &world))
+            .collect::<Result<Vec<_>, TrainError>>()?;
+        while step < block.end_step {
+            let t = step - block.first_step;
+            let (run, j) = (&mut runs[t % block.designs], t / block.designs);
+            if j % config.frames_per_episode == 0 {
+                run.start_episode(j / config.frames_per_episode, &world, &mut sims)?;
             }
+            let sim = run.simulator(&world, &mut sims);
             let request = FrameRequest {
-                episode,
-                time_s: t0 + j as f64 * sim.frame_interval_s(),
-                exposure_s: settings.exposure_s,
+                episode: run.episode,
+                time_s: run.t0 + (j % config.frames_per_episode) as f64 * sim.frame_interval_s(),
+                exposure_s: run.settings.exposure_s,
                 motion_scale: 1.0,
             };
-            let frame = sim.render(&camera, &request)?;
-            let image = formation.form(
+            let frame = sim.render(&run.camera, &request)?;
+            let image = world.formation.form(
                 &frame.hdr,
-                settings,
-                pitch,
+                run.settings,
+                run.pitch_um,
                 &mut streams.indexed("pretrain-noise", step as u64),
             );
             model.set_lr(config.lr_at(step));
-            let loss = match model.train_step(&image, &frame.boxes) {
+            let loss = match model.train_step(&image, &frame.boxes, &frame.ignore) {
                 Ok(loss) => loss,
                 Err(e) => {
                     let _ = writeln!(
@@ -276,10 +273,10 @@ pub fn pretrain(
                     return Err(e.into());
                 }
             };
-            settings = ae.step(settings, &image);
+            run.settings = world.ae.step(run.settings, &image);
             step += 1;
             if step % 10 == 0 || step == config.steps {
-                let line = serde_json::json!({"step": step, "lr": config.lr_at(step - 1), "loss": loss, "design": design, "episode": episode});
+                let line = serde_json::json!({"step": step, "lr": config.lr_at(step - 1), "loss": loss, "design_index": run.index, "design": run.design, "map_seed": run.map_seed, "episode": run.episode});
                 writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
             }
             if progress(&PretrainEvent::Step { step, of: config.steps, loss }).is_break() {
@@ -293,22 +290,19 @@ pub fn pretrain(
                 last_eval = Some(report);
             }
         }
-        let designs_done = step / config.frames_per_design;
-        if step == config.steps
-            || (step % config.frames_per_design == 0
-                && designs_done % config.checkpoint_every_designs == 0)
-        {
-            ckpt.write(|dir| {
-                model.save_weights(&dir.join("detector.safetensors"))?;
-                model.save_optimizer(&dir.join("optimizer.safetensors"))?;
-                let state = State { step, config: config.clone() };
-                let text = serde_json::to_string_pretty(&state).map_err(|e| {
-                    TrainError::Corrupt { path: "state.json".into(), reason: e.to_string() }
-                })?;
-                write_atomic(&dir.join("state.json"), &text)
+        // Every design's state is rebuilt from the seed at a block's start, so a checkpoint at a
+        // block's end is all a resumed run needs.
+        ckpt.write(|dir| {
+            model.save_weights(&dir.join("detector.safetensors"))?;
+            model.save_optimizer(&dir.join("optimizer.safetensors"))?;
+            let state = State { step, config: config.clone() };
+            let text = serde_json::to_string_pretty(&state).map_err(|e| TrainError::Corrupt {
+                path: "state.json".into(),
+                reason: e.to_string(),
             })?;
-            let _ = progress(&PretrainEvent::Checkpoint { step });
-        }
+            write_atomic(&dir.join("state.json"), &text)
+        })?;
+        let _ = progress(&PretrainEvent::Checkpoint { step });
     }
     let report = match last_eval {
         Some(r) if r.step == step => r,
@@ -326,6 +320,129 @@ pub fn pretrain(
         &serde_json::to_string_pretty(&report).unwrap_or_default(),
     )?;
     Ok(report)
+}
+
+/// A run of consecutive steps over `designs` camera designs, `frames_per_design` frames each,
+/// ending with a checkpoint. Within a block the designs' frames are interleaved (design 0's frame
+/// 0, design 1's frame 0, …, design 0's frame 1, …): with batch size 1, 45 frames of one camera in
+/// a row pull the detector towards that camera and scene, and the next design pulls it away again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Block {
+    first_design: usize,
+    designs: usize,
+    first_step: usize,
+    end_step: usize,
+}
+
+impl Block {
+    /// The block that `step` falls in. The last block may be cut short by `steps`; it then
+    /// interleaves only as many designs as its steps need.
+    fn containing(config: &PretrainConfig, step: usize) -> Self {
+        let per_block = config.checkpoint_every_designs * config.frames_per_design;
+        let b = step / per_block;
+        let first_step = b * per_block;
+        let end_step = (first_step + per_block).min(config.steps);
+        Self {
+            first_design: b * config.checkpoint_every_designs,
+            designs: (end_step - first_step).div_ceil(config.frames_per_design),
+            first_step,
+            end_step,
+        }
+    }
+}
+
+/// What every design's frames are made with.
+struct World<'a> {
+    config: &'a PretrainConfig,
+    streams: &'a SeedStreams,
+    formation: ImageFormation,
+    ae: AverageAe,
+    sim_config: SimConfig,
+}
+
+/// AverageAE iterations on an episode's first view before its first training frame.
+const AE_SETTLE_ITERATIONS: usize = 8;
+
+/// One random camera design and the episode it is currently driving.
+struct DesignRun {
+    index: usize,
+    design: CameraDesign,
+    camera: PinholeCamera,
+    pitch_um: f64,
+    settings: DynamicSettings,
+    map_seed: u64,
+    episode: u64,
+    t0: f64,
+}
+
+impl DesignRun {
+    /// Design number `index`, drawn uniformly from the synthetic design space.
+    fn new(index: usize, codec: &GenomeCodec, world: &World<'_>) -> Result<Self, TrainError> {
+        let mut rng = world.streams.indexed("pretrain-design", index as u64);
+        let genes: Vec<f64> =
+            codec.genes().iter().map(|g| rng.random_range(g.bounds.min..=g.bounds.max)).collect();
+        let design = codec.decode(&genes)?;
+        Ok(Self {
+            index,
+            camera: design.pinhole(world.config.render_scale),
+            pitch_um: design.sensor().pixel_pitch_um,
+            design,
+            settings: default_settings(),
+            map_seed: 0,
+            episode: 0,
+            t0: 0.0,
+        })
+    }
+
+    fn simulator<'s>(
+        &self,
+        world: &World<'_>,
+        sims: &'s mut HashMap<u64, Simulator>,
+    ) -> &'s Simulator {
+        let map_seed = self.map_seed;
+        sims.entry(map_seed)
+            .or_insert_with(|| Simulator::new(SimConfig { map_seed, ..world.sim_config }))
+    }
+
+    /// Starts the design's episode number `e`: a random training town, drive and start time,
+    /// and AverageAE settled on a quarter-resolution view of the first frame (iterated on that
+    /// one view, as a camera that had been driving there already would have converged), so that
+    /// no training frame is one of the badly exposed frames of an AE start-up.
+    fn start_episode(
+        &mut self,
+        e: usize,
+        world: &World<'_>,
+        sims: &mut HashMap<u64, Simulator>,
+    ) -> Result<(), TrainError> {
+        let id = (self.index as u64) << 16 | e as u64;
+        let mut rng = world.streams.indexed("pretrain-episode", id);
+        let config = world.config;
+        self.map_seed = train_map_seed(rng.random_range(0..config.train_maps));
+        self.episode = rng.random_range(0..1_000_000);
+        let sim_config = &world.sim_config;
+        let span = config.frames_per_episode as f64 * sim_config.frame_interval_s;
+        self.t0 = rng.random_range(1.0..(sim_config.episode_s - 1.0 - span).max(1.0 + 1e-9));
+        let probe = self.design.pinhole(config.render_scale / 4.0);
+        let request = FrameRequest {
+            episode: self.episode,
+            time_s: self.t0,
+            exposure_s: default_settings().exposure_s,
+            motion_scale: 1.0,
+        };
+        let view = self.simulator(world, sims).render(&probe, &request)?;
+        let mut noise = world.streams.indexed("pretrain-probe", id);
+        let mut settings = default_settings();
+        for _ in 0..AE_SETTLE_ITERATIONS {
+            let image = world.formation.form(&view.hdr, settings, self.pitch_um, &mut noise);
+            settings = world.ae.step(settings, &image);
+        }
+        self.settings = settings;
+        Ok(())
+    }
+}
+
+fn default_settings() -> DynamicSettings {
+    DynamicSettings::new(Calibration::DEFAULT.exposure_s, Calibration::DEFAULT.gain_db)
 }
 
 fn evaluate_day_night(

@@ -213,14 +213,18 @@ pub fn run(args: &Args) -> Result<()> {
             "episode": args.episode, "time_s": t, "timestamp_s": t, "exposure_s": settings.exposure_s, "gain_db": settings.gain_db,
             "visible_180": frame.visible_180,
         }));
-        for a in &frame.boxes {
+        // Ignore regions go out as COCO crowd regions, so that pycocotools, `joca metrics` and a
+        // folder recording treat them as joca does.
+        let all = frame.boxes.iter().map(|a| (a, 0)).chain(frame.ignore.iter().map(|a| (a, 1)));
+        for (a, crowd) in all {
             annotations.push(json!({
                 "id": annotations.len() + 1, "image_id": k + 1, "category_id": a.class.coco_id(),
-                "bbox": a.bbox.to_xywh(), "area": a.bbox.area(), "iscrowd": 0,
+                "bbox": a.bbox.to_xywh(), "area": a.bbox.area(), "iscrowd": crowd,
             }));
         }
         let mut boxed = image.clone();
-        draw::draw_boxes(&mut boxed, &frame.boxes);
+        draw::draw_boxes(&mut boxed, &frame.boxes, false);
+        draw::draw_boxes(&mut boxed, &frame.ignore, true);
         shown.push(boxed);
         if fixed.is_none() {
             settings = ae.step(settings, &image);

@@ -58,7 +58,7 @@ pub fn time_detector(
         .collect();
     let out = net.forward(&x);
     let s = out.heatmap.size();
-    let targets = Targets::new(&truth, config.classes, s[2], s[3], engine.device());
+    let targets = Targets::new(&truth, &[], config.classes, s[2], s[3], engine.device());
     let best = |f: &mut dyn FnMut()| {
         f();
         (0..repeats.max(1))

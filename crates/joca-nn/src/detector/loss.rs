@@ -16,6 +16,9 @@ const OFFSET_WEIGHT: f64 = 1.0;
 pub struct Targets {
     /// Gaussian-peaked heatmap `[1, classes, h, w]`, exactly 1 at object centres.
     pub heatmap: Tensor,
+    /// `[1, classes, h, w]`: 1 in the cells an ignore region of that class covers, where a
+    /// firing detector is not punished; `None` when the frame has no ignore region.
+    pub ignore: Option<Tensor>,
     /// Flat indices `y·w + x` of the object centres `[n]`.
     pub indices: Tensor,
     /// `log(width / STRIDE), log(height / STRIDE)` per object `[2, n]`.
@@ -40,9 +43,11 @@ fn gaussian_radius(h: f64, w: f64, min_overlap: f64) -> f64 {
 }
 
 impl Targets {
-    /// Targets for `annotations` on an output grid of `out_h × out_w` cells and `classes`.
+    /// Targets for `annotations` (and the `ignore` regions) on an output grid of
+    /// `out_h × out_w` cells and `classes`.
     pub fn new(
         annotations: &[Annotation],
+        ignore: &[Annotation],
         classes: i64,
         out_h: i64,
         out_w: i64,
@@ -86,12 +91,28 @@ impl Targets {
             off_x.push((cx - ix as f64) as f32);
             off_y.push((cy - iy as f64) as f32);
         }
+        let ignore = (!ignore.is_empty()).then(|| {
+            let mut mask = vec![0.0f32; classes as usize * h * w];
+            for a in ignore {
+                let cells = |lo: f32, hi: f32, n: usize| {
+                    let lo = (f64::from(lo) / s).floor().max(0.0) as usize;
+                    let hi = ((f64::from(hi) / s).ceil().max(0.0) as usize).min(n);
+                    lo..hi
+                };
+                let plane = &mut mask[a.class.index() * h * w..(a.class.index() + 1) * h * w];
+                for y in cells(a.bbox.y_min, a.bbox.y_max, h) {
+                    plane[y * w..(y + 1) * w][cells(a.bbox.x_min, a.bbox.x_max, w)].fill(1.0);
+                }
+            }
+            Tensor::from_slice(&mask).view([1, classes, out_h, out_w]).to_device(device)
+        });
         let n = indices.len() as i64;
         let pair = |a: Vec<f32>, b: Vec<f32>| {
             Tensor::from_slice(&[a, b].concat()).view([2, n]).to_device(device)
         };
         Self {
             heatmap: Tensor::from_slice(&heat).view([1, classes, out_h, out_w]).to_device(device),
+            ignore,
             indices: Tensor::from_slice(&indices).to_device(device),
             size: pair(size_w, size_h),
             offset: pair(off_x, off_y),
@@ -120,7 +141,10 @@ impl DetectionLoss {
         let t = &targets.heatmap;
         let p = logits.sigmoid();
         let pos = t.eq(1.0).to_kind(Kind::Float);
-        let neg: Tensor = 1.0 - &pos;
+        let neg: Tensor = match &targets.ignore {
+            Some(ignore) => (1.0 - &pos) * (1.0 - ignore),
+            None => 1.0 - &pos,
+        };
         // log p and log(1 − p) through log-sigmoid, stable for large logits.
         let one_minus_p: Tensor = 1.0 - &p;
         let pos_loss =

@@ -81,16 +81,19 @@ impl DetectorModel {
         if trainable { self.vs.unfreeze() } else { self.vs.freeze() }
     }
 
-    /// One gradient step on one frame. A non-finite loss is reported before any weight changes.
+    /// One gradient step on one frame with its ground truth and ignore regions. A non-finite
+    /// loss is reported before any weight changes.
     pub fn train_step(
         &mut self,
         frame: &Rgb8Image,
         truth: &[Annotation],
+        ignore: &[Annotation],
     ) -> Result<LossParts, NnError> {
         let x = image_tensor(frame, self.device);
         let out = self.net.forward(&x);
         let s = out.heatmap.size();
-        let targets = Targets::new(truth, self.net.config().classes, s[2], s[3], self.device);
+        let targets =
+            Targets::new(truth, ignore, self.net.config().classes, s[2], s[3], self.device);
         let loss = DetectionLoss::new(&out, &targets);
         let total = loss.total.double_value(&[]);
         if !total.is_finite() {

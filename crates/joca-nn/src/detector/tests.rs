@@ -30,8 +30,9 @@ fn any_input_size_gives_a_quarter_resolution_grid() {
 fn targets_peak_at_object_centres() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let a = [Annotation { bbox: BBox::new(8.0, 12.0, 24.0, 20.0), class: Class::Walker }];
-    let t = Targets::new(&a, 3, 10, 10, Device::Cpu);
+    let t = Targets::new(&a, &[], 3, 10, 10, Device::Cpu);
     assert_eq!(t.count, 1);
+    assert!(t.ignore.is_none());
     // Centre (16, 16) px → cell (4, 4), offset (0, 0); size 16×8 px → log(4), log(2).
     assert_eq!(t.heatmap.double_value(&[0, 1, 4, 4]), 1.0);
     assert!(t.heatmap.double_value(&[0, 1, 4, 5]) < 1.0);
@@ -39,6 +40,41 @@ fn targets_peak_at_object_centres() {
     assert_eq!(t.indices.int64_value(&[0]), 44);
     assert!((t.size.double_value(&[0, 0]) - 4f64.ln()).abs() < 1e-6);
     assert!((t.size.double_value(&[1, 0]) - 2f64.ln()).abs() < 1e-6);
+}
+
+#[test]
+fn firing_inside_an_ignore_region_costs_nothing() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // A walker ignore region over px x 9–23, y 13–19: cells x 2..6, y 3..5 of the walker plane.
+    let region = [Annotation { bbox: BBox::new(9.0, 13.0, 23.0, 19.0), class: Class::Walker }];
+    let object = [Annotation { bbox: BBox::new(40.0, 8.0, 60.0, 24.0), class: Class::Vehicle }];
+    let t = Targets::new(&object, &region, 3, 10, 20, Device::Cpu);
+    let mask = t.ignore.as_ref().unwrap();
+    assert_eq!(mask.sum(Kind::Float).double_value(&[]), 8.0);
+    assert_eq!(mask.double_value(&[0, 1, 3, 2]), 1.0);
+    assert_eq!(mask.double_value(&[0, 1, 4, 5]), 1.0);
+    assert_eq!(mask.double_value(&[0, 1, 5, 2]), 0.0);
+    assert_eq!(mask.double_value(&[0, 0, 3, 2]), 0.0);
+    let output = |logit_in_region: f64| {
+        let heatmap = Tensor::full([1, 3, 10, 20], -2.19, (Kind::Float, Device::Cpu));
+        let _ = heatmap.get(0).get(1).get(4).get(3).fill_(logit_in_region);
+        DetectorOutput {
+            heatmap,
+            size: Tensor::zeros([1, 2, 10, 20], (Kind::Float, Device::Cpu)),
+            offset: Tensor::zeros([1, 2, 10, 20], (Kind::Float, Device::Cpu)),
+            features: Tensor::zeros([1, 1, 10, 20], (Kind::Float, Device::Cpu)),
+        }
+    };
+    let loss = |logit: f64, t: &Targets| DetectionLoss::new(&output(logit), t).heatmap;
+    assert_eq!(loss(6.0, &t), loss(-2.19, &t));
+    let plain = Targets::new(&object, &[], 3, 10, 20, Device::Cpu);
+    // Without the region, a logit of 6 where nothing is costs −p²·log(1 − p) ≈ 6.0 (one object).
+    let expected = {
+        let p = 1.0 / (1.0 + (-6.0f64).exp());
+        -(p * p) * (1.0 - p).ln()
+    };
+    let extra = loss(6.0, &plain) - loss(-2.19, &plain);
+    assert!((extra - expected).abs() < 1e-2 * expected, "{extra} vs {expected}");
 }
 
 #[test]
@@ -53,7 +89,7 @@ fn learns_to_find_a_box_in_a_few_hundred_steps() {
     let frame = frame_with_box(64, 48, b);
     let x = image_tensor(&frame, engine.device());
     let ann = [Annotation { bbox: b, class: Class::Vehicle }];
-    let targets = Targets::new(&ann, 3, 12, 16, engine.device());
+    let targets = Targets::new(&ann, &[], 3, 12, 16, engine.device());
     let mut first = 0.0;
     for step in 0..250 {
         let loss = DetectionLoss::new(&d.forward(&x), &targets);
@@ -138,7 +174,7 @@ fn a_non_finite_loss_is_refused_before_any_weight_changes() {
     let frame = frame_with_box(32, 32, BBox::new(4.0, 4.0, 12.0, 12.0));
     let before = model.detect(&frame);
     let bad = [Annotation { bbox: BBox::new(4.0, 4.0, f32::INFINITY, 12.0), class: Class::Walker }];
-    let err = model.train_step(&frame, &bad).unwrap_err().to_string();
+    let err = model.train_step(&frame, &bad, &[]).unwrap_err().to_string();
     assert!(err.contains("detector loss is inf"), "{err}");
     assert_eq!(model.detect(&frame), before);
 }

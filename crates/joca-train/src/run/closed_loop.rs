@@ -181,7 +181,7 @@ pub(super) fn test(
             if k < WARMUP_FRAMES {
                 continue;
             }
-            metrics.update(&s.frame.boxes, &s.detections, s.frame.visible_180);
+            metrics.update(&s.frame.boxes, &s.frame.ignore, &s.detections, s.frame.visible_180);
             let (illumination, ambient) = match (&real, town) {
                 (None, Some(town)) => (
                     town.episode(episode).illumination.name(),

@@ -1034,7 +1034,7 @@ fn train_candidate(
                     &mut cx.streams.indexed("perturbation-noise", global * 16 + m as u64),
                 );
                 let mut one = TaskMetrics::default();
-                one.update(&f.boxes, &model.detect(&image), f.visible_180);
+                one.update(&f.boxes, &f.ignore, &model.detect(&image), f.visible_180);
                 fitness.push(one.compute().ap50);
                 candidates.push(perturbed);
                 lap(&mut cx.timing, |t| &mut t.perturbation_detect_ms);
@@ -1064,7 +1064,8 @@ fn train_candidate(
             height: camera.height_px,
             pixel_pitch_um: pitch,
         };
-        let report = model.step(&scene, &frame.boxes, exposure, ga_target, weights)?;
+        let report =
+            model.step(&scene, &frame.boxes, &frame.ignore, exposure, ga_target, weights)?;
         lap(&mut None, |t| &mut t.decode_ms);
         if let Some(t) = cx.timing.as_mut() {
             let r = report.timings;
@@ -1075,7 +1076,7 @@ fn train_candidate(
             t.decode_ms += r.decode_ms;
             t.steps += 1;
         }
-        metrics.update(&frame.boxes, &report.detections, frame.visible_180);
+        metrics.update(&frame.boxes, &frame.ignore, &report.detections, frame.visible_180);
         if step % 5 == 0 {
             let line = serde_json::json!({"step": global, "loss": report.loss, "ga_loss": report.ga_loss, "exposure_ms": report.exposure_s * 1e3, "gain_db": report.gain_db, "illumination": illumination_name(&cx.sims, real.as_deref(), map_seed, episode)});
             writeln!(cx.log, "{line}").map_err(|e| TrainError::io(&cx.log_path, e))?;
