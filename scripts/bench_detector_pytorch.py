@@ -5,7 +5,7 @@ Optional reference for the Rust benchmark (needs `pip install torch==2.13.0`). I
 object: {"HxW": {"infer_ms": ..., "train_ms": ...}, ...}. `joca bench detector` runs it when
 `python3 -c "import torch"` works and reports the ratio joca / PyTorch measured in the same run.
 
-Usage: python3 scripts/bench_detector_pytorch.py --width 16 --threads 2 --repeats 10
+Usage: python3 scripts/bench_detector_pytorch.py --width 16 [--deep] --threads 2 --repeats 10
 """
 import argparse
 import json
@@ -45,13 +45,18 @@ class Head(nn.Module):
 
 
 class Detector(nn.Module):
-    def __init__(self, c, classes=3):
+    def __init__(self, c, classes=3, deep=False):
         super().__init__()
         self.stem, self.stem_norm = nn.Conv2d(3, c, 3, 2, 1, bias=False), gn(c)
         self.l1_down, self.l1_norm = nn.Conv2d(c, 2 * c, 3, 2, 1, bias=False), gn(2 * c)
         self.layer1 = Block(2 * c, 2 * c, 1)
         self.layer2 = nn.Sequential(Block(2 * c, 4 * c, 2), Block(4 * c, 4 * c, 1))
         self.layer3 = nn.Sequential(Block(4 * c, 8 * c, 2), Block(8 * c, 8 * c, 1))
+        self.layer4 = None
+        if deep:
+            self.layer4 = nn.Sequential(Block(8 * c, 16 * c, 2), Block(16 * c, 16 * c, 1))
+            self.lat4 = nn.Conv2d(16 * c, 4 * c, 1, bias=False)
+            self.smooth3 = nn.Conv2d(4 * c, 4 * c, 3, 1, 1, bias=False)
         self.lat3 = nn.Conv2d(8 * c, 4 * c, 1, bias=False)
         self.lat2 = nn.Conv2d(4 * c, 4 * c, 1, bias=False)
         self.lat1 = nn.Conv2d(2 * c, 4 * c, 1, bias=False)
@@ -64,7 +69,12 @@ class Detector(nn.Module):
         c2 = self.layer1(F.relu(self.l1_norm(self.l1_down(x))))
         c3 = self.layer2(c2)
         c4 = self.layer3(c3)
-        p4 = self.lat3(c4)
+        if self.layer4 is not None:
+            c5 = self.layer4(c4)
+            up = F.interpolate(self.lat4(c5), size=c4.shape[2:], mode="nearest")
+            p4 = F.relu(self.smooth3(up + self.lat3(c4)))
+        else:
+            p4 = self.lat3(c4)
         p3 = F.relu(self.smooth2(F.interpolate(p4, size=c3.shape[2:], mode="nearest") + self.lat2(c3)))
         p2 = F.relu(self.smooth1(F.interpolate(p3, size=c2.shape[2:], mode="nearest") + self.lat1(c2)))
         return self.heat(p2), self.size(p2), self.offset(p2)
@@ -95,12 +105,13 @@ def main():
     ap.add_argument("--width", type=int, default=16)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeats", type=int, default=10)
+    ap.add_argument("--deep", action="store_true")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     torch.manual_seed(0)
     out = {}
     for h, w in [(240, 320), (480, 640)]:
-        net = Detector(args.width)
+        net = Detector(args.width, deep=args.deep)
         opt = torch.optim.AdamW(net.parameters(), lr=1e-4, weight_decay=1e-6)
         x = torch.rand(1, 3, h, w) - 0.5
         with torch.no_grad():

@@ -6,7 +6,7 @@
 //! objects over the frames. Per-frame AP would be undefined on frames without objects.
 
 use crate::coco::{CocoEvaluator, GroundTruth, ScoredBox};
-use joca_core::{Annotation, Detection};
+use joca_core::{Annotation, Class, Detection};
 use serde::{Deserialize, Serialize};
 
 /// Weight of the TP ratio in the hardware fitness (paper Sec. 6.1).
@@ -35,6 +35,10 @@ pub struct TaskScores {
     pub visible_180: u64,
     /// Frames scored.
     pub frames: u64,
+    /// AP@[.50:.95] per class in `Class::ALL` order (vehicle, walker, traffic sign); `None`
+    /// for a class without ground truth in these frames.
+    #[serde(default)]
+    pub class_map: [Option<f64>; 3],
 }
 
 impl TaskScores {
@@ -83,6 +87,7 @@ impl TaskMetrics {
         let summary = self.coco.evaluate();
         let defined = |v: f64| if v < 0.0 { 0.0 } else { v };
         let tp = summary.true_positives_50 as u64;
+        let class_map = Class::ALL.map(|c| summary.per_category_ap.get(&c.coco_id()).copied());
         TaskScores {
             map: defined(summary.stats[0]),
             ap50: defined(summary.stats[1]),
@@ -90,6 +95,7 @@ impl TaskMetrics {
             true_positives: tp,
             visible_180: self.visible_180,
             frames: self.frames,
+            class_map,
         }
     }
 
@@ -118,6 +124,7 @@ mod tests {
         let s = m.compute();
         assert_eq!((s.true_positives, s.visible_180, s.frames), (1, 2, 2));
         assert!((s.map - 1.0).abs() < 1e-12 && (s.tp_ratio - 0.5).abs() < 1e-12);
+        assert_eq!(s.class_map, [Some(1.0), None, None]);
         assert!((s.fitness() - 1.55).abs() < 1e-12);
         m.reset();
         assert_eq!(m.compute().frames, 0);

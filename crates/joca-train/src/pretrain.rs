@@ -14,7 +14,7 @@ use joca_camera::{
 };
 use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
 use joca_metrics::TaskScores;
-use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts};
+use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts, WeightAverage};
 use joca_nn::{AdamConfig, Engine};
 use joca_sim::{Illumination, SimConfig, Simulator, train_map_seed};
 use rand::Rng;
@@ -52,6 +52,11 @@ pub struct PretrainConfig {
     pub warmup_steps: usize,
     /// AdamW weight decay.
     pub weight_decay: f64,
+    /// Decay of the running weight average that is evaluated and written as the result
+    /// (0: none, the last weights are the result). 0.999 averages over about the last 1000
+    /// steps.
+    #[serde(default)]
+    pub ema_decay: f64,
     /// Detector size.
     pub detector: DetectorConfig,
     /// Evaluate on the test town every this many steps (0: only at the end).
@@ -105,6 +110,9 @@ impl PretrainConfig {
             if !(v > 0.0 && v < 1.0) {
                 return bad(name, v.to_string(), "between 0 and 1");
             }
+        }
+        if !(self.ema_decay >= 0.0 && self.ema_decay < 1.0) {
+            return bad("ema_decay", self.ema_decay.to_string(), "0 (off) up to below 1");
         }
         if !(self.weight_decay >= 0.0 && self.weight_decay < 1.0) {
             return bad("weight_decay", self.weight_decay.to_string(), "0 to 1");
@@ -203,20 +211,27 @@ pub fn pretrain(
     let mut model = DetectorModel::new(&engine, config.detector, adam);
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let mut start = 0;
-    if resume {
-        if let Some(dir) = ckpt.existing() {
-            let state: State = read_json(&dir.join("state.json"))?;
-            check_resume(&state.config, config, run_dir)?;
-            model.load_weights(&dir.join("detector.safetensors"))?;
-            model.load_optimizer(&dir.join("optimizer.safetensors"))?;
-            start = state.step;
-        }
-    } else if ckpt.existing().is_some() {
+    let mut average = None;
+    let resumed_from = ckpt.existing().filter(|_| resume);
+    if let Some(dir) = &resumed_from {
+        let state: State = read_json(&dir.join("state.json"))?;
+        check_resume(&state.config, config, run_dir)?;
+        model.load_weights(&dir.join("detector.safetensors"))?;
+        model.load_optimizer(&dir.join("optimizer.safetensors"))?;
+        start = state.step;
+    } else if !resume && ckpt.existing().is_some() {
         return Err(TrainError::Config {
             field: "run directory".into(),
             value: run_dir.display().to_string(),
             allowed: "a directory without a checkpoint (pass --resume to continue it)".into(),
         });
+    }
+    if config.ema_decay > 0.0 {
+        let mut a = WeightAverage::new(&engine, &model, config.ema_decay);
+        if let Some(dir) = &resumed_from {
+            a.load(&dir.join(AVERAGE_FILE))?;
+        }
+        average = Some(a);
     }
     let log_path = run_dir.join("events.jsonl");
     let mut log = std::fs::OpenOptions::new()
@@ -275,6 +290,9 @@ pub fn pretrain(
             };
             run.settings = world.ae.step(run.settings, &image);
             step += 1;
+            if let Some(average) = &mut average {
+                average.update(step as u64);
+            }
             if step % 10 == 0 || step == config.steps {
                 let line = serde_json::json!({"step": step, "lr": config.lr_at(step - 1), "loss": loss, "design_index": run.index, "design": run.design, "map_seed": run.map_seed, "episode": run.episode});
                 writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
@@ -283,7 +301,8 @@ pub fn pretrain(
                 return Err(TrainError::Interrupted { step });
             }
             if config.eval_every > 0 && step % config.eval_every == 0 && step < config.steps {
-                let report = evaluate_day_night(&model, config, &streams, step)?;
+                let result = average.as_ref().map_or(&model, WeightAverage::model);
+                let report = evaluate_day_night(result, config, &streams, step)?;
                 writeln!(log, "{}", serde_json::json!({"eval": report}))
                     .map_err(|e| TrainError::io(&log_path, e))?;
                 let _ = progress(&PretrainEvent::Eval(report));
@@ -295,6 +314,9 @@ pub fn pretrain(
         ckpt.write(|dir| {
             model.save_weights(&dir.join("detector.safetensors"))?;
             model.save_optimizer(&dir.join("optimizer.safetensors"))?;
+            if let Some(average) = &average {
+                average.model().save_weights(&dir.join(AVERAGE_FILE))?;
+            }
             let state = State { step, config: config.clone() };
             let text = serde_json::to_string_pretty(&state).map_err(|e| TrainError::Corrupt {
                 path: "state.json".into(),
@@ -304,17 +326,18 @@ pub fn pretrain(
         })?;
         let _ = progress(&PretrainEvent::Checkpoint { step });
     }
+    let result = average.as_ref().map_or(&model, WeightAverage::model);
     let report = match last_eval {
         Some(r) if r.step == step => r,
         _ => {
-            let r = evaluate_day_night(&model, config, &streams, step)?;
+            let r = evaluate_day_night(result, config, &streams, step)?;
             writeln!(log, "{}", serde_json::json!({"eval": r}))
                 .map_err(|e| TrainError::io(&log_path, e))?;
             let _ = progress(&PretrainEvent::Eval(r));
             r
         }
     };
-    model.save_weights(weights_out)?;
+    result.save_weights(weights_out)?;
     write_atomic(
         &run_dir.join("results.json"),
         &serde_json::to_string_pretty(&report).unwrap_or_default(),
@@ -359,6 +382,9 @@ struct World<'a> {
     ae: AverageAe,
     sim_config: SimConfig,
 }
+
+/// The running weight average in a checkpoint.
+const AVERAGE_FILE: &str = "detector-average.safetensors";
 
 /// AverageAE iterations on an episode's first view before its first training frame.
 const AE_SETTLE_ITERATIONS: usize = 8;

@@ -23,6 +23,7 @@ fn tiny() -> PretrainConfig {
         lr_final: 1e-4,
         warmup_steps: 2,
         weight_decay: 1e-6,
+        ema_decay: 0.9,
         detector: DetectorConfig { width: 8, classes: 3, deep: false },
         eval_every: 0,
         eval_episodes: 1,

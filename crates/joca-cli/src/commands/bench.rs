@@ -38,6 +38,10 @@ pub struct Args {
     /// Threads for the detector benchmark (libtorch intra-op threads).
     #[arg(long, default_value_t = 2)]
     threads: usize,
+    /// `bench detector`: the variant with the stride-32 stage (`detector.deep`, the shipped
+    /// weights' architecture).
+    #[arg(long)]
+    deep: bool,
     /// Python interpreter with torch installed, for the PyTorch reference of `bench detector`.
     #[arg(long, default_value = "python3")]
     python: String,
@@ -51,7 +55,9 @@ pub fn run(args: &Args) -> Result<()> {
     match args.target {
         Target::Formation => bench_formation(args.repeats.max(1)),
         Target::Render => bench_render(args.repeats.max(1)),
-        Target::Detector => bench_detector(args.repeats.max(1), args.threads, &args.python),
+        Target::Detector => {
+            bench_detector(args.repeats.max(1), args.threads, args.deep, &args.python)
+        }
         Target::Step => bench_step(args.repeats.max(2), &args.preset),
         Target::Flow => bench_flow(args.repeats.clamp(1, 5)),
     }
@@ -274,28 +280,28 @@ fn bench_render(repeats: usize) -> Result<()> {
 /// 16 lanes × 2 flops at ~1.8 GHz), GFLOP/s. A reference for the utilisation column only.
 const PEAK_GFLOPS_PER_CORE: f64 = 115.0;
 
-fn bench_detector(repeats: usize, threads: usize, python: &str) -> Result<()> {
+fn bench_detector(repeats: usize, threads: usize, deep: bool, python: &str) -> Result<()> {
     use joca_nn::detector::{DetectorConfig, forward_flops, time_detector};
     let engine = joca_nn::Engine::cpu(threads);
-    let config = DetectorConfig::default();
+    let config = DetectorConfig { deep, ..DetectorConfig::default() };
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scripts/bench_detector_pytorch.py");
+    let mut script_args = vec![script.to_owned(), "--width".into(), config.width.to_string()];
+    script_args.extend(["--threads".into(), threads.to_string()]);
+    script_args.extend(["--repeats".into(), repeats.to_string()]);
+    if deep {
+        script_args.push("--deep".into());
+    }
     let reference: Option<serde_json::Value> = std::process::Command::new(python)
-        .args([
-            script,
-            "--width",
-            &config.width.to_string(),
-            "--threads",
-            &threads.to_string(),
-            "--repeats",
-            &repeats.to_string(),
-        ])
+        .args(&script_args)
         .output()
         .ok()
         .filter(|o| o.status.success())
         .and_then(|o| serde_json::from_slice(&o.stdout).ok());
     println!(
-        "detector (width {}, {} threads), best of {repeats}; training step = forward + loss + backward + AdamW",
-        config.width, threads
+        "detector (width {}{}, {} threads), best of {repeats}; training step = forward + loss + backward + AdamW",
+        config.width,
+        if deep { ", deep" } else { "" },
+        threads
     );
     println!(
         "{:<9} {:<10} {:>9} {:>10} {:>9} {:>12} {:>13}",

@@ -64,10 +64,16 @@ pub fn run(args: &Args) -> Result<()> {
         started.elapsed().as_secs_f64() / 60.0,
         args.out.display()
     );
-    println!("| light | mAP@[.5:.95] | AP50 | TP ratio | frames |");
-    println!("|---|---|---|---|---|");
+    println!(
+        "| light | mAP@[.5:.95] | AP50 | TP ratio | AP vehicle | AP walker | AP sign | frames |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
     for (name, s) in [("day", report.day), ("night", report.night)] {
-        println!("| {name} | {:.3} | {:.3} | {:.3} | {} |", s.map, s.ap50, s.tp_ratio, s.frames);
+        let [v, w, t] = s.class_map.map(|ap| ap.map_or("-".to_owned(), |ap| format!("{ap:.3}")));
+        println!(
+            "| {name} | {:.3} | {:.3} | {:.3} | {v} | {w} | {t} | {} |",
+            s.map, s.ap50, s.tp_ratio, s.frames
+        );
     }
     Ok(())
 }
@@ -90,15 +96,18 @@ fn report_progress(event: &PretrainEvent, started: &Instant, smoothed: &mut Opti
         }
         PretrainEvent::Eval(r) => {
             eprintln!();
+            let walker = |s: &joca_metrics::TaskScores| s.class_map[1].unwrap_or(f64::NAN);
             println!(
-                "  test town at step {}: day mAP {:.3} AP50 {:.3} TP ratio {:.3} | night mAP {:.3} AP50 {:.3} TP ratio {:.3}",
+                "  test town at step {}: day mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3}) | night mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3})",
                 r.step,
                 r.day.map,
                 r.day.ap50,
                 r.day.tp_ratio,
+                walker(&r.day),
                 r.night.map,
                 r.night.ap50,
-                r.night.tp_ratio
+                r.night.tp_ratio,
+                walker(&r.night)
             );
         }
         PretrainEvent::Checkpoint { .. } => {}

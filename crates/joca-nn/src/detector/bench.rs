@@ -27,6 +27,11 @@ pub fn forward_flops(config: DetectorConfig, h: i64, w: i64) -> f64 {
     f += block(2.0 * c, 2.0 * c, h4, w4, false);
     f += block(2.0 * c, 4.0 * c, h8, w8, true) + block(4.0 * c, 4.0 * c, h8, w8, false);
     f += block(4.0 * c, 8.0 * c, h16, w16, true) + block(8.0 * c, 8.0 * c, h16, w16, false);
+    if config.deep {
+        let (h32, w32) = (down(h16), down(w16));
+        f += block(8.0 * c, 16.0 * c, h32, w32, true) + block(16.0 * c, 16.0 * c, h32, w32, false);
+        f += conv(16.0 * c, 4.0 * c, 1.0, h32, w32) + conv(4.0 * c, 4.0 * c, 3.0, h16, w16);
+    }
     f += conv(8.0 * c, 4.0 * c, 1.0, h16, w16)
         + conv(4.0 * c, 4.0 * c, 1.0, h8, w8)
         + conv(4.0 * c, 4.0 * c, 3.0, h8, w8);

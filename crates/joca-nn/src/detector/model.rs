@@ -117,3 +117,57 @@ impl DetectorModel {
         self.vs.trainable_variables().iter().map(Tensor::numel).map(|n| n as i64).sum()
     }
 }
+
+/// A running exponential average of a detector's weights (Polyak averaging), the network that
+/// pre-training evaluates and ships. With batch size 1 and data that change block by block, the
+/// trained weights follow the latest cameras and scenes; their average over the last ~1/(1−d)
+/// steps does not. Group normalisation keeps no running statistics, so the weights are all
+/// there is to average.
+#[derive(Debug)]
+pub struct WeightAverage {
+    model: DetectorModel,
+    /// `(average, source)` variable pairs, sharing storage with the two variable stores.
+    pairs: Vec<(Tensor, Tensor)>,
+    decay: f64,
+}
+
+impl WeightAverage {
+    /// Starts the average at `source`'s current weights.
+    pub fn new(engine: &Engine, source: &DetectorModel, decay: f64) -> Self {
+        let model = DetectorModel::new(engine, source.net.config(), AdamConfig::DETECTOR);
+        let theirs = source.vs.variables();
+        let mut pairs: Vec<(Tensor, Tensor)> = model
+            .vs
+            .variables()
+            .into_iter()
+            .filter_map(|(name, mine)| theirs.get(&name).map(|t| (mine, t.shallow_clone())))
+            .collect();
+        let _guard = tch::no_grad_guard();
+        for (mine, theirs) in &mut pairs {
+            mine.copy_(theirs);
+        }
+        Self { model, pairs, decay }
+    }
+
+    /// Folds in the source's weights after its `updates`-th step: `avg ← d·avg + (1 − d)·w`
+    /// with `d = min(decay, (1 + n)/(10 + n))`, so that the first steps' random weights do not
+    /// linger (the ramp TensorFlow's ExponentialMovingAverage uses with `num_updates`).
+    pub fn update(&mut self, updates: u64) {
+        let n = updates as f64;
+        let d = self.decay.min((1.0 + n) / (10.0 + n));
+        let _guard = tch::no_grad_guard();
+        for (mine, theirs) in &mut self.pairs {
+            let _ = mine.lerp_(theirs, 1.0 - d);
+        }
+    }
+
+    /// The averaged network.
+    pub fn model(&self) -> &DetectorModel {
+        &self.model
+    }
+
+    /// Loads averaged weights written by `model().save_weights`.
+    pub fn load(&mut self, path: &Path) -> Result<(), NnError> {
+        self.model.load_weights(path)
+    }
+}

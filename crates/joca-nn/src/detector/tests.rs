@@ -178,3 +178,33 @@ fn a_non_finite_loss_is_refused_before_any_weight_changes() {
     assert!(err.contains("detector loss is inf"), "{err}");
     assert_eq!(model.detect(&frame), before);
 }
+
+#[test]
+fn the_weight_average_follows_the_closed_form() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let engine = Engine::cpu(1);
+    engine.seed(5);
+    let config = DetectorConfig { width: 8, classes: 3, deep: false };
+    let mut model = DetectorModel::new(&engine, config, AdamConfig::DETECTOR);
+    let mut average = WeightAverage::new(&engine, &model, 0.99);
+    let name = "heads.heatmap.out.bias";
+    let value = |m: &DetectorModel| m.vs.variables()[name].double_value(&[0]);
+    let w0 = value(&model);
+    assert_eq!(value(average.model()), w0);
+    let set = |m: &mut DetectorModel, v: f64| {
+        let _guard = tch::no_grad_guard();
+        let mut vars = m.vs.variables();
+        let _ = vars.get_mut(name).map(|t| t.fill_(v));
+    };
+    // Update 5: d = min(0.99, 6/15) = 0.4.
+    set(&mut model, 1.0);
+    average.update(5);
+    let a1 = 0.4 * w0 + 0.6;
+    assert!((value(average.model()) - a1).abs() < 1e-6);
+    // Update 10 000: d = 0.99.
+    set(&mut model, -1.0);
+    average.update(10_000);
+    assert!((value(average.model()) - (0.99 * a1 - 0.01)).abs() < 1e-6);
+    // The source is untouched.
+    assert_eq!(value(&model), -1.0);
+}
