@@ -58,7 +58,28 @@ enum Command {
     Cell(commands::experiment::CellArgs),
 }
 
+/// Keeps glibc from handing freed memory back to the kernel after every tensor: libtorch frees
+/// and reallocates megabytes per training step, and with glibc's defaults each step then trims
+/// the heap top and faults the pages in again (187 million minor page faults and 11 % of the
+/// time in the kernel over a 29-minute pre-training). Measured with `joca bench detector --deep`
+/// in one run: training step at 320×240 48.9 → 38.5 ms, inference 12.8 → 9.6 ms.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[allow(unsafe_code)]
+fn keep_freed_memory() {
+    // SAFETY: mallopt only sets allocator parameters; called first thing in main, before any
+    // other thread exists. A rejected value (return 0) leaves glibc's default in place.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 1 << 30);
+        libc::mallopt(libc::M_TOP_PAD, 64 << 20);
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn keep_freed_memory() {}
+
 fn main() -> ExitCode {
+    keep_freed_memory();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => commands::run::run(&args),

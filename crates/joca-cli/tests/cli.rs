@@ -642,7 +642,7 @@ fn detect_writes_coco_results_that_metrics_scores() {
         joca(&["render", "--frames", "2", "--illumination", "day", "--out", rec.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let weights =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector-paper.safetensors");
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector-standard.safetensors");
     let gt = rec.join("annotations.json");
     let dt = dir.path().join("dt.json");
     let o = joca(&[
@@ -676,7 +676,7 @@ fn detect_writes_coco_results_that_metrics_scores() {
         "8",
     ]);
     assert!(
-        !o.status.success() && stderr(&o).contains("detector-paper.safetensors"),
+        !o.status.success() && stderr(&o).contains("detector-standard.safetensors"),
         "{}",
         stderr(&o)
     );

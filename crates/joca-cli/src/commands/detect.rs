@@ -22,12 +22,10 @@ pub struct Args {
     /// Output: a COCO results list (`image_id`, `category_id`, `bbox`, `score`).
     #[arg(long)]
     out: PathBuf,
-    /// Detector width the weights were trained with.
-    #[arg(long, default_value_t = 16)]
-    width: i64,
-    /// The weights have the stride-32 stage (`detector = { deep = true }`).
+    /// Detector width; by default the one the weights file was saved with (as are the class
+    /// count and the stride-32 stage).
     #[arg(long)]
-    deep: bool,
+    width: Option<i64>,
     /// libtorch threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
@@ -46,9 +44,12 @@ struct Image {
 
 /// Runs `joca detect`.
 pub fn run(args: &Args) -> Result<()> {
-    if args.width < 1 {
+    if args.width.is_some_and(|w| w < 1) {
         bail!("--width must be at least 1");
     }
+    let mut config = DetectorConfig::of_weights(&args.weights)
+        .with_context(|| format!("cannot load {}", args.weights.display()))?;
+    config.width = args.width.unwrap_or(config.width);
     let text = std::fs::read_to_string(&args.images)
         .with_context(|| format!("cannot read {}", args.images.display()))?;
     let list: Images = serde_json::from_str(&text).with_context(|| {
@@ -56,11 +57,7 @@ pub fn run(args: &Args) -> Result<()> {
     })?;
     let root = args.images.parent().map(PathBuf::from).unwrap_or_default();
     let engine = Engine::cpu(args.threads.max(1));
-    let mut model = DetectorModel::new(
-        &engine,
-        DetectorConfig { width: args.width, classes: 3, deep: args.deep },
-        AdamConfig::DETECTOR,
-    );
+    let mut model = DetectorModel::new(&engine, config, AdamConfig::DETECTOR);
     model
         .load_weights(&args.weights)
         .with_context(|| format!("cannot load {}", args.weights.display()))?;

@@ -48,6 +48,28 @@ pub struct DetectorConfig {
     pub deep: bool,
 }
 
+impl DetectorConfig {
+    /// The architecture a weights file was saved from, read from its tensors' names and shapes
+    /// (stem channels, heatmap classes, presence of the stride-32 stage). Loading the file
+    /// still checks every tensor.
+    pub fn of_weights(path: &std::path::Path) -> Result<Self, crate::NnError> {
+        let err =
+            |reason: String| crate::NnError::Weights { path: path.display().to_string(), reason };
+        let tensors = Tensor::read_safetensors(path)
+            .map_err(|e| err(format!("not a readable safetensors file ({e})")))?;
+        let dim = |name: &str| {
+            tensors.iter().find(|(n, _)| n == name).map(|(_, t)| t.size()[0]).ok_or_else(|| {
+                err(format!("no tensor `{name}`: not a weights file of the joca detector"))
+            })
+        };
+        Ok(Self {
+            width: dim("backbone.stem.weight")?,
+            classes: dim("heads.heatmap.out.bias")?,
+            deep: tensors.iter().any(|(n, _)| n.starts_with("backbone.layer4_0.")),
+        })
+    }
+}
+
 impl Default for DetectorConfig {
     fn default() -> Self {
         Self { width: 16, classes: Class::ALL.len() as i64, deep: false }

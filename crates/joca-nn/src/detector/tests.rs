@@ -147,6 +147,17 @@ fn weights_round_trip_and_refuse_another_architecture() {
     let _ = Detector::new(&deep.root(), DetectorConfig { width: 8, classes: 3, deep: true });
     let e = load_weights(&mut deep, &path).unwrap_err().to_string();
     assert!(e.contains("layer4") || e.contains("lateral4") || e.contains("smooth3"), "{e}");
+    // The file tells its architecture.
+    let shallow = DetectorConfig { width: 8, classes: 3, deep: false };
+    assert_eq!(DetectorConfig::of_weights(&path).unwrap(), shallow);
+    save_weights(&deep, &path).unwrap();
+    assert_eq!(
+        DetectorConfig::of_weights(&path).unwrap(),
+        DetectorConfig { deep: true, ..shallow }
+    );
+    std::fs::write(&path, b"not safetensors").unwrap();
+    let e = DetectorConfig::of_weights(&path).unwrap_err().to_string();
+    assert!(e.contains("det.safetensors") && e.contains("not a readable"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
