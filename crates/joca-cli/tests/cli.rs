@@ -645,15 +645,13 @@ fn detect_writes_coco_results_that_metrics_scores() {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector-standard.safetensors");
     let gt = rec.join("annotations.json");
     let dt = dir.path().join("dt.json");
-    let o = joca(&[
-        "detect",
-        "--weights",
-        weights.to_str().unwrap(),
-        "--images",
-        gt.to_str().unwrap(),
-        "--out",
-        dt.to_str().unwrap(),
-    ]);
+    let detect = |extra: &[&str]| {
+        let mut a = vec!["detect", "--weights", weights.to_str().unwrap()];
+        a.extend(["--images", gt.to_str().unwrap(), "--out", dt.to_str().unwrap()]);
+        a.extend(extra);
+        joca(&a)
+    };
+    let o = detect(&[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let dets: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&dt).unwrap()).unwrap();
@@ -664,17 +662,7 @@ fn detect_writes_coco_results_that_metrics_scores() {
     let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
     assert!(stdout(&o).contains("area= small"), "{}", stdout(&o));
     // Weights of another width are refused naming a tensor.
-    let o = joca(&[
-        "detect",
-        "--weights",
-        weights.to_str().unwrap(),
-        "--images",
-        gt.to_str().unwrap(),
-        "--out",
-        dt.to_str().unwrap(),
-        "--width",
-        "8",
-    ]);
+    let o = detect(&["--width", "8"]);
     assert!(
         !o.status.success() && stderr(&o).contains("detector-standard.safetensors"),
         "{}",

@@ -216,6 +216,8 @@ pub struct Recording {
     sequences: Vec<Vec<RecordedFrame>>,
     frame_interval_s: f64,
     config: FolderConfig,
+    /// `config.linearize` of every 8-bit value.
+    linear: [f32; 256],
     frames: Cache<Resized>,
     flows: Cache<crate::flow::Flow>,
     /// Frames left out while opening (with `OnBadFrame::Skip`), with the reason.
@@ -344,6 +346,7 @@ impl Recording {
             dir: dir.to_owned(),
             sequences,
             frame_interval_s,
+            linear: config.linearize.table(),
             config,
             frames: Mutex::default(),
             flows: Mutex::default(),
@@ -505,9 +508,12 @@ impl FrameSource for Recording {
         let rec_gain = joca_core::units::linear_from_db(rec.gain_db);
         let to_calibrated =
             (self.config.calibration_exposure_s * cal_gain / (rec.exposure_s * rec_gain)) as f32;
-        let lin = self.config.linearize.table();
-        let data: Vec<f32> =
-            frame.image.as_raw().iter().map(|&v| lin[usize::from(v)] * to_calibrated).collect();
+        let data: Vec<f32> = frame
+            .image
+            .as_raw()
+            .iter()
+            .map(|&v| self.linear[usize::from(v)] * to_calibrated)
+            .collect();
         let sharp = HdrImage::from_vec(w, h, data)
             .map_err(|e| read_err(Path::new(&rec.origin.label()), e))?;
         let dt = seq[k + 1].timestamp_s - rec.timestamp_s;

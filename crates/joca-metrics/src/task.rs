@@ -46,6 +46,11 @@ impl TaskScores {
     pub fn fitness(&self) -> f64 {
         self.map + TP_RATIO_WEIGHT * self.tp_ratio
     }
+
+    /// AP@[.50:.95] of one class (`None` without ground truth of it).
+    pub fn class_ap(&self, class: Class) -> Option<f64> {
+        self.class_map[class.index()]
+    }
 }
 
 impl TaskMetrics {

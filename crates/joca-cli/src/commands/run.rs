@@ -150,43 +150,33 @@ fn print_results(r: &RunResults, seconds: f64) {
     let d = &r.design;
     let mark = if d.optimised { "optimised" } else { "fixed" };
     println!("\nfinished in {:.1} min\n", seconds / 60.0);
-    if r.source.starts_with("folder:") || r.source.starts_with("waymo:") {
+    let mut columns =
+        vec![("method", r.method.name().to_owned()), ("scenario", r.scenario.name().to_owned())];
+    if r.real_images() {
         // Real-image mode: the recording fixes mount and lens, and has no 180° object count.
         println!("tested on {}\n", r.source);
-        println!("| method | scenario | sensor | W×H (mm) | p (µm) | mAP@[.5:.95] | AP50 |");
-        println!("|---|---|---|---|---|---|---|");
-        println!(
-            "| {} | {} | {} ({mark}) | {:.2}×{:.2} | {:.2} | {:.3} | {:.3} |",
-            r.method.name(),
-            r.scenario.name(),
-            d.sensor,
-            d.sensor_mm.0,
-            d.sensor_mm.1,
-            d.pixel_pitch_um,
-            r.test.map,
-            r.test.ap50
-        );
     } else {
-        println!(
-            "| method | scenario | x (m) | z (m) | f (mm) | sensor | W×H (mm) | p (µm) | mAP@[.5:.95] | AP50 | TP ratio |"
-        );
-        println!("|---|---|---|---|---|---|---|---|---|---|---|");
-        println!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {} ({mark}) | {:.2}×{:.2} | {:.2} | {:.3} | {:.3} | {:.3} |",
-            r.method.name(),
-            r.scenario.name(),
-            d.x_m,
-            d.z_m,
-            d.focal_length_mm,
-            d.sensor,
-            d.sensor_mm.0,
-            d.sensor_mm.1,
-            d.pixel_pitch_um,
-            r.test.map,
-            r.test.ap50,
-            r.test.tp_ratio
-        );
+        columns.extend([
+            ("x (m)", format!("{:.2}", d.x_m)),
+            ("z (m)", format!("{:.2}", d.z_m)),
+            ("f (mm)", format!("{:.2}", d.focal_length_mm)),
+        ]);
     }
+    columns.extend([
+        ("sensor", format!("{} ({mark})", d.sensor)),
+        ("W×H (mm)", format!("{:.2}×{:.2}", d.sensor_mm.0, d.sensor_mm.1)),
+        ("p (µm)", format!("{:.2}", d.pixel_pitch_um)),
+        ("mAP@[.5:.95]", format!("{:.3}", r.test.map)),
+        ("AP50", format!("{:.3}", r.test.ap50)),
+    ]);
+    if !r.real_images() {
+        columns.push(("TP ratio", format!("{:.3}", r.test.tp_ratio)));
+    }
+    let row =
+        |f: fn(&(&str, String)) -> String| columns.iter().map(f).collect::<Vec<_>>().join(" | ");
+    println!("| {} |", row(|c| c.0.to_owned()));
+    println!("|{}", "---|".repeat(columns.len()));
+    println!("| {} |", row(|c| c.1.clone()));
     println!("\nmean exposure and gain during the test, by illumination:");
     for (light, (e, g)) in &r.settings_by_illumination {
         println!("  {light:<7} E = {e:6.2} ms   G = {g:5.1} dB");

@@ -96,7 +96,9 @@ fn report_progress(event: &PretrainEvent, started: &Instant, smoothed: &mut Opti
         }
         PretrainEvent::Eval(r) => {
             eprintln!();
-            let walker = |s: &joca_metrics::TaskScores| s.class_map[1].unwrap_or(f64::NAN);
+            let walker = |s: &joca_metrics::TaskScores| {
+                s.class_ap(joca_core::Class::Walker).unwrap_or(f64::NAN)
+            };
             println!(
                 "  test town at step {}: day mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3}) | night mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3})",
                 r.step,

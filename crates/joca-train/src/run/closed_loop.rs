@@ -169,7 +169,7 @@ pub(super) fn test(
         for k in 0..WARMUP_FRAMES + c.test_frames_per_episode {
             let town = cx.sims.get(&map_seed);
             let source: &dyn FrameSource = match (&real, town) {
-                (Some(r), _) => &r.test,
+                (Some(r), _) => r.test(),
                 (None, Some(town)) => town,
                 (None, None) => {
                     unreachable!("the test town is built above when no recording is used")

@@ -225,8 +225,8 @@ pub struct RunConfig {
     pub test_episodes: u64,
     /// Scored frames per test episode.
     pub test_frames_per_episode: usize,
-    /// Frame source for training: empty (or `sim`) for the built-in simulator, `folder:DIR` for
-    /// a recorded sequence in the folder format (the real-image mode).
+    /// Frame source for training: empty (or `sim`) for the built-in simulator; `folder:DIR` (the
+    /// folder format) or `waymo:DIR` (Waymo Open Dataset v2 parquet) for the real-image mode.
     #[serde(default)]
     pub source: String,
     /// Frame source for testing; empty: the test town (simulator) or, in real-image mode, the
@@ -318,7 +318,7 @@ impl Recorded {
 }
 
 /// A `source` value: a recording, or `None` for the simulator.
-fn folder_of(source: &str, field: &str) -> Result<Option<Recorded>, TrainError> {
+fn recording_of(source: &str, field: &str) -> Result<Option<Recorded>, TrainError> {
     match source {
         "" | "sim" => Ok(None),
         s if s.starts_with("folder:") && s.len() > 7 => Ok(Some(Recorded::Folder(PathBuf::from(&s[7..])))),
@@ -379,8 +379,8 @@ impl RunConfig {
                 "a weights file from `joca train-detector` (frozen-detector freezes it)",
             );
         }
-        folder_of(&self.source, "source")?;
-        folder_of(&self.test_source, "test_source")?;
+        recording_of(&self.source, "source")?;
+        recording_of(&self.test_source, "test_source")?;
         self.real.folder_config()?;
         if self.test_episodes == 0 || self.test_frames_per_episode == 0 {
             return bad(
@@ -410,9 +410,16 @@ pub struct RunResults {
     pub best_fitness: f64,
     /// Output resolution factor.
     pub render_scale: f64,
-    /// The test frames' source: `sim` or `folder:DIR`.
+    /// The test frames' source: `sim`, `folder:DIR` or `waymo:DIR`.
     #[serde(default)]
     pub source: String,
+}
+
+impl RunResults {
+    /// Whether the run was tested on recorded frames (the real-image mode).
+    pub fn real_images(&self) -> bool {
+        matches!(recording_of(&self.source, "source"), Ok(Some(_)))
+    }
 }
 
 /// A design as the result tables show it.
@@ -563,10 +570,18 @@ struct RunState {
     best: Option<(Vec<f64>, f64)>,
 }
 
-/// Training and test folders of the real-image mode.
+/// Training and test recordings of the real-image mode.
 struct RealSources {
     train: Recording,
-    test: Recording,
+    /// `None`: the test plays the training recording (no `test_source`).
+    held_out: Option<Recording>,
+}
+
+impl RealSources {
+    /// The recording the test plays.
+    fn test(&self) -> &Recording {
+        self.held_out.as_ref().unwrap_or(&self.train)
+    }
 }
 
 struct Context {
@@ -776,13 +791,15 @@ fn setup(
         model.load_detector(Path::new(&config.detector_weights))?;
     }
     model.set_detector_trainable(config.method != Method::FrozenDetector);
-    let (real, space) = match folder_of(&config.source, "source")? {
+    let (real, space) = match recording_of(&config.source, "source")? {
         None => (None, DesignSpace::synthetic()),
         Some(recorded) => {
             let train = recorded.open(&config.real)?;
-            let test = match folder_of(&config.test_source, "test_source")? {
-                Some(test) => test.open(&config.real)?,
-                None => recorded.open(&config.real)?,
+            // Without a test source the test plays the training recording itself: opening it a
+            // second time would read (and, for Waymo, hold) every frame twice.
+            let held_out = match recording_of(&config.test_source, "test_source")? {
+                Some(test) => Some(test.open(&config.real)?),
+                None => None,
             };
             // The recording fixes mount and lens (the nuScenes-like values stand in for them in
             // the tables); only sensors whose pixel grid fits inside the recording are designed.
@@ -791,7 +808,7 @@ fn setup(
             let space = DesignSpace::synthetic()
                 .with_fixed_mount(fixed.x_m, fixed.z_m, fixed.focal_length_mm)
                 .restricted_to_recording(w as usize, h as usize)?;
-            (Some(Arc::new(RealSources { train, test })), space)
+            (Some(Arc::new(RealSources { train, held_out })), space)
         }
     };
     let cx = Context {
