@@ -65,11 +65,31 @@ pub struct CityConfig {
     pub walkers_per_edge: f32,
     /// Moving vehicles per lane per 100 m.
     pub vehicles_per_100m: f32,
+    /// Probability that a walker crosses at a given intersection's zebra crossing.
+    pub crossing_walker_probability: f32,
 }
 
 impl Default for CityConfig {
     fn default() -> Self {
-        Self { blocks: 8, walkers_per_edge: 1.2, vehicles_per_100m: 0.9 }
+        Self {
+            blocks: 8,
+            walkers_per_edge: 1.2,
+            vehicles_per_100m: 0.9,
+            crossing_walker_probability: 0.35,
+        }
+    }
+}
+
+impl CityConfig {
+    /// The same city with `factor` times the walkers, on sidewalks and at crossings (the
+    /// crossing probability saturates at one walker per intersection).
+    #[must_use]
+    pub fn with_walker_density(self, factor: f32) -> Self {
+        Self {
+            walkers_per_edge: self.walkers_per_edge * factor,
+            crossing_walker_probability: (self.crossing_walker_probability * factor).min(1.0),
+            ..self
+        }
     }
 }
 
@@ -492,7 +512,7 @@ impl City {
         // Across roads at zebra crossings.
         for i in 0..n {
             for j in 0..n {
-                if rng.random::<f32>() > 0.35 {
+                if rng.random::<f32>() > config.crossing_walker_probability {
                     continue;
                 }
                 let (cx, cy) = self.intersection(i, j);
@@ -720,5 +740,29 @@ mod tests {
         let other = City::generate(&CityConfig::default(), &mut SeedStreams::new(6).stream("city"));
         assert_ne!(a.objects.len(), 0);
         assert_ne!(a.objects, other.objects);
+    }
+
+    #[test]
+    fn walker_density_scales_walkers_and_nothing_else() {
+        let count =
+            |c: &City, class: Class| c.objects.iter().filter(|o| o.class == Some(class)).count();
+        let base = city();
+        let dense = City::generate(
+            &CityConfig::default().with_walker_density(3.0),
+            &mut SeedStreams::new(5).stream("city"),
+        );
+        let (w1, w3) = (count(&base, Class::Walker), count(&dense, Class::Walker));
+        // Sidewalk walkers are Σ round(3 · 1.2 · U(0, 2)) per edge against Σ round(1.2 · U(0, 2));
+        // crossings go from 35 % to every intersection.
+        let ratio = w3 as f64 / w1 as f64;
+        assert!((2.5..3.5).contains(&ratio), "{w1} → {w3}");
+        assert_eq!(count(&base, Class::Vehicle), count(&dense, Class::Vehicle));
+        assert_eq!(base.roads_x, dense.roads_x);
+        // Density 1 is the default city, drawn identically.
+        let same = City::generate(
+            &CityConfig::default().with_walker_density(1.0),
+            &mut SeedStreams::new(5).stream("city"),
+        );
+        assert_eq!(same.objects, base.objects);
     }
 }
