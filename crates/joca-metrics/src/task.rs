@@ -18,6 +18,7 @@ pub struct TaskMetrics {
     coco: CocoEvaluator,
     visible_180: u64,
     frames: u64,
+    class_objects: [u64; 3],
 }
 
 /// Scores of a set of frames.
@@ -39,6 +40,10 @@ pub struct TaskScores {
     /// for a class without ground truth in these frames.
     #[serde(default)]
     pub class_map: [Option<f64>; 3],
+    /// Annotated objects (not ignore regions) per class, summed over frames: how many boxes
+    /// each entry of `class_map` rests on.
+    #[serde(default)]
+    pub class_objects: [u64; 3],
 }
 
 impl TaskScores {
@@ -82,6 +87,9 @@ impl TaskMetrics {
                 )
             })
             .collect();
+        for a in truth {
+            self.class_objects[a.class.index()] += 1;
+        }
         self.coco.add_image(self.frames, gts, dts);
         self.visible_180 += u64::from(visible_180);
         self.frames += 1;
@@ -101,6 +109,7 @@ impl TaskMetrics {
             visible_180: self.visible_180,
             frames: self.frames,
             class_map,
+            class_objects: self.class_objects,
         }
     }
 
@@ -131,6 +140,7 @@ mod tests {
         assert!((s.map - 1.0).abs() < 1e-12 && (s.tp_ratio - 0.5).abs() < 1e-12);
         assert!((s.class_map[0].unwrap() - 1.0).abs() < 1e-12);
         assert_eq!(s.class_map[1..], [None, None]);
+        assert_eq!(s.class_objects, [1, 0, 0]);
         assert!((s.fitness() - 1.55).abs() < 1e-12);
         m.reset();
         assert_eq!(m.compute().frames, 0);
