@@ -27,6 +27,11 @@ pub struct Targets {
     pub offset: Tensor,
     /// Number of objects.
     pub count: usize,
+    /// Class index of each object.
+    pub classes: Vec<usize>,
+    /// Per-class loss weights (`[1, classes, 1, 1]` on the heatmap positives) and the same
+    /// weights per object (`[1, n]`, on size and offset); `None`: every class weighs 1.
+    pub class_weights: Option<(Tensor, Tensor)>,
 }
 
 /// CenterNet's Gaussian radius: the largest corner shift that keeps IoU ≥ `min_overlap`
@@ -56,6 +61,7 @@ impl Targets {
         let (h, w) = (out_h as usize, out_w as usize);
         let mut heat = vec![0.0f32; classes as usize * h * w];
         let mut indices = Vec::new();
+        let mut object_classes = Vec::new();
         let (mut size_w, mut size_h, mut off_x, mut off_y) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let s = STRIDE as f64;
@@ -86,6 +92,7 @@ impl Targets {
             }
             plane[iy * w + ix] = 1.0;
             indices.push((iy * w + ix) as i64);
+            object_classes.push(a.class.index());
             size_w.push(bw.ln() as f32);
             size_h.push(bh.ln() as f32);
             off_x.push((cx - ix as f64) as f32);
@@ -117,7 +124,27 @@ impl Targets {
             size: pair(size_w, size_h),
             offset: pair(off_x, off_y),
             count: indices.len(),
+            classes: object_classes,
+            class_weights: None,
         }
+    }
+
+    /// The same targets with each class's objects weighted by `weights[class]`, for class
+    /// imbalance (class-balanced loss): a weighted class's heatmap peaks and its size and offset
+    /// errors count `weight` times, while the background term and the normaliser (the number of
+    /// objects) stay as they are, so a frame without that class trains exactly as before.
+    pub fn with_class_weights(mut self, weights: &[f64]) -> Self {
+        if weights.iter().all(|&w| w == 1.0) {
+            return self;
+        }
+        let device = self.heatmap.device();
+        let planes: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
+        let per_object: Vec<f32> = self.classes.iter().map(|&c| weights[c] as f32).collect();
+        self.class_weights = Some((
+            Tensor::from_slice(&planes).view([1, weights.len() as i64, 1, 1]).to_device(device),
+            Tensor::from_slice(&per_object).view([1, self.count as i64]).to_device(device),
+        ));
+        self
     }
 }
 
@@ -140,10 +167,14 @@ impl DetectionLoss {
         let logits = &output.heatmap;
         let t = &targets.heatmap;
         let p = logits.sigmoid();
-        let pos = t.eq(1.0).to_kind(Kind::Float);
+        let mut pos = t.eq(1.0).to_kind(Kind::Float);
+        if let Some((planes, _)) = &targets.class_weights {
+            pos *= planes;
+        }
+        let not_pos: Tensor = 1.0 - t.eq(1.0).to_kind(Kind::Float);
         let neg: Tensor = match &targets.ignore {
-            Some(ignore) => (1.0 - &pos) * (1.0 - ignore),
-            None => 1.0 - &pos,
+            Some(ignore) => not_pos * (1.0 - ignore),
+            None => not_pos,
         };
         // log p and log(1 − p) through log-sigmoid, stable for large logits.
         let one_minus_p: Tensor = 1.0 - &p;
@@ -162,10 +193,14 @@ impl DetectionLoss {
                 let s = map.size();
                 map.reshape([2, s[2] * s[3]]).index_select(1, &targets.indices)
             };
-            (
-                (at(&output.size) - &targets.size).abs().mean(Kind::Float),
-                (at(&output.offset) - &targets.offset).abs().mean(Kind::Float),
-            )
+            let l1 = |map: &Tensor, target: &Tensor| {
+                let error = (at(map) - target).abs();
+                match &targets.class_weights {
+                    Some((_, w)) => (error * w).sum(Kind::Float) / (w.sum(Kind::Float) * 2.0),
+                    None => error.mean(Kind::Float),
+                }
+            };
+            (l1(&output.size, &targets.size), l1(&output.offset, &targets.offset))
         };
         let total = &heatmap + &size * SIZE_WEIGHT + &offset * OFFSET_WEIGHT;
         Self {

@@ -34,6 +34,7 @@ pub struct DetectorModel {
     pub(crate) net: Detector,
     pub(crate) optimizer: Adam,
     device: Device,
+    class_weights: Vec<f64>,
 }
 
 impl DetectorModel {
@@ -43,7 +44,8 @@ impl DetectorModel {
         let vs = VarStore::new(engine.device());
         let net = Detector::new(&vs.root(), config);
         let optimizer = Adam::new(&vs, adam);
-        Self { vs, net, optimizer, device: engine.device() }
+        let class_weights = vec![1.0; config.classes as usize];
+        Self { vs, net, optimizer, device: engine.device(), class_weights }
     }
 
     /// The network (for the NeuralAE, which reads its features).
@@ -76,6 +78,13 @@ impl DetectorModel {
         self.optimizer.set_lr(lr);
     }
 
+    /// Weights each class's objects in the training loss (see [`Targets::with_class_weights`]);
+    /// all 1 by default. Panics unless there is one weight per class.
+    pub fn set_class_weights(&mut self, weights: &[f64]) {
+        assert_eq!(weights.len(), self.class_weights.len(), "one weight per class");
+        self.class_weights = weights.to_vec();
+    }
+
     /// Freezes or unfreezes every weight (the "frozen detector" ablation).
     pub fn set_trainable(&mut self, trainable: bool) {
         if trainable { self.vs.unfreeze() } else { self.vs.freeze() }
@@ -93,7 +102,8 @@ impl DetectorModel {
         let out = self.net.forward(&x);
         let s = out.heatmap.size();
         let targets =
-            Targets::new(truth, ignore, self.net.config().classes, s[2], s[3], self.device);
+            Targets::new(truth, ignore, self.net.config().classes, s[2], s[3], self.device)
+                .with_class_weights(&self.class_weights);
         let loss = DetectionLoss::new(&out, &targets);
         let total = loss.total.double_value(&[]);
         if !total.is_finite() {

@@ -78,6 +78,43 @@ fn firing_inside_an_ignore_region_costs_nothing() {
 }
 
 #[test]
+fn class_weights_scale_that_class_and_nothing_else() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // A vehicle 16×16 px and a walker 8×16 px on a 10×20 grid (stride 4); every logit 0 (p = ½)
+    // and every size/offset output 0.
+    let vehicle = Annotation { bbox: BBox::new(8.0, 8.0, 24.0, 24.0), class: Class::Vehicle };
+    let walker = Annotation { bbox: BBox::new(48.0, 12.0, 56.0, 28.0), class: Class::Walker };
+    let output = DetectorOutput {
+        heatmap: Tensor::zeros([1, 3, 10, 20], (Kind::Float, Device::Cpu)),
+        size: Tensor::zeros([1, 2, 10, 20], (Kind::Float, Device::Cpu)),
+        offset: Tensor::zeros([1, 2, 10, 20], (Kind::Float, Device::Cpu)),
+        features: Tensor::zeros([1, 1, 10, 20], (Kind::Float, Device::Cpu)),
+    };
+    let weights = [1.0, 3.0, 1.0];
+    let both = [vehicle, walker];
+    let plain = DetectionLoss::new(&output, &Targets::new(&both, &[], 3, 10, 20, Device::Cpu));
+    let t = Targets::new(&both, &[], 3, 10, 20, Device::Cpu).with_class_weights(&weights);
+    let weighted = DetectionLoss::new(&output, &t);
+    // Each peak costs −(1 − p)²·log p = ¼·ln 2; the walker's now counts 3 times; the loss is
+    // normalised by the 2 objects either way.
+    let peak = 0.25 * 2f64.ln();
+    assert!((weighted.heatmap - plain.heatmap - 2.0 * peak / 2.0).abs() < 1e-6);
+    // Log sizes in cells: vehicle (ln 4, ln 4), walker (ln 2, ln 4); with output 0 the errors
+    // are those values, averaged with weights 1 and 3 over both coordinates.
+    let (l2, l4) = (2f64.ln(), 4f64.ln());
+    assert!((plain.size - (l4 + l4 + l2 + l4) / 4.0).abs() < 1e-6);
+    assert!((weighted.size - (l4 + l4 + 3.0 * (l2 + l4)) / 8.0).abs() < 1e-6);
+    // A frame without walkers trains exactly as before.
+    let alone = [vehicle];
+    let plain = DetectionLoss::new(&output, &Targets::new(&alone, &[], 3, 10, 20, Device::Cpu));
+    let t = Targets::new(&alone, &[], 3, 10, 20, Device::Cpu).with_class_weights(&weights);
+    let weighted = DetectionLoss::new(&output, &t);
+    assert_eq!(weighted.heatmap, plain.heatmap);
+    assert_eq!(weighted.size, plain.size);
+    assert_eq!(weighted.offset, plain.offset);
+}
+
+#[test]
 fn learns_to_find_a_box_in_a_few_hundred_steps() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(2);
