@@ -43,6 +43,8 @@ enum Command {
     Render(commands::render::Args),
     /// Pre-train the detector on simulator frames from random camera designs (AverageAE).
     TrainDetector(commands::train_detector::Args),
+    /// Score detector weights on the test town as pre-training does (reference camera, AverageAE).
+    EvalDetector(commands::train_detector::EvalArgs),
     /// Measure the speed of joca's components and print a table.
     Bench(commands::bench::Args),
     /// Run a grid of runs (the paper's tables) locally or on Slurm, and report it.
@@ -91,6 +93,7 @@ fn main() -> ExitCode {
         Command::Detect(args) => commands::detect::run(&args),
         Command::Render(args) => commands::render::run(&args),
         Command::TrainDetector(args) => commands::train_detector::run(&args),
+        Command::EvalDetector(args) => commands::train_detector::run_eval(&args),
         Command::Bench(args) => commands::bench::run(&args),
         Command::Experiment(args) => commands::experiment::run(&args),
         Command::Report(args) => commands::report::run(&args),

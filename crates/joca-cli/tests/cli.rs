@@ -669,3 +669,36 @@ fn detect_writes_coco_results_that_metrics_scores() {
         stderr(&o)
     );
 }
+
+#[test]
+fn eval_detector_scores_weights_and_names_a_missing_file() {
+    let weights =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector-standard.safetensors");
+    let o = joca(&[
+        "eval-detector",
+        "--weights",
+        weights.to_str().unwrap(),
+        "--episodes",
+        "1",
+        "--threads",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    // One episode of 10 frames per light, each AP cell with the boxes it rests on.
+    assert!(out.contains("1 episodes × 10 frames"), "{out}");
+    let day = out.lines().find(|l| l.starts_with("| day |")).unwrap();
+    assert!(day.trim_end().ends_with("| 10 |") && day.contains(" ("), "{day}");
+    let o = joca(&["eval-detector", "--weights", "/nonexistent/w.safetensors"]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("/nonexistent/w.safetensors"),
+        "{}",
+        stderr(&o)
+    );
+    let o = joca(&["eval-detector", "--weights", weights.to_str().unwrap(), "--episodes", "0"]);
+    assert!(
+        stderr(&o).contains("final_eval_episodes") && stderr(&o).contains("1 to 10000"),
+        "{}",
+        stderr(&o)
+    );
+}

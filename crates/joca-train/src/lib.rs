@@ -19,7 +19,8 @@ pub use checkpoint::{CheckpointDir, write_atomic};
 pub use error::TrainError;
 pub use eval::{AverageControl, EvalSpec, ExposureControl, evaluate};
 pub use pretrain::{
-    EvalReport, PretrainConfig, PretrainEvent, differing_fields, pretrain, reference_design,
+    EvalReport, PretrainConfig, PretrainEvent, differing_fields, evaluate_weights, pretrain,
+    reference_design,
 };
 pub use run::{
     DesignSummary, FixedCamera, Method, RealConfig, RunConfig, RunEvent, RunResults, Scenario,

@@ -16,7 +16,7 @@ use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
 use joca_metrics::TaskScores;
 use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts, WeightAverage};
 use joca_nn::{AdamConfig, Engine};
-use joca_sim::{Illumination, SimConfig, Simulator, train_map_seed};
+use joca_sim::{CityConfig, Illumination, SimConfig, Simulator, train_map_seed};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -63,14 +63,41 @@ pub struct PretrainConfig {
     pub eval_every: usize,
     /// Test episodes per illumination in each evaluation (10 scored frames each).
     pub eval_episodes: u64,
+    /// Test episodes per illumination of the final evaluation, the one in `results.json`
+    /// (default: `eval_episodes`). The test town's rarer classes need many: in 100 day frames
+    /// there may be no traffic sign at all and a dozen walkers.
+    #[serde(default)]
+    pub final_eval_episodes: Option<u64>,
     /// Write a checkpoint every this many designs; the designs between two checkpoints have
     /// their frames interleaved.
     pub checkpoint_every_designs: usize,
     /// Ego top speed, m/s.
     pub max_speed_mps: f64,
+    /// Walkers in the training towns, as a multiple of the simulator's density (the test town
+    /// keeps 1): annotated walkers are about a tenth as frequent as vehicles, so more of them
+    /// re-balances the classes with new examples rather than re-weighting the few there are.
+    #[serde(default = "one")]
+    pub walker_density: f64,
+    /// Loss weight of each class's objects (vehicle, walker, traffic sign): a class-balanced
+    /// loss for the rarer classes. The background term is not weighted.
+    #[serde(default = "ones")]
+    pub class_weights: [f64; 3],
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn ones() -> [f64; 3] {
+    [1.0; 3]
 }
 
 impl PretrainConfig {
+    /// Test episodes per illumination of the final evaluation.
+    pub fn final_episodes(&self) -> u64 {
+        self.final_eval_episodes.unwrap_or(self.eval_episodes)
+    }
+
     /// Checks every field; the error names the field and what is allowed.
     pub fn validate(&self) -> Result<(), TrainError> {
         let bad = |field: &str, value: String, allowed: &str| {
@@ -127,11 +154,27 @@ impl PretrainConfig {
                 "3 (vehicle, walker, traffic sign)",
             );
         }
+        if !(1..=10_000).contains(&self.eval_episodes) {
+            return bad("eval_episodes", self.eval_episodes.to_string(), "1 to 10000");
+        }
+        if let Some(n) = self.final_eval_episodes.filter(|n| !(1..=10_000).contains(n)) {
+            return bad("final_eval_episodes", n.to_string(), "1 to 10000");
+        }
         if self.checkpoint_every_designs == 0 {
             return bad("checkpoint_every_designs", "0".into(), "at least 1");
         }
         if !(self.max_speed_mps >= 0.0 && self.max_speed_mps <= 40.0) {
             return bad("max_speed_mps", self.max_speed_mps.to_string(), "0 to 40");
+        }
+        if !(self.walker_density >= 0.0 && self.walker_density <= 8.0) {
+            return bad("walker_density", self.walker_density.to_string(), "0 to 8");
+        }
+        if !self.class_weights.iter().all(|w| *w > 0.0 && *w <= 100.0) {
+            return bad(
+                "class_weights",
+                format!("{:?}", self.class_weights),
+                "each above 0, at most 100",
+            );
         }
         Ok(())
     }
@@ -209,6 +252,7 @@ pub fn pretrain(
     let adam =
         AdamConfig { lr: config.lr, weight_decay: config.weight_decay, ..AdamConfig::DETECTOR };
     let mut model = DetectorModel::new(&engine, config.detector, adam);
+    model.set_class_weights(&config.class_weights);
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let mut start = 0;
     let mut average = None;
@@ -246,7 +290,11 @@ pub fn pretrain(
         streams: &streams,
         formation: ImageFormation::new(Calibration::DEFAULT)?,
         ae: AverageAe::new(AccRanges::PAPER),
-        sim_config: SimConfig { max_speed_mps: config.max_speed_mps, ..SimConfig::default() },
+        sim_config: SimConfig {
+            max_speed_mps: config.max_speed_mps,
+            city: CityConfig::default().with_walker_density(config.walker_density as f32),
+            ..SimConfig::default()
+        },
     };
     let mut sims: HashMap<u64, Simulator> = HashMap::new();
     let mut step = start;
@@ -302,7 +350,8 @@ pub fn pretrain(
             }
             if config.eval_every > 0 && step % config.eval_every == 0 && step < config.steps {
                 let result = average.as_ref().map_or(&model, WeightAverage::model);
-                let report = evaluate_day_night(result, config, &streams, step)?;
+                let report =
+                    evaluate_day_night(result, config, config.eval_episodes, &streams, step)?;
                 writeln!(log, "{}", serde_json::json!({"eval": report}))
                     .map_err(|e| TrainError::io(&log_path, e))?;
                 let _ = progress(&PretrainEvent::Eval(report));
@@ -327,10 +376,11 @@ pub fn pretrain(
         let _ = progress(&PretrainEvent::Checkpoint { step });
     }
     let result = average.as_ref().map_or(&model, WeightAverage::model);
+    let final_episodes = config.final_episodes();
     let report = match last_eval {
-        Some(r) if r.step == step => r,
+        Some(r) if r.step == step && final_episodes == config.eval_episodes => r,
         _ => {
-            let r = evaluate_day_night(result, config, &streams, step)?;
+            let r = evaluate_day_night(result, config, final_episodes, &streams, step)?;
             writeln!(log, "{}", serde_json::json!({"eval": r}))
                 .map_err(|e| TrainError::io(&log_path, e))?;
             let _ = progress(&PretrainEvent::Eval(r));
@@ -471,16 +521,30 @@ fn default_settings() -> DynamicSettings {
     DynamicSettings::new(Calibration::DEFAULT.exposure_s, Calibration::DEFAULT.gain_db)
 }
 
+/// Scores the detector weights in `weights` (architecture read from the file) exactly as a
+/// pre-training run with `config` evaluates: reference camera, AverageAE, test town,
+/// [`PretrainConfig::final_episodes`] day and night episodes, noise from `config.seed`. With the
+/// config a run was trained with, this reproduces its `results.json`.
+pub fn evaluate_weights(config: &PretrainConfig, weights: &Path) -> Result<EvalReport, TrainError> {
+    config.validate()?;
+    let engine = Engine::cpu(config.threads);
+    let mut model =
+        DetectorModel::new(&engine, DetectorConfig::of_weights(weights)?, AdamConfig::DETECTOR);
+    model.load_weights(weights)?;
+    evaluate_day_night(&model, config, config.final_episodes(), &SeedStreams::new(config.seed), 0)
+}
+
 fn evaluate_day_night(
     model: &DetectorModel,
     config: &PretrainConfig,
+    episodes: u64,
     streams: &SeedStreams,
     step: usize,
 ) -> Result<EvalReport, TrainError> {
     let design = reference_design();
     let spec = |illumination| EvalSpec {
         illumination,
-        episodes: config.eval_episodes,
+        episodes,
         frames_per_episode: 10,
         warmup_frames: 3,
         render_scale: config.render_scale,

@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 use joca_nn::detector::DetectorConfig;
-use joca_train::{PretrainConfig, PretrainEvent, TrainError, pretrain};
+use joca_train::{PretrainConfig, PretrainEvent, TrainError, evaluate_weights, pretrain};
 use std::ops::ControlFlow;
 use std::sync::Mutex;
 
@@ -27,8 +27,11 @@ fn tiny() -> PretrainConfig {
         detector: DetectorConfig { width: 8, classes: 3, deep: false },
         eval_every: 0,
         eval_episodes: 1,
+        final_eval_episodes: Some(2),
         checkpoint_every_designs: 1,
         max_speed_mps: 15.0,
+        walker_density: 2.0,
+        class_weights: [1.0, 2.0, 1.0],
     }
 }
 
@@ -62,6 +65,11 @@ fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
     let report_b = pretrain(&cfg, &b_dir, &b_w, true, &mut go).unwrap();
     assert_eq!(std::fs::read(&a_w).unwrap(), std::fs::read(&b_w).unwrap());
     assert_eq!(report_a, report_b);
+    // The final evaluation has its own size (2 episodes × 10 frames per light); scoring the
+    // written weights again reproduces it.
+    assert_eq!((report_a.day.frames, report_a.night.frames), (20, 20));
+    let again = evaluate_weights(&cfg, &a_w).unwrap();
+    assert_eq!((again.day, again.night), (report_a.day, report_a.night));
 
     // Resuming with another configuration names the differing field.
     let mut other = cfg.clone();

@@ -2,7 +2,7 @@
 
 use crate::config;
 use anyhow::{Context, Result};
-use joca_train::{PretrainConfig, PretrainEvent, pretrain};
+use joca_train::{EvalReport, PretrainConfig, PretrainEvent, evaluate_weights, pretrain};
 use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::PathBuf;
@@ -64,18 +64,68 @@ pub fn run(args: &Args) -> Result<()> {
         started.elapsed().as_secs_f64() / 60.0,
         args.out.display()
     );
+    print_table(&report);
+    Ok(())
+}
+
+/// Arguments of `joca eval-detector`.
+#[derive(Debug, clap::Args)]
+pub struct EvalArgs {
+    /// Detector weights (safetensors; the architecture is read from the file).
+    #[arg(long)]
+    weights: PathBuf,
+    /// Preset whose [pretrain] evaluation to repeat: quick, standard or paper.
+    #[arg(long, default_value = "standard")]
+    preset: String,
+    /// A TOML file whose [pretrain] fields override the preset's.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Test episodes per light (10 scored frames each); default: the preset's final evaluation.
+    #[arg(long)]
+    episodes: Option<u64>,
+    /// Override the thread count.
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+/// Runs `joca eval-detector`.
+pub fn run_eval(args: &EvalArgs) -> Result<()> {
+    let mut cfg: PretrainConfig = config::load(&args.preset, args.config.as_deref(), "pretrain")?;
+    if let Some(e) = args.episodes {
+        cfg.final_eval_episodes = Some(e);
+    }
+    if let Some(t) = args.threads {
+        cfg.threads = t;
+    }
     println!(
-        "| light | mAP@[.5:.95] | AP50 | TP ratio | AP vehicle | AP walker | AP sign | frames |"
+        "scoring {} on the test town: reference camera, AverageAE, {} episodes × 10 frames per light",
+        args.weights.display(),
+        cfg.final_episodes()
+    );
+    let report = evaluate_weights(&cfg, &args.weights)
+        .with_context(|| format!("cannot score {}", args.weights.display()))?;
+    print_table(&report);
+    Ok(())
+}
+
+/// The final table: scores per light, AP per class with the number of boxes it rests on.
+fn print_table(report: &EvalReport) {
+    println!(
+        "| light | mAP@[.5:.95] | AP50 | TP ratio | AP vehicle (boxes) | AP walker (boxes) | AP sign (boxes) | frames |"
     );
     println!("|---|---|---|---|---|---|---|---|");
     for (name, s) in [("day", report.day), ("night", report.night)] {
-        let [v, w, t] = s.class_map.map(|ap| ap.map_or("-".to_owned(), |ap| format!("{ap:.3}")));
+        let mut cells =
+            s.class_map.iter().zip(s.class_objects).map(|(ap, n)| {
+                ap.map_or_else(|| format!("- ({n})"), |ap| format!("{ap:.3} ({n})"))
+            });
+        let mut cell = || cells.next().unwrap_or_default();
+        let (v, w, t) = (cell(), cell(), cell());
         println!(
             "| {name} | {:.3} | {:.3} | {:.3} | {v} | {w} | {t} | {} |",
             s.map, s.ap50, s.tp_ratio, s.frames
         );
     }
-    Ok(())
 }
 
 fn report_progress(event: &PretrainEvent, started: &Instant, smoothed: &mut Option<f64>) {
