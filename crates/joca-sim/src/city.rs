@@ -67,7 +67,14 @@ pub struct CityConfig {
     pub vehicles_per_100m: f32,
     /// Probability that a walker crosses at a given intersection's zebra crossing.
     pub crossing_walker_probability: f32,
+    /// Probability of a traffic sign at each intersection approach.
+    pub sign_probability: f32,
 }
+
+/// The default [`CityConfig::sign_probability`]. Signs are drawn with at most this first;
+/// approaches left empty get theirs after everything else is placed, so a denser setting adds
+/// signs to the same town instead of redrawing it.
+const SIGN_PROBABILITY: f32 = 0.45;
 
 impl Default for CityConfig {
     fn default() -> Self {
@@ -76,6 +83,7 @@ impl Default for CityConfig {
             walkers_per_edge: 1.2,
             vehicles_per_100m: 0.9,
             crossing_walker_probability: 0.35,
+            sign_probability: SIGN_PROBABILITY,
         }
     }
 }
@@ -90,6 +98,14 @@ impl CityConfig {
             crossing_walker_probability: (self.crossing_walker_probability * factor).min(1.0),
             ..self
         }
+    }
+
+    /// The same city with `factor` times the traffic signs (saturating at a sign on every
+    /// intersection approach, 1/0.45 ≈ 2.2 times the default). A factor above 1 leaves the rest
+    /// of the town unchanged; one below redraws it.
+    #[must_use]
+    pub fn with_sign_density(self, factor: f32) -> Self {
+        Self { sign_probability: (self.sign_probability * factor).min(1.0), ..self }
     }
 }
 
@@ -156,9 +172,14 @@ impl City {
         city.place_buildings(rng);
         let lamps = city.place_lamps(rng);
         city.bake_lightmap(&lamps);
-        city.place_signs(rng);
+        let empty_approaches = city.place_signs(config.sign_probability.min(SIGN_PROBABILITY), rng);
         city.place_vehicles(config, rng);
         city.place_walkers(config, rng);
+        for (i, j, dx, dy, draw) in empty_approaches {
+            if draw <= config.sign_probability {
+                city.place_sign(i, j, dx, dy, rng);
+            }
+        }
         city
     }
 
@@ -374,41 +395,45 @@ impl City {
         self.lightmap_n = n;
     }
 
-    /// Signs at intersection approaches (on the right, facing oncoming traffic) and mid-block.
-    fn place_signs(&mut self, rng: &mut impl Rng) {
+    /// Signs at intersection approaches (on the right, facing oncoming traffic), each with
+    /// probability `p`; returns the approaches left empty with their draws.
+    fn place_signs(&mut self, p: f32, rng: &mut impl Rng) -> Vec<(usize, usize, f32, f32, f32)> {
         let n = self.roads_per_axis();
+        let mut empty = Vec::new();
         for i in 0..n {
             for j in 0..n {
-                let (cx, cy) = self.intersection(i, j);
                 for (dx, dy) in [(1.0f32, 0.0f32), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] {
-                    if rng.random::<f32>() > 0.45 {
+                    let draw = rng.random::<f32>();
+                    if draw > p {
+                        empty.push((i, j, dx, dy, draw));
                         continue;
                     }
-                    // Approaching along (dx, dy): the crossing road's half width lies ahead.
-                    let (hw_cross, hw_own) = if dx != 0.0 {
-                        (self.roads_x[i].half_width_m(), self.roads_y[j].half_width_m())
-                    } else {
-                        (self.roads_y[j].half_width_m(), self.roads_x[i].half_width_m())
-                    };
-                    let (rx, ry) = (dy, -dx); // right of travel
-                    let back = hw_cross + rng.random_range(1.0..6.0);
-                    let x = cx - dx * back + rx * (hw_own + 1.0);
-                    let y = cy - dy * back + ry * (hw_own + 1.0);
-                    let yaw = (-dy).atan2(-dx);
-                    let kind = rng.random_range(0..4u8);
-                    self.objects.push(build::pole(x, y, 2.9));
-                    let height = rng.random_range(2.2..2.6);
-                    let fwd = 0.06;
-                    self.objects.push(build::sign_plate(
-                        x - dx * fwd,
-                        y - dy * fwd,
-                        yaw,
-                        height,
-                        kind,
-                    ));
+                    self.place_sign(i, j, dx, dy, rng);
                 }
             }
         }
+        empty
+    }
+
+    /// A sign on its pole at the approach to intersection `(i, j)` along `(dx, dy)`.
+    fn place_sign(&mut self, i: usize, j: usize, dx: f32, dy: f32, rng: &mut impl Rng) {
+        let (cx, cy) = self.intersection(i, j);
+        // Approaching along (dx, dy): the crossing road's half width lies ahead.
+        let (hw_cross, hw_own) = if dx != 0.0 {
+            (self.roads_x[i].half_width_m(), self.roads_y[j].half_width_m())
+        } else {
+            (self.roads_y[j].half_width_m(), self.roads_x[i].half_width_m())
+        };
+        let (rx, ry) = (dy, -dx); // right of travel
+        let back = hw_cross + rng.random_range(1.0..6.0);
+        let x = cx - dx * back + rx * (hw_own + 1.0);
+        let y = cy - dy * back + ry * (hw_own + 1.0);
+        let yaw = (-dy).atan2(-dx);
+        let kind = rng.random_range(0..4u8);
+        self.objects.push(build::pole(x, y, 2.9));
+        let height = rng.random_range(2.2..2.6);
+        let fwd = 0.06;
+        self.objects.push(build::sign_plate(x - dx * fwd, y - dy * fwd, yaw, height, kind));
     }
 
     fn place_vehicles(&mut self, config: &CityConfig, rng: &mut impl Rng) {
@@ -764,5 +789,30 @@ mod tests {
             &mut SeedStreams::new(5).stream("city"),
         );
         assert_eq!(same.objects, base.objects);
+    }
+
+    #[test]
+    fn sign_density_adds_signs_to_the_same_town() {
+        let count =
+            |c: &City, class: Class| c.objects.iter().filter(|o| o.class == Some(class)).count();
+        let base = city();
+        let dense = City::generate(
+            &CityConfig::default().with_sign_density(2.0),
+            &mut SeedStreams::new(5).stream("city"),
+        );
+        let (s1, s2) = (count(&base, Class::TrafficSign), count(&dense, Class::TrafficSign));
+        // Each approach has a sign with probability 0.45, then 0.9: twice as many, within the
+        // binomial spread of a town's approaches.
+        let ratio = s2 as f64 / s1 as f64;
+        assert!((1.6..2.4).contains(&ratio), "{s1} → {s2}");
+        // Everything drawn before is the same town: the extra signs (and poles) come last.
+        assert_eq!(dense.objects[..base.objects.len()], base.objects[..]);
+        assert_eq!(dense.objects.len() - base.objects.len(), 2 * (s2 - s1));
+        // Saturation: a sign on every approach.
+        let full = City::generate(
+            &CityConfig::default().with_sign_density(5.0),
+            &mut SeedStreams::new(5).stream("city"),
+        );
+        assert_eq!(count(&full, Class::TrafficSign), 4 * full.roads_per_axis().pow(2));
     }
 }

@@ -78,6 +78,10 @@ pub struct PretrainConfig {
     /// re-balances the classes with new examples rather than re-weighting the few there are.
     #[serde(default = "one")]
     pub walker_density: f64,
+    /// Traffic signs in the training towns, as a multiple of the simulator's density (the test
+    /// town keeps 1; saturates at a sign on every intersection approach, ≈ 2.2).
+    #[serde(default = "one")]
+    pub sign_density: f64,
     /// Loss weight of each class's objects (vehicle, walker, traffic sign): a class-balanced
     /// loss for the rarer classes. The background term is not weighted.
     #[serde(default = "ones")]
@@ -168,6 +172,9 @@ impl PretrainConfig {
         }
         if !(self.walker_density >= 0.0 && self.walker_density <= 8.0) {
             return bad("walker_density", self.walker_density.to_string(), "0 to 8");
+        }
+        if !(self.sign_density >= 0.0 && self.sign_density <= 8.0) {
+            return bad("sign_density", self.sign_density.to_string(), "0 to 8");
         }
         if !self.class_weights.iter().all(|w| *w > 0.0 && *w <= 100.0) {
             return bad(
@@ -292,7 +299,9 @@ pub fn pretrain(
         ae: AverageAe::new(AccRanges::PAPER),
         sim_config: SimConfig {
             max_speed_mps: config.max_speed_mps,
-            city: CityConfig::default().with_walker_density(config.walker_density as f32),
+            city: CityConfig::default()
+                .with_walker_density(config.walker_density as f32)
+                .with_sign_density(config.sign_density as f32),
             ..SimConfig::default()
         },
     };

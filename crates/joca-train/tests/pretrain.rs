@@ -31,6 +31,7 @@ fn tiny() -> PretrainConfig {
         checkpoint_every_designs: 1,
         max_speed_mps: 15.0,
         walker_density: 2.0,
+        sign_density: 2.0,
         class_weights: [1.0, 2.0, 1.0],
     }
 }
