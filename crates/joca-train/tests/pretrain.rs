@@ -89,4 +89,14 @@ fn invalid_configuration_names_the_field_and_the_range() {
         .unwrap_err()
         .to_string();
     assert_eq!(e, "pretrain.render_scale = 3 is invalid: above 0, at most 1");
+    let mut cfg = tiny();
+    cfg.class_weights = [1.0, 0.0, 1.0];
+    let e = cfg.validate().unwrap_err().to_string();
+    assert_eq!(e, "pretrain.class_weights = [1.0, 0.0, 1.0] is invalid: each above 0, at most 100");
+    let mut cfg = tiny();
+    cfg.sign_density = 9.0;
+    assert_eq!(
+        cfg.validate().unwrap_err().to_string(),
+        "pretrain.sign_density = 9 is invalid: 0 to 8"
+    );
 }
