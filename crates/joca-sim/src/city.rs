@@ -767,10 +767,12 @@ mod tests {
         assert_ne!(a.objects, other.objects);
     }
 
+    fn count(c: &City, class: Class) -> usize {
+        c.objects.iter().filter(|o| o.class == Some(class)).count()
+    }
+
     #[test]
     fn walker_density_scales_walkers_and_nothing_else() {
-        let count =
-            |c: &City, class: Class| c.objects.iter().filter(|o| o.class == Some(class)).count();
         let base = city();
         let dense = City::generate(
             &CityConfig::default().with_walker_density(3.0),
@@ -793,8 +795,6 @@ mod tests {
 
     #[test]
     fn sign_density_adds_signs_to_the_same_town() {
-        let count =
-            |c: &City, class: Class| c.objects.iter().filter(|o| o.class == Some(class)).count();
         let base = city();
         let dense = City::generate(
             &CityConfig::default().with_sign_density(2.0),

@@ -167,11 +167,12 @@ impl DetectionLoss {
         let logits = &output.heatmap;
         let t = &targets.heatmap;
         let p = logits.sigmoid();
-        let mut pos = t.eq(1.0).to_kind(Kind::Float);
-        if let Some((planes, _)) = &targets.class_weights {
-            pos *= planes;
-        }
-        let not_pos: Tensor = 1.0 - t.eq(1.0).to_kind(Kind::Float);
+        let peaks = t.eq(1.0).to_kind(Kind::Float);
+        let not_pos: Tensor = 1.0 - &peaks;
+        let pos = match &targets.class_weights {
+            Some((planes, _)) => peaks * planes,
+            None => peaks,
+        };
         let neg: Tensor = match &targets.ignore {
             Some(ignore) => not_pos * (1.0 - ignore),
             None => not_pos,
