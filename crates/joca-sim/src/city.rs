@@ -69,6 +69,10 @@ pub struct CityConfig {
     pub crossing_walker_probability: f32,
     /// Probability of a traffic sign at each intersection approach.
     pub sign_probability: f32,
+    /// Further signs per approach, on average, placed along the block before it (speed
+    /// limits, parking signs): 0 in the default town; [`CityConfig::with_sign_density`] uses
+    /// them once every approach has its intersection sign.
+    pub mid_block_signs: f32,
 }
 
 /// The default [`CityConfig::sign_probability`]. Signs are drawn with at most this first;
@@ -84,6 +88,7 @@ impl Default for CityConfig {
             vehicles_per_100m: 0.9,
             crossing_walker_probability: 0.35,
             sign_probability: SIGN_PROBABILITY,
+            mid_block_signs: 0.0,
         }
     }
 }
@@ -100,13 +105,24 @@ impl CityConfig {
         }
     }
 
-    /// The same city with `factor` times the traffic signs (saturating at a sign on every
-    /// intersection approach, 1/0.45 ≈ 2.2 times the default). A factor above 1 leaves the rest
-    /// of the town unchanged; one below redraws it.
+    /// The same city with `factor` times the traffic signs: first at more intersection
+    /// approaches, then, beyond a sign on every approach (1/0.45 ≈ 2.2 times the default), along
+    /// the blocks. A factor above 1 leaves the rest of the town unchanged; one below redraws it.
     #[must_use]
     pub fn with_sign_density(self, factor: f32) -> Self {
-        Self { sign_probability: (self.sign_probability * factor).min(1.0), ..self }
+        let per_approach = self.sign_probability + self.mid_block_signs;
+        let wanted = per_approach * factor.max(0.0);
+        Self { sign_probability: wanted.min(1.0), mid_block_signs: (wanted - 1.0).max(0.0), ..self }
     }
+}
+
+/// Where along an approach a sign stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SignPlace {
+    /// 1–6 m before the crossing road.
+    Intersection,
+    /// 8–40 m before it, along the block.
+    MidBlock,
 }
 
 /// A generated city.
@@ -177,8 +193,11 @@ impl City {
         city.place_walkers(config, rng);
         for (i, j, dx, dy, draw) in empty_approaches {
             if draw <= config.sign_probability {
-                city.place_sign(i, j, dx, dy, rng);
+                city.place_sign(i, j, dx, dy, SignPlace::Intersection, rng);
             }
+        }
+        if config.mid_block_signs > 0.0 {
+            city.place_mid_block_signs(config.mid_block_signs, rng);
         }
         city
     }
@@ -408,15 +427,39 @@ impl City {
                         empty.push((i, j, dx, dy, draw));
                         continue;
                     }
-                    self.place_sign(i, j, dx, dy, rng);
+                    self.place_sign(i, j, dx, dy, SignPlace::Intersection, rng);
                 }
             }
         }
         empty
     }
 
+    /// `mean` signs per intersection approach on average (its integer part on each, one more
+    /// with the fractional part as probability), along the block before the approach.
+    fn place_mid_block_signs(&mut self, mean: f32, rng: &mut impl Rng) {
+        let n = self.roads_per_axis();
+        for i in 0..n {
+            for j in 0..n {
+                for (dx, dy) in [(1.0f32, 0.0f32), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] {
+                    let extra = u32::from(rng.random::<f32>() < mean.fract());
+                    for _ in 0..mean.trunc() as u32 + extra {
+                        self.place_sign(i, j, dx, dy, SignPlace::MidBlock, rng);
+                    }
+                }
+            }
+        }
+    }
+
     /// A sign on its pole at the approach to intersection `(i, j)` along `(dx, dy)`.
-    fn place_sign(&mut self, i: usize, j: usize, dx: f32, dy: f32, rng: &mut impl Rng) {
+    fn place_sign(
+        &mut self,
+        i: usize,
+        j: usize,
+        dx: f32,
+        dy: f32,
+        place: SignPlace,
+        rng: &mut impl Rng,
+    ) {
         let (cx, cy) = self.intersection(i, j);
         // Approaching along (dx, dy): the crossing road's half width lies ahead.
         let (hw_cross, hw_own) = if dx != 0.0 {
@@ -425,7 +468,12 @@ impl City {
             (self.roads_y[j].half_width_m(), self.roads_x[i].half_width_m())
         };
         let (rx, ry) = (dy, -dx); // right of travel
-        let back = hw_cross + rng.random_range(1.0..6.0);
+        // Blocks are at least 45 m long, so 40 m back is still before the previous crossing.
+        let back = hw_cross
+            + match place {
+                SignPlace::Intersection => rng.random_range(1.0..6.0),
+                SignPlace::MidBlock => rng.random_range(8.0..40.0),
+            };
         let x = cx - dx * back + rx * (hw_own + 1.0);
         let y = cy - dy * back + ry * (hw_own + 1.0);
         let yaw = (-dy).atan2(-dx);
@@ -808,11 +856,20 @@ mod tests {
         // Everything drawn before is the same town: the extra signs (and poles) come last.
         assert_eq!(dense.objects[..base.objects.len()], base.objects[..]);
         assert_eq!(dense.objects.len() - base.objects.len(), 2 * (s2 - s1));
-        // Saturation: a sign on every approach.
+        // A sign on every approach at 1/0.45 times the default; beyond it the rest stand along
+        // the blocks: 5 × 0.45 = 2.25 signs per approach.
         let full = City::generate(
+            &CityConfig::default().with_sign_density(1.0 / 0.45),
+            &mut SeedStreams::new(5).stream("city"),
+        );
+        let approaches = 4 * full.roads_per_axis().pow(2);
+        assert_eq!(count(&full, Class::TrafficSign), approaches);
+        let denser = City::generate(
             &CityConfig::default().with_sign_density(5.0),
             &mut SeedStreams::new(5).stream("city"),
         );
-        assert_eq!(count(&full, Class::TrafficSign), 4 * full.roads_per_axis().pow(2));
+        assert_eq!(denser.objects[..full.objects.len()], full.objects[..]);
+        let per_approach = count(&denser, Class::TrafficSign) as f64 / approaches as f64;
+        assert!((2.1..2.4).contains(&per_approach), "{per_approach}");
     }
 }

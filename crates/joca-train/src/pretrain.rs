@@ -14,7 +14,7 @@ use joca_camera::{
 };
 use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
 use joca_metrics::TaskScores;
-use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts, WeightAverage};
+use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts, Regression, WeightAverage};
 use joca_nn::{AdamConfig, Engine};
 use joca_sim::{CityConfig, Illumination, SimConfig, Simulator, train_map_seed};
 use rand::Rng;
@@ -79,13 +79,17 @@ pub struct PretrainConfig {
     #[serde(default = "one")]
     pub walker_density: f64,
     /// Traffic signs in the training towns, as a multiple of the simulator's density (the test
-    /// town keeps 1; saturates at a sign on every intersection approach, ≈ 2.2).
+    /// town keeps 1): up to ≈ 2.2 at more intersection approaches, beyond that along the blocks.
     #[serde(default = "one")]
     pub sign_density: f64,
     /// Loss weight of each class's objects (vehicle, walker, traffic sign): a class-balanced
     /// loss for the rarer classes. The background term is not weighted.
     #[serde(default = "ones")]
     pub class_weights: [f64; 3],
+    /// Where the size and offset heads learn: `"centre"` (CenterNet: each object's centre cell)
+    /// or `"gaussian"` (every cell of its heatmap Gaussian, weighted by it).
+    #[serde(default)]
+    pub regression: Regression,
 }
 
 fn one() -> f64 {
@@ -260,6 +264,7 @@ pub fn pretrain(
         AdamConfig { lr: config.lr, weight_decay: config.weight_decay, ..AdamConfig::DETECTOR };
     let mut model = DetectorModel::new(&engine, config.detector, adam);
     model.set_class_weights(&config.class_weights);
+    model.set_regression(config.regression);
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let mut start = 0;
     let mut average = None;

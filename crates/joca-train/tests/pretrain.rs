@@ -1,7 +1,7 @@
 //! Pre-training end to end on a tiny configuration: determinism, kill-and-resume, refusals.
 #![allow(clippy::unwrap_used)]
 
-use joca_nn::detector::DetectorConfig;
+use joca_nn::detector::{DetectorConfig, Regression};
 use joca_train::{PretrainConfig, PretrainEvent, TrainError, evaluate_weights, pretrain};
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -33,6 +33,7 @@ fn tiny() -> PretrainConfig {
         walker_density: 2.0,
         sign_density: 2.0,
         class_weights: [1.0, 2.0, 1.0],
+        regression: Regression::Gaussian,
     }
 }
 

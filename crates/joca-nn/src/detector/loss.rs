@@ -4,12 +4,30 @@
 
 use super::{DetectorOutput, STRIDE};
 use joca_core::Annotation;
+use serde::{Deserialize, Serialize};
 use tch::{Device, Kind, Tensor};
 
 /// Weight of the size loss; log sizes are O(1), so they weigh like the offsets.
 const SIZE_WEIGHT: f64 = 1.0;
 /// Weight of the offset loss.
 const OFFSET_WEIGHT: f64 = 1.0;
+
+/// Where the size and offset heads are trained.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Regression {
+    /// At each object's centre cell only (CenterNet): one sample per object.
+    #[default]
+    Centre,
+    /// At every cell of the object's heatmap Gaussian, weighted by the Gaussian's value there
+    /// (TTFNet's idea, Liu et al. 2020, with CenterNet's size/offset parametrisation): a
+    /// neighbour of the centre learns the same box, its offset reaching past its own cell, so a
+    /// peak that lands one cell off still decodes the right box, and each object gives the
+    /// regression heads several samples per frame instead of one. A cell inside several
+    /// objects' Gaussians regresses the one with the larger Gaussian value there (the smaller
+    /// object on a tie), so every centre cell keeps its own object.
+    Gaussian,
+}
 
 /// Ground truth rendered into the detector's output grid.
 #[derive(Debug)]
@@ -19,19 +37,26 @@ pub struct Targets {
     /// `[1, classes, h, w]`: 1 in the cells an ignore region of that class covers, where a
     /// firing detector is not punished; `None` when the frame has no ignore region.
     pub ignore: Option<Tensor>,
-    /// Flat indices `y·w + x` of the object centres `[n]`.
+    /// Flat indices `y·w + x` of the regression samples `[m]` (the object centres with
+    /// [`Regression::Centre`]).
     pub indices: Tensor,
-    /// `log(width / STRIDE), log(height / STRIDE)` per object `[2, n]`.
+    /// `log(width / STRIDE), log(height / STRIDE)` of each sample's object `[2, m]`.
     pub size: Tensor,
-    /// Centre position within its cell `[2, n]`.
+    /// Object centre relative to the sample's cell corner, in cells `[2, m]` (within `[0, 1)`
+    /// at the centre cell).
     pub offset: Tensor,
+    /// Weight of each sample in the size and offset losses `[1, m]`: its Gaussian value times
+    /// its class weight (all 1 for centre samples without class weights).
+    pub weights: Tensor,
     /// Number of objects.
     pub count: usize,
     /// Class index of each object.
     pub classes: Vec<usize>,
-    /// Per-class loss weights (`[1, classes, 1, 1]` on the heatmap positives) and the same
-    /// weights per object (`[1, n]`, on size and offset); `None`: every class weighs 1.
-    pub class_weights: Option<(Tensor, Tensor)>,
+    /// Class index and Gaussian value of each regression sample.
+    samples: Vec<(usize, f32)>,
+    /// Per-class loss weights on the heatmap positives `[1, classes, 1, 1]`; `None`: every
+    /// class weighs 1.
+    pub class_weights: Option<Tensor>,
 }
 
 /// CenterNet's Gaussian radius: the largest corner shift that keeps IoU ≥ `min_overlap`
@@ -47,9 +72,19 @@ fn gaussian_radius(h: f64, w: f64, min_overlap: f64) -> f64 {
     r1.min(r2).min(r3)
 }
 
+/// One regression sample before the tensors are built.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    gaussian: f32,
+    area: f64,
+    class: usize,
+    size: [f32; 2],
+    offset: [f32; 2],
+}
+
 impl Targets {
     /// Targets for `annotations` (and the `ignore` regions) on an output grid of
-    /// `out_h × out_w` cells and `classes`.
+    /// `out_h × out_w` cells and `classes`, regressing sizes at the centres only.
     pub fn new(
         annotations: &[Annotation],
         ignore: &[Annotation],
@@ -58,12 +93,33 @@ impl Targets {
         out_w: i64,
         device: Device,
     ) -> Self {
+        Self::with_regression(
+            annotations,
+            ignore,
+            classes,
+            (out_h, out_w),
+            Regression::Centre,
+            device,
+        )
+    }
+
+    /// Targets as [`Targets::new`], with the size and offset samples chosen by `regression`.
+    pub fn with_regression(
+        annotations: &[Annotation],
+        ignore: &[Annotation],
+        classes: i64,
+        (out_h, out_w): (i64, i64),
+        regression: Regression,
+        device: Device,
+    ) -> Self {
         let (h, w) = (out_h as usize, out_w as usize);
         let mut heat = vec![0.0f32; classes as usize * h * w];
-        let mut indices = Vec::new();
+        let mut centres = Vec::new();
         let mut object_classes = Vec::new();
-        let (mut size_w, mut size_h, mut off_x, mut off_y) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        // Centre samples in object order (duplicates allowed, as CenterNet); Gaussian samples
+        // keyed by cell, in cell order.
+        let mut samples: Vec<(usize, Sample)> = Vec::new();
+        let mut claims: std::collections::BTreeMap<usize, Sample> = Default::default();
         let s = STRIDE as f64;
         for a in annotations {
             let (bw, bh) = (f64::from(a.bbox.width()) / s, f64::from(a.bbox.height()) / s);
@@ -78,26 +134,48 @@ impl Targets {
             );
             let radius = gaussian_radius(bh.ceil(), bw.ceil(), 0.7).max(0.0).floor() as i64;
             let sigma = (2 * radius + 1) as f64 / 6.0;
-            let plane = &mut heat[a.class.index() * h * w..(a.class.index() + 1) * h * w];
+            let class = a.class.index();
+            let plane = &mut heat[class * h * w..(class + 1) * h * w];
+            let sample = |x: usize, y: usize, gaussian: f32| Sample {
+                gaussian,
+                area: bw * bh,
+                class,
+                size: [bw.ln() as f32, bh.ln() as f32],
+                offset: [(cx - x as f64) as f32, (cy - y as f64) as f32],
+            };
             for dy in -radius..=radius {
                 for dx in -radius..=radius {
                     let (x, y) = (ix as i64 + dx, iy as i64 + dy);
                     if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
                         continue;
                     }
-                    let g = (-((dx * dx + dy * dy) as f64) / (2.0 * sigma * sigma)).exp() as f32;
-                    let cell = &mut plane[y as usize * w + x as usize];
+                    let (x, y) = (x as usize, y as usize);
+                    let g = if (dx, dy) == (0, 0) {
+                        1.0
+                    } else {
+                        (-((dx * dx + dy * dy) as f64) / (2.0 * sigma * sigma)).exp() as f32
+                    };
+                    let cell = &mut plane[y * w + x];
                     *cell = cell.max(g);
+                    if regression == Regression::Gaussian {
+                        let new = sample(x, y, g);
+                        let claim = claims.entry(y * w + x).or_insert(new);
+                        let better = new.gaussian.total_cmp(&claim.gaussian).then(
+                            claim.area.total_cmp(&new.area), // the smaller object on a tie
+                        );
+                        if better.is_gt() {
+                            *claim = new;
+                        }
+                    }
                 }
             }
-            plane[iy * w + ix] = 1.0;
-            indices.push((iy * w + ix) as i64);
-            object_classes.push(a.class.index());
-            size_w.push(bw.ln() as f32);
-            size_h.push(bh.ln() as f32);
-            off_x.push((cx - ix as f64) as f32);
-            off_y.push((cy - iy as f64) as f32);
+            if regression == Regression::Centre {
+                samples.push((iy * w + ix, sample(ix, iy, 1.0)));
+            }
+            centres.push(iy * w + ix);
+            object_classes.push(class);
         }
+        samples.extend(claims);
         let ignore = (!ignore.is_empty()).then(|| {
             let mut mask = vec![0.0f32; classes as usize * h * w];
             for a in ignore {
@@ -113,20 +191,35 @@ impl Targets {
             }
             Tensor::from_slice(&mask).view([1, classes, out_h, out_w]).to_device(device)
         });
-        let n = indices.len() as i64;
-        let pair = |a: Vec<f32>, b: Vec<f32>| {
-            Tensor::from_slice(&[a, b].concat()).view([2, n]).to_device(device)
+        let m = samples.len() as i64;
+        let pair = |f: &dyn Fn(&Sample) -> [f32; 2]| {
+            let (a, b): (Vec<f32>, Vec<f32>) = samples.iter().map(|(_, s)| f(s).into()).unzip();
+            Tensor::from_slice(&[a, b].concat()).view([2, m]).to_device(device)
         };
-        Self {
+        let indices: Vec<i64> = samples.iter().map(|(cell, _)| *cell as i64).collect();
+        let mut targets = Self {
             heatmap: Tensor::from_slice(&heat).view([1, classes, out_h, out_w]).to_device(device),
             ignore,
             indices: Tensor::from_slice(&indices).to_device(device),
-            size: pair(size_w, size_h),
-            offset: pair(off_x, off_y),
-            count: indices.len(),
+            size: pair(&|s| s.size),
+            offset: pair(&|s| s.offset),
+            weights: Tensor::zeros([1, m], (Kind::Float, device)),
+            count: centres.len(),
             classes: object_classes,
+            samples: samples.iter().map(|(_, s)| (s.class, s.gaussian)).collect(),
             class_weights: None,
-        }
+        };
+        targets.weigh(&vec![1.0; classes as usize]);
+        targets
+    }
+
+    /// Sample weights: Gaussian value × class weight.
+    fn weigh(&mut self, class_weights: &[f64]) {
+        let weights: Vec<f32> =
+            self.samples.iter().map(|&(c, g)| g * class_weights[c] as f32).collect();
+        self.weights = Tensor::from_slice(&weights)
+            .view([1, weights.len() as i64])
+            .to_device(self.heatmap.device());
     }
 
     /// The same targets with each class's objects weighted by `weights[class]`, for class
@@ -139,11 +232,10 @@ impl Targets {
         }
         let device = self.heatmap.device();
         let planes: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
-        let per_object: Vec<f32> = self.classes.iter().map(|&c| weights[c] as f32).collect();
-        self.class_weights = Some((
+        self.class_weights = Some(
             Tensor::from_slice(&planes).view([1, weights.len() as i64, 1, 1]).to_device(device),
-            Tensor::from_slice(&per_object).view([1, self.count as i64]).to_device(device),
-        ));
+        );
+        self.weigh(weights);
         self
     }
 }
@@ -170,7 +262,7 @@ impl DetectionLoss {
         let peaks = t.eq(1.0).to_kind(Kind::Float);
         let not_pos: Tensor = 1.0 - &peaks;
         let pos = match &targets.class_weights {
-            Some((planes, _)) => peaks * planes,
+            Some(planes) => peaks * planes,
             None => peaks,
         };
         let neg: Tensor = match &targets.ignore {
@@ -194,12 +286,10 @@ impl DetectionLoss {
                 let s = map.size();
                 map.reshape([2, s[2] * s[3]]).index_select(1, &targets.indices)
             };
+            // Weighted mean over the samples and both coordinates.
+            let w = &targets.weights;
             let l1 = |map: &Tensor, target: &Tensor| {
-                let error = (at(map) - target).abs();
-                match &targets.class_weights {
-                    Some((_, w)) => (error * w).sum(Kind::Float) / (w.sum(Kind::Float) * 2.0),
-                    None => error.mean(Kind::Float),
-                }
+                ((at(map) - target).abs() * w).sum(Kind::Float) / (w.sum(Kind::Float) * 2.0)
             };
             (l1(&output.size, &targets.size), l1(&output.offset, &targets.offset))
         };

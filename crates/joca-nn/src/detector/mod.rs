@@ -23,7 +23,7 @@ mod model;
 
 pub use bench::{forward_flops, time_detector};
 pub use decode::decode;
-pub use loss::{DetectionLoss, Targets};
+pub use loss::{DetectionLoss, Regression, Targets};
 pub use model::{DetectorModel, LossParts, MAX_DETECTIONS, MIN_SCORE, WeightAverage};
 
 use joca_core::{Class, Rgb8Image};

@@ -1,7 +1,7 @@
 //! The detector with its variables and optimiser, behind an interface free of tensor types, so
 //! that training loops outside this crate never touch the framework.
 
-use super::{DetectionLoss, Detector, DetectorConfig, Targets, decode, image_tensor};
+use super::{DetectionLoss, Detector, DetectorConfig, Regression, Targets, decode, image_tensor};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
 use joca_core::{Annotation, Detection, Rgb8Image};
 use serde::{Deserialize, Serialize};
@@ -35,6 +35,7 @@ pub struct DetectorModel {
     pub(crate) optimizer: Adam,
     device: Device,
     class_weights: Vec<f64>,
+    regression: Regression,
 }
 
 impl DetectorModel {
@@ -45,7 +46,8 @@ impl DetectorModel {
         let net = Detector::new(&vs.root(), config);
         let optimizer = Adam::new(&vs, adam);
         let class_weights = vec![1.0; config.classes as usize];
-        Self { vs, net, optimizer, device: engine.device(), class_weights }
+        let regression = Regression::Centre;
+        Self { vs, net, optimizer, device: engine.device(), class_weights, regression }
     }
 
     /// The network (for the NeuralAE, which reads its features).
@@ -85,6 +87,12 @@ impl DetectorModel {
         self.class_weights = weights.to_vec();
     }
 
+    /// Where [`DetectorModel::train_step`] trains the size and offset heads (the centres by
+    /// default).
+    pub fn set_regression(&mut self, regression: Regression) {
+        self.regression = regression;
+    }
+
     /// Freezes or unfreezes every weight (the "frozen detector" ablation).
     pub fn set_trainable(&mut self, trainable: bool) {
         if trainable { self.vs.unfreeze() } else { self.vs.freeze() }
@@ -101,9 +109,16 @@ impl DetectorModel {
         let x = image_tensor(frame, self.device);
         let out = self.net.forward(&x);
         let s = out.heatmap.size();
-        let targets =
-            Targets::new(truth, ignore, self.net.config().classes, s[2], s[3], self.device)
-                .with_class_weights(&self.class_weights);
+        let classes = self.net.config().classes;
+        let targets = Targets::with_regression(
+            truth,
+            ignore,
+            classes,
+            (s[2], s[3]),
+            self.regression,
+            self.device,
+        )
+        .with_class_weights(&self.class_weights);
         let loss = DetectionLoss::new(&out, &targets);
         let total = loss.total.double_value(&[]);
         if !total.is_finite() {

@@ -114,6 +114,78 @@ fn class_weights_scale_that_class_and_nothing_else() {
     assert_eq!(weighted.offset, plain.offset);
 }
 
+/// Size and offset maps that hold each regression target at its sample's cell (zero elsewhere).
+fn maps_from(t: &Targets, h: i64, w: i64) -> (Tensor, Tensor) {
+    let scatter = |values: &Tensor| {
+        let flat = Tensor::zeros([2, h * w], (Kind::Float, Device::Cpu));
+        let index = t.indices.view([1, -1]).expand([2, -1], false);
+        flat.scatter(1, &index, values).view([1, 2, h, w])
+    };
+    (scatter(&t.size), scatter(&t.offset))
+}
+
+#[test]
+fn gaussian_regression_decodes_the_box_from_a_peak_next_to_the_centre() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // A vehicle 40×32 px centred on (40, 24) px: 10×8 cells, centre cell (10, 6), offset (0, 0).
+    // CenterNet's radius for 8×10 cells at IoU 0.7 is 2.43 → 2, so σ = 5/6 and the Gaussian
+    // covers the 5×5 cells around the centre.
+    let b = BBox::new(20.0, 8.0, 60.0, 40.0);
+    let ann = [Annotation { bbox: b, class: Class::Vehicle }];
+    let (h, w) = (10, 20);
+    let t = Targets::with_regression(&ann, &[], 3, (h, w), Regression::Gaussian, Device::Cpu);
+    assert_eq!(t.count, 1);
+    assert_eq!(t.indices.size(), vec![25]);
+    let sample = |x: i64, y: i64| {
+        let cells: Vec<i64> = Vec::try_from(&t.indices).unwrap();
+        cells.iter().position(|&c| c == y * w + x).unwrap() as i64
+    };
+    let (centre, right) = (sample(10, 6), sample(11, 6));
+    assert_eq!(t.weights.double_value(&[0, centre]), 1.0);
+    // exp(−1 / (2σ²)) with σ = 5/6.
+    assert!((t.weights.double_value(&[0, right]) - (-0.72f64).exp()).abs() < 1e-6);
+    assert_eq!(t.offset.double_value(&[0, right]), -1.0);
+    assert_eq!(t.offset.double_value(&[1, right]), 0.0);
+    assert!((t.size.double_value(&[0, right]) - 10f64.ln()).abs() < 1e-6);
+    // Heads that output exactly these targets cost nothing, and a heatmap whose peak is one
+    // cell right of the centre still decodes the annotated box.
+    let (size, offset) = maps_from(&t, h, w);
+    let heatmap = Tensor::full([1, 3, h, w], -8.0, (Kind::Float, Device::Cpu));
+    let _ = heatmap.get(0).get(0).get(6).get(11).fill_(4.0);
+    let features = Tensor::zeros([1, 1, h, w], (Kind::Float, Device::Cpu));
+    let output = DetectorOutput { heatmap, size, offset, features };
+    let loss = DetectionLoss::new(&output, &t);
+    assert!(loss.size.abs() < 1e-6 && loss.offset.abs() < 1e-6, "{loss:?}");
+    let found = decode(&output, 80, 40, 10, 0.5);
+    assert_eq!(found.len(), 1);
+    let d = found[0].bbox;
+    for (got, want) in [(d.x_min, 20.0), (d.y_min, 8.0), (d.x_max, 60.0), (d.y_max, 40.0)] {
+        assert!((got - want).abs() < 1e-4, "{d:?}");
+    }
+    // Centre regression trains only the centre cell, with weight 1.
+    let c = Targets::new(&ann, &[], 3, h, w, Device::Cpu);
+    assert_eq!(Vec::<i64>::try_from(&c.indices).unwrap(), vec![6 * w + 10]);
+    assert_eq!(c.weights.double_value(&[0, 0]), 1.0);
+}
+
+#[test]
+fn gaussian_regression_keeps_every_centre_for_its_own_object() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // Two overlapping vehicles with centre cells (10, 6) and (11, 6): each lies in the other's
+    // Gaussian, but a centre (value 1) outranks a neighbour.
+    let a = Annotation { bbox: BBox::new(20.0, 8.0, 60.0, 40.0), class: Class::Vehicle };
+    let b = Annotation { bbox: BBox::new(28.0, 12.0, 64.0, 38.0), class: Class::Vehicle };
+    let t = Targets::with_regression(&[a, b], &[], 3, (10, 20), Regression::Gaussian, Device::Cpu);
+    let cells: Vec<i64> = Vec::try_from(&t.indices).unwrap();
+    let at = |cell: i64| cells.iter().position(|&c| c == cell).unwrap() as i64;
+    assert_eq!(cells.len(), cells.iter().collect::<std::collections::BTreeSet<_>>().len());
+    let (ca, cb) = (at(6 * 20 + 10), at(6 * 20 + 11));
+    assert_eq!(t.weights.double_value(&[0, ca]), 1.0);
+    assert_eq!(t.weights.double_value(&[0, cb]), 1.0);
+    assert!((t.size.double_value(&[0, ca]) - 10f64.ln()).abs() < 1e-6);
+    assert!((t.size.double_value(&[0, cb]) - 9f64.ln()).abs() < 1e-6);
+}
+
 #[test]
 fn learns_to_find_a_box_in_a_few_hundred_steps() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
