@@ -417,35 +417,35 @@ impl City {
     /// Signs at intersection approaches (on the right, facing oncoming traffic), each with
     /// probability `p`; returns the approaches left empty with their draws.
     fn place_signs(&mut self, p: f32, rng: &mut impl Rng) -> Vec<(usize, usize, f32, f32, f32)> {
-        let n = self.roads_per_axis();
         let mut empty = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                for (dx, dy) in [(1.0f32, 0.0f32), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] {
-                    let draw = rng.random::<f32>();
-                    if draw > p {
-                        empty.push((i, j, dx, dy, draw));
-                        continue;
-                    }
-                    self.place_sign(i, j, dx, dy, SignPlace::Intersection, rng);
-                }
+        for (i, j, dx, dy) in self.approaches() {
+            let draw = rng.random::<f32>();
+            if draw > p {
+                empty.push((i, j, dx, dy, draw));
+                continue;
             }
+            self.place_sign(i, j, dx, dy, SignPlace::Intersection, rng);
         }
         empty
+    }
+
+    /// Every intersection approach `(i, j, dx, dy)`: intersection `(i, j)` reached along
+    /// `(dx, dy)`, in the order the sign draws follow.
+    fn approaches(&self) -> Vec<(usize, usize, f32, f32)> {
+        let n = self.roads_per_axis();
+        let directions = [(1.0f32, 0.0f32), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)];
+        (0..n)
+            .flat_map(|i| (0..n).flat_map(move |j| directions.map(|(dx, dy)| (i, j, dx, dy))))
+            .collect()
     }
 
     /// `mean` signs per intersection approach on average (its integer part on each, one more
     /// with the fractional part as probability), along the block before the approach.
     fn place_mid_block_signs(&mut self, mean: f32, rng: &mut impl Rng) {
-        let n = self.roads_per_axis();
-        for i in 0..n {
-            for j in 0..n {
-                for (dx, dy) in [(1.0f32, 0.0f32), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] {
-                    let extra = u32::from(rng.random::<f32>() < mean.fract());
-                    for _ in 0..mean.trunc() as u32 + extra {
-                        self.place_sign(i, j, dx, dy, SignPlace::MidBlock, rng);
-                    }
-                }
+        for (i, j, dx, dy) in self.approaches() {
+            let extra = u32::from(rng.random::<f32>() < mean.fract());
+            for _ in 0..mean.trunc() as u32 + extra {
+                self.place_sign(i, j, dx, dy, SignPlace::MidBlock, rng);
             }
         }
     }

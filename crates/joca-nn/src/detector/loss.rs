@@ -114,7 +114,6 @@ impl Targets {
     ) -> Self {
         let (h, w) = (out_h as usize, out_w as usize);
         let mut heat = vec![0.0f32; classes as usize * h * w];
-        let mut centres = Vec::new();
         let mut object_classes = Vec::new();
         // Centre samples in object order (duplicates allowed, as CenterNet); Gaussian samples
         // keyed by cell, in cell order.
@@ -150,11 +149,8 @@ impl Targets {
                         continue;
                     }
                     let (x, y) = (x as usize, y as usize);
-                    let g = if (dx, dy) == (0, 0) {
-                        1.0
-                    } else {
-                        (-((dx * dx + dy * dy) as f64) / (2.0 * sigma * sigma)).exp() as f32
-                    };
+                    // exp(−0) = 1 exactly at the centre, which is always on the grid.
+                    let g = (-((dx * dx + dy * dy) as f64) / (2.0 * sigma * sigma)).exp() as f32;
                     let cell = &mut plane[y * w + x];
                     *cell = cell.max(g);
                     if regression == Regression::Gaussian {
@@ -172,7 +168,6 @@ impl Targets {
             if regression == Regression::Centre {
                 samples.push((iy * w + ix, sample(ix, iy, 1.0)));
             }
-            centres.push(iy * w + ix);
             object_classes.push(class);
         }
         samples.extend(claims);
@@ -204,7 +199,7 @@ impl Targets {
             size: pair(&|s| s.size),
             offset: pair(&|s| s.offset),
             weights: Tensor::zeros([1, m], (Kind::Float, device)),
-            count: centres.len(),
+            count: object_classes.len(),
             classes: object_classes,
             samples: samples.iter().map(|(_, s)| (s.class, s.gaussian)).collect(),
             class_weights: None,
