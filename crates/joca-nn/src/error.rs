@@ -21,6 +21,9 @@ pub enum NnError {
         /// Its value.
         value: f64,
     },
+    /// A training batch cannot be formed.
+    #[error("training batch: {0}")]
+    Batch(String),
     /// libtorch reported an error.
     #[error(transparent)]
     Torch(#[from] tch::TchError),

@@ -14,7 +14,9 @@ use joca_camera::{
 };
 use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
 use joca_metrics::TaskScores;
-use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts, Regression, WeightAverage};
+use joca_nn::detector::{
+    DetectorConfig, DetectorModel, LossParts, Precision, Regression, TrainFrame, WeightAverage,
+};
 use joca_nn::{AdamConfig, Engine};
 use joca_sim::{CityConfig, Illumination, SimConfig, Simulator, train_map_seed};
 use rand::Rng;
@@ -32,8 +34,18 @@ pub struct PretrainConfig {
     pub seed: u64,
     /// libtorch and rayon threads.
     pub threads: usize,
-    /// Training frames (one gradient step each, batch size 1).
+    /// Training frames (`steps / batch` gradient steps). `warmup_steps` and `eval_every`
+    /// count frames too.
     pub steps: usize,
+    /// Frames per gradient step (default 1, as the paper): frames of one design, each from
+    /// its own episode (a "lane" of the design's frames), so that they have one size and
+    /// are not near-copies of one scene. Must divide `frames_per_design` and `steps`.
+    #[serde(default = "one_frame")]
+    pub batch: usize,
+    /// Floating-point type of the training steps: `"fp32"` (default) or `"bf16"` (bfloat16
+    /// convolutions with float32 weights, optimiser and loss; evaluation stays float32).
+    #[serde(default)]
+    pub precision: Precision,
     /// Frames per random camera design (45 in the paper).
     pub frames_per_design: usize,
     /// Consecutive frames per episode: a design's frames come from several episodes (each in a
@@ -96,6 +108,10 @@ fn one() -> f64 {
     1.0
 }
 
+fn one_frame() -> usize {
+    1
+}
+
 fn ones() -> [f64; 3] {
     [1.0; 3]
 }
@@ -126,6 +142,16 @@ impl PretrainConfig {
                 "frames_per_design",
                 self.frames_per_design.to_string(),
                 "1 to 400 (episodes last 60 s at 10 frames/s)",
+            );
+        }
+        if !(1..=64).contains(&self.batch)
+            || self.frames_per_design % self.batch != 0
+            || self.steps % self.batch != 0
+        {
+            return bad(
+                "batch",
+                self.batch.to_string(),
+                "1 to 64, dividing frames_per_design and steps",
             );
         }
         if self.frames_per_episode == 0 || self.frames_per_episode > self.frames_per_design {
@@ -265,6 +291,7 @@ pub fn pretrain(
     let mut model = DetectorModel::new(&engine, config.detector, adam);
     model.set_class_weights(&config.class_weights);
     model.set_regression(config.regression);
+    model.set_precision(config.precision);
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let mut start = 0;
     let mut average = None;
@@ -313,33 +340,50 @@ pub fn pretrain(
     let mut sims: HashMap<u64, Simulator> = HashMap::new();
     let mut step = start;
     let mut last_eval = None;
+    let b = config.batch;
+    // Whether `step` frames passed a multiple of `every` with the last batch.
+    let crossed = |step: usize, every: usize| every > 0 && step / every > (step - b) / every;
     while step < config.steps {
         let block = Block::containing(config, step);
         let mut runs = (block.first_design..block.first_design + block.designs)
-            .map(|d| DesignRun::new(d, &codec, &world))
+            .flat_map(|d| (0..b).map(move |lane| (d, lane)))
+            .map(|(d, lane)| DesignRun::new(d, lane, &codec, &world))
             .collect::<Result<Vec<_>, TrainError>>()?;
         while step < block.end_step {
-            let t = step - block.first_step;
-            let (run, j) = (&mut runs[t % block.designs], t / block.designs);
-            if j % config.frames_per_episode == 0 {
-                run.start_episode(j / config.frames_per_episode, &world, &mut sims)?;
+            let tick = (step - block.first_step) / b;
+            let (d, j) = (tick % block.designs, tick / block.designs);
+            let mut shots = Vec::with_capacity(b);
+            for (lane, run) in runs[d * b..(d + 1) * b].iter_mut().enumerate() {
+                if j % config.frames_per_episode == 0 {
+                    run.start_episode(j / config.frames_per_episode, &world, &mut sims)?;
+                }
+                let sim = run.simulator(&world, &mut sims);
+                let request = FrameRequest {
+                    episode: run.episode,
+                    time_s: run.t0
+                        + (j % config.frames_per_episode) as f64 * sim.frame_interval_s(),
+                    exposure_s: run.settings.exposure_s,
+                    motion_scale: 1.0,
+                };
+                let frame = sim.render(&run.camera, &request)?;
+                let image = world.formation.form(
+                    &frame.hdr,
+                    run.settings,
+                    run.pitch_um,
+                    &mut streams.indexed("pretrain-noise", (step + lane) as u64),
+                );
+                shots.push((image, frame));
             }
-            let sim = run.simulator(&world, &mut sims);
-            let request = FrameRequest {
-                episode: run.episode,
-                time_s: run.t0 + (j % config.frames_per_episode) as f64 * sim.frame_interval_s(),
-                exposure_s: run.settings.exposure_s,
-                motion_scale: 1.0,
-            };
-            let frame = sim.render(&run.camera, &request)?;
-            let image = world.formation.form(
-                &frame.hdr,
-                run.settings,
-                run.pitch_um,
-                &mut streams.indexed("pretrain-noise", step as u64),
-            );
             model.set_lr(config.lr_at(step));
-            let loss = match model.train_step(&image, &frame.boxes, &frame.ignore) {
+            let batch: Vec<TrainFrame<'_>> = shots
+                .iter()
+                .map(|(image, frame)| TrainFrame {
+                    image,
+                    truth: &frame.boxes,
+                    ignore: &frame.ignore,
+                })
+                .collect();
+            let loss = match model.train_batch(&batch) {
                 Ok(loss) => loss,
                 Err(e) => {
                     let _ = writeln!(
@@ -350,19 +394,23 @@ pub fn pretrain(
                     return Err(e.into());
                 }
             };
-            run.settings = world.ae.step(run.settings, &image);
-            step += 1;
-            if let Some(average) = &mut average {
-                average.update(step as u64);
+            let runs = &mut runs[d * b..(d + 1) * b];
+            for (run, (image, _)) in runs.iter_mut().zip(&shots) {
+                run.settings = world.ae.step(run.settings, image);
             }
-            if step % 10 == 0 || step == config.steps {
-                let line = serde_json::json!({"step": step, "lr": config.lr_at(step - 1), "loss": loss, "design_index": run.index, "design": run.design, "map_seed": run.map_seed, "episode": run.episode});
+            step += b;
+            if let Some(average) = &mut average {
+                average.update((step / b) as u64);
+            }
+            if crossed(step, 10) || step == config.steps {
+                let run = &runs[0];
+                let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": run.index, "design": run.design, "map_seed": run.map_seed, "episode": run.episode});
                 writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
             }
             if progress(&PretrainEvent::Step { step, of: config.steps, loss }).is_break() {
                 return Err(TrainError::Interrupted { step });
             }
-            if config.eval_every > 0 && step % config.eval_every == 0 && step < config.steps {
+            if crossed(step, config.eval_every) && step < config.steps {
                 let result = average.as_ref().map_or(&model, WeightAverage::model);
                 let report =
                     evaluate_day_night(result, config, config.eval_episodes, &streams, step)?;
@@ -410,9 +458,10 @@ pub fn pretrain(
 }
 
 /// A run of consecutive steps over `designs` camera designs, `frames_per_design` frames each,
-/// ending with a checkpoint. Within a block the designs' frames are interleaved (design 0's frame
-/// 0, design 1's frame 0, …, design 0's frame 1, …): with batch size 1, 45 frames of one camera in
-/// a row pull the detector towards that camera and scene, and the next design pulls it away again.
+/// ending with a checkpoint. Within a block the designs' batches are interleaved (design 0's
+/// batch 0, design 1's batch 0, …, design 0's batch 1, …): with small batches, 45 frames of one
+/// camera in a row pull the detector towards that camera and scene, and the next design pulls
+/// it away again. A design's batch holds one frame of each of its `batch` lanes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Block {
     first_design: usize,
@@ -447,15 +496,26 @@ struct World<'a> {
     sim_config: SimConfig,
 }
 
+/// The design's episode number of lane `lane`'s episode `e`: lanes own consecutive ranges, so
+/// no two frames of a batch come from one episode.
+fn design_episode(lane: usize, episodes_per_lane: usize, e: usize) -> u64 {
+    (lane * episodes_per_lane + e) as u64
+}
+
 /// The running weight average in a checkpoint.
 const AVERAGE_FILE: &str = "detector-average.safetensors";
 
 /// AverageAE iterations on an episode's first view before its first training frame.
 const AE_SETTLE_ITERATIONS: usize = 8;
 
-/// One random camera design and the episode it is currently driving.
+/// One random camera design and the episode one of its lanes is currently driving.
 struct DesignRun {
     index: usize,
+    /// Lane of the design's frames (0 with batch size 1).
+    lane: usize,
+    /// Episodes per lane: lane `l`'s episode `e` is the design's episode
+    /// `l · episodes_per_lane + e`.
+    episodes_per_lane: usize,
     design: CameraDesign,
     camera: PinholeCamera,
     pitch_um: f64,
@@ -466,14 +526,23 @@ struct DesignRun {
 }
 
 impl DesignRun {
-    /// Design number `index`, drawn uniformly from the synthetic design space.
-    fn new(index: usize, codec: &GenomeCodec, world: &World<'_>) -> Result<Self, TrainError> {
+    /// Lane `lane` of design number `index`, drawn uniformly from the synthetic design space.
+    fn new(
+        index: usize,
+        lane: usize,
+        codec: &GenomeCodec,
+        world: &World<'_>,
+    ) -> Result<Self, TrainError> {
         let mut rng = world.streams.indexed("pretrain-design", index as u64);
         let genes: Vec<f64> =
             codec.genes().iter().map(|g| rng.random_range(g.bounds.min..=g.bounds.max)).collect();
         let design = codec.decode(&genes)?;
+        let config = world.config;
+        let lane_frames = config.frames_per_design / config.batch;
         Ok(Self {
             index,
+            lane,
+            episodes_per_lane: lane_frames.div_ceil(config.frames_per_episode),
             camera: design.pinhole(world.config.render_scale),
             pitch_um: design.sensor().pixel_pitch_um,
             design,
@@ -494,7 +563,7 @@ impl DesignRun {
             .or_insert_with(|| Simulator::new(SimConfig { map_seed, ..world.sim_config }))
     }
 
-    /// Starts the design's episode number `e`: a random training town, drive and start time,
+    /// Starts the lane's episode number `e`: a random training town, drive and start time,
     /// and AverageAE settled on a quarter-resolution view of the first frame (iterated on that
     /// one view, as a camera that had been driving there already would have converged), so that
     /// no training frame is one of the badly exposed frames of an AE start-up.
@@ -504,7 +573,7 @@ impl DesignRun {
         world: &World<'_>,
         sims: &mut HashMap<u64, Simulator>,
     ) -> Result<(), TrainError> {
-        let id = (self.index as u64) << 16 | e as u64;
+        let id = (self.index as u64) << 16 | design_episode(self.lane, self.episodes_per_lane, e);
         let mut rng = world.streams.indexed("pretrain-episode", id);
         let config = world.config;
         self.map_seed = train_map_seed(rng.random_range(0..config.train_maps));
@@ -591,4 +660,34 @@ pub fn differing_fields<T: Serialize>(a: &T, b: &T) -> Vec<String> {
             )
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_frames_of_a_design_come_from_distinct_episodes_per_lane() {
+        // 45 frames in batches of 5: 5 lanes of 9 frames, episodes of 5 frames → 2 per lane.
+        let (fpd, fpe, batch): (usize, usize, usize) = (45, 5, 5);
+        let per_lane = (fpd / batch).div_ceil(fpe);
+        assert_eq!(per_lane, 2);
+        let mut seen = std::collections::BTreeMap::new();
+        for lane in 0..batch {
+            for j in 0..fpd / batch {
+                let e = design_episode(lane, per_lane, j / fpe);
+                seen.entry(e).or_insert_with(Vec::new).push((lane, j % fpe));
+            }
+        }
+        // Every episode belongs to one lane, and each (episode, frame) pair occurs once.
+        for frames in seen.values() {
+            assert!(frames.iter().all(|(l, _)| *l == frames[0].0));
+            let mut k: Vec<usize> = frames.iter().map(|(_, f)| *f).collect();
+            k.dedup();
+            assert_eq!(k.len(), frames.len());
+        }
+        assert_eq!(seen.len(), 10);
+        // Batch size 1: the design's episodes are numbered as they always were.
+        assert_eq!(design_episode(0, 9, 4), 4);
+    }
 }

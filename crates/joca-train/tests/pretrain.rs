@@ -1,7 +1,7 @@
 //! Pre-training end to end on a tiny configuration: determinism, kill-and-resume, refusals.
 #![allow(clippy::unwrap_used)]
 
-use joca_nn::detector::{DetectorConfig, Regression};
+use joca_nn::detector::{DetectorConfig, Precision, Regression};
 use joca_train::{PretrainConfig, PretrainEvent, TrainError, evaluate_weights, pretrain};
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -15,6 +15,8 @@ fn tiny() -> PretrainConfig {
         seed: 7,
         threads: 1,
         steps: 12,
+        batch: 1,
+        precision: Precision::Fp32,
         frames_per_design: 4,
         frames_per_episode: 2,
         render_scale: 0.03,
@@ -81,6 +83,33 @@ fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
 }
 
 #[test]
+fn a_batched_bfloat16_run_is_reproducible_across_kill_and_resume() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let (a_dir, b_dir) = (dir.path().join("a.run"), dir.path().join("b.run"));
+    let (a_w, b_w) = (dir.path().join("a.safetensors"), dir.path().join("b.safetensors"));
+    let cfg = PretrainConfig { batch: 2, precision: Precision::Bf16, ..tiny() };
+    let mut steps = Vec::new();
+    let mut record = |e: &PretrainEvent| {
+        if let PretrainEvent::Step { step, .. } = e {
+            steps.push(*step);
+        }
+        ControlFlow::Continue(())
+    };
+    let report_a = pretrain(&cfg, &a_dir, &a_w, false, &mut record).unwrap();
+    // Six steps of two frames each.
+    assert_eq!(steps, [2, 4, 6, 8, 10, 12]);
+    let mut stop = |e: &PretrainEvent| match e {
+        PretrainEvent::Step { step: 10, .. } => ControlFlow::Break(()),
+        _ => ControlFlow::Continue(()),
+    };
+    assert!(pretrain(&cfg, &b_dir, &b_w, false, &mut stop).is_err());
+    let report_b = pretrain(&cfg, &b_dir, &b_w, true, &mut go).unwrap();
+    assert_eq!(std::fs::read(&a_w).unwrap(), std::fs::read(&b_w).unwrap());
+    assert_eq!(report_a, report_b);
+}
+
+#[test]
 fn invalid_configuration_names_the_field_and_the_range() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
@@ -94,6 +123,11 @@ fn invalid_configuration_names_the_field_and_the_range() {
     cfg.class_weights = [1.0, 0.0, 1.0];
     let e = cfg.validate().unwrap_err().to_string();
     assert_eq!(e, "pretrain.class_weights = [1.0, 0.0, 1.0] is invalid: each above 0, at most 100");
+    let cfg = PretrainConfig { batch: 3, ..tiny() };
+    assert_eq!(
+        cfg.validate().unwrap_err().to_string(),
+        "pretrain.batch = 3 is invalid: 1 to 64, dividing frames_per_design and steps"
+    );
     let mut cfg = tiny();
     cfg.sign_density = 9.0;
     assert_eq!(

@@ -281,7 +281,9 @@ fn bench_render(repeats: usize) -> Result<()> {
 const PEAK_GFLOPS_PER_CORE: f64 = 115.0;
 
 fn bench_detector(repeats: usize, threads: usize, deep: bool, python: &str) -> Result<()> {
-    use joca_nn::detector::{DetectorConfig, forward_flops, time_detector};
+    use joca_nn::detector::{
+        DetectorConfig, Precision, forward_flops, time_detector, time_training,
+    };
     let engine = joca_nn::Engine::cpu(threads);
     let config = DetectorConfig { deep, ..DetectorConfig::default() };
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scripts/bench_detector_pytorch.py");
@@ -329,6 +331,34 @@ fn bench_detector(repeats: usize, threads: usize, deep: bool, python: &str) -> R
                 gflops,
                 100.0 * gflops / peak,
                 ratio
+            );
+        }
+    }
+    // What pre-training can use instead of float32 steps on single frames (`[pretrain]
+    // batch` and `precision`): training time per frame, against the float32 single-frame step
+    // measured in the same loop.
+    println!();
+    println!(
+        "training time per frame (pre-training's `batch` and `precision`), 2 threads as above"
+    );
+    println!(
+        "{:<9} {:<6} {:<10} {:>12} {:>16}",
+        "input", "batch", "precision", "ms/frame", "fp32 ×1 / this"
+    );
+    for (h, w) in [(240usize, 320usize), (480, 640)] {
+        let mut base = None;
+        for (batch, precision) in
+            [(1, Precision::Fp32), (1, Precision::Bf16), (5, Precision::Fp32), (5, Precision::Bf16)]
+        {
+            let ms = time_training(&engine, config, h, w, repeats, batch, precision);
+            let base = *base.get_or_insert(ms);
+            println!(
+                "{:<9} {:<6} {:<10} {:>12.2} {:>16.2}",
+                format!("{w}x{h}"),
+                batch,
+                format!("{precision:?}").to_lowercase(),
+                ms,
+                base / ms
             );
         }
     }

@@ -1,6 +1,8 @@
 //! Timing of the detector (`joca bench detector`) and its analytic operation count.
 
-use super::{DetectionLoss, Detector, DetectorConfig, Targets, image_tensor};
+use super::{
+    DetectionLoss, Detector, DetectorConfig, Precision, Targets, batch_tensor, image_tensor,
+};
 use crate::{Adam, AdamConfig, Engine};
 use joca_core::{Annotation, BBox, Class, Rgb8Image};
 use std::time::Instant;
@@ -41,7 +43,7 @@ pub fn forward_flops(config: DetectorConfig, h: i64, w: i64) -> f64 {
 }
 
 /// Best-of-`repeats` wall times in milliseconds of inference and of one training step
-/// (forward, CenterNet loss, backward, AdamW update) on an `h × w` frame.
+/// (forward, CenterNet loss, backward, AdamW update) on an `h × w` frame, float32.
 pub fn time_detector(
     engine: &Engine,
     config: DetectorConfig,
@@ -51,10 +53,31 @@ pub fn time_detector(
 ) -> (f64, f64) {
     let vs = VarStore::new(engine.device());
     let net = Detector::new(&vs.root(), config);
+    let x = image_tensor(&bench_frame(w, h), engine.device());
+    let infer = best_ms(repeats, &mut || {
+        let _g = tch::no_grad_guard();
+        let o = net.forward(&x);
+        let _ = o.heatmap.double_value(&[0, 0, 0, 0]);
+    });
+    (infer, time_training(engine, config, h, w, repeats, 1, Precision::Fp32))
+}
+
+/// Best-of-`repeats` wall time in milliseconds of one training step on a batch of `batch`
+/// `h × w` frames in `precision`, divided by `batch`: the training cost per frame.
+pub fn time_training(
+    engine: &Engine,
+    config: DetectorConfig,
+    h: usize,
+    w: usize,
+    repeats: usize,
+    batch: usize,
+    precision: Precision,
+) -> f64 {
+    let vs = VarStore::new(engine.device());
+    let net = Detector::new(&vs.root(), config);
     let mut opt = Adam::new(&vs, AdamConfig::DETECTOR);
-    let frame = Rgb8Image::from_vec(w, h, (0..w * h * 3).map(|i| (i * 31 % 251) as u8).collect())
-        .unwrap_or_else(|_| Rgb8Image::zeros(w, h));
-    let x = image_tensor(&frame, engine.device());
+    let frame = bench_frame(w, h);
+    let x = batch_tensor(&vec![&frame; batch], engine.device(), precision);
     let truth: Vec<Annotation> = (0..6)
         .map(|k| {
             let (fx, fy) = ((k as f32 * 0.15 + 0.1) * w as f32, (k as f32 * 0.1 + 0.3) * h as f32);
@@ -63,27 +86,31 @@ pub fn time_detector(
         .collect();
     let out = net.forward(&x);
     let s = out.heatmap.size();
-    let targets = Targets::new(&truth, &[], config.classes, s[2], s[3], engine.device());
-    let best = |f: &mut dyn FnMut()| {
-        f();
-        (0..repeats.max(1))
-            .map(|_| {
-                let t = Instant::now();
-                f();
-                t.elapsed().as_secs_f64() * 1e3
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
-    let infer = best(&mut || {
-        let _g = tch::no_grad_guard();
-        let o = net.forward(&x);
-        let _ = o.heatmap.double_value(&[0, 0, 0, 0]);
-    });
-    let train = best(&mut || {
+    let one = || Targets::new(&truth, &[], config.classes, s[2], s[3], engine.device());
+    let targets = Targets::stack((0..batch).map(|_| one()).collect());
+    let train = best_ms(repeats, &mut || {
         let loss = DetectionLoss::new(&net.forward(&x), &targets);
         opt.zero_grad();
         loss.total.backward();
         opt.step();
     });
-    (infer, train)
+    train / batch as f64
+}
+
+/// A deterministic textured frame.
+fn bench_frame(w: usize, h: usize) -> Rgb8Image {
+    Rgb8Image::from_vec(w, h, (0..w * h * 3).map(|i| (i * 31 % 251) as u8).collect())
+        .unwrap_or_else(|_| Rgb8Image::zeros(w, h))
+}
+
+/// The best of `repeats` timed calls after one warm-up call, milliseconds.
+fn best_ms(repeats: usize, f: &mut dyn FnMut()) -> f64 {
+    f();
+    (0..repeats.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .fold(f64::INFINITY, f64::min)
 }

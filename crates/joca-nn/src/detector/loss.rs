@@ -32,13 +32,14 @@ pub enum Regression {
 /// Ground truth rendered into the detector's output grid.
 #[derive(Debug)]
 pub struct Targets {
-    /// Gaussian-peaked heatmap `[1, classes, h, w]`, exactly 1 at object centres.
+    /// Gaussian-peaked heatmap `[n, classes, h, w]` (`n` images, 1 unless
+    /// [`Targets::stack`]ed), exactly 1 at object centres.
     pub heatmap: Tensor,
-    /// `[1, classes, h, w]`: 1 in the cells an ignore region of that class covers, where a
+    /// `[n, classes, h, w]`: 1 in the cells an ignore region of that class covers, where a
     /// firing detector is not punished; `None` when the frame has no ignore region.
     pub ignore: Option<Tensor>,
-    /// Flat indices `y·w + x` of the regression samples `[m]` (the object centres with
-    /// [`Regression::Centre`]).
+    /// Flat indices `image·h·w + y·w + x` of the regression samples `[m]` (the object centres
+    /// with [`Regression::Centre`]).
     pub indices: Tensor,
     /// `log(width / STRIDE), log(height / STRIDE)` of each sample's object `[2, m]`.
     pub size: Tensor,
@@ -208,6 +209,42 @@ impl Targets {
         targets
     }
 
+    /// The targets of a batch: `parts[i]` for image `i` (all on the same grid and classes).
+    /// The heatmap loss is then normalised by the batch's object count and the regression
+    /// losses averaged over all its samples, as CenterNet trains with batches, so a batch of
+    /// one is the image's own targets.
+    pub fn stack(parts: Vec<Targets>) -> Self {
+        assert!(!parts.is_empty(), "a batch needs at least one image");
+        let s = parts[0].heatmap.size();
+        let cells = s[2] * s[3];
+        let ignore = parts.iter().any(|t| t.ignore.is_some()).then(|| {
+            let planes: Vec<Tensor> = parts
+                .iter()
+                .map(|t| {
+                    t.ignore.as_ref().map_or_else(|| t.heatmap.zeros_like(), Tensor::shallow_clone)
+                })
+                .collect();
+            Tensor::cat(&planes, 0)
+        });
+        let indices: Vec<Tensor> =
+            parts.iter().enumerate().map(|(b, t)| &t.indices + b as i64 * cells).collect();
+        let cat = |f: &dyn Fn(&Targets) -> &Tensor, dim: i64| {
+            Tensor::cat(&parts.iter().map(f).collect::<Vec<_>>(), dim)
+        };
+        Self {
+            heatmap: cat(&|t| &t.heatmap, 0),
+            ignore,
+            indices: Tensor::cat(&indices, 0),
+            size: cat(&|t| &t.size, 1),
+            offset: cat(&|t| &t.offset, 1),
+            weights: cat(&|t| &t.weights, 1),
+            count: parts.iter().map(|t| t.count).sum(),
+            classes: parts.iter().flat_map(|t| t.classes.iter().copied()).collect(),
+            samples: parts.iter().flat_map(|t| t.samples.iter().copied()).collect(),
+            class_weights: parts[0].class_weights.as_ref().map(Tensor::shallow_clone),
+        }
+    }
+
     /// Sample weights: Gaussian value × class weight.
     fn weigh(&mut self, class_weights: &[f64]) {
         let weights: Vec<f32> =
@@ -235,7 +272,8 @@ impl Targets {
     }
 }
 
-/// The detector's loss for one image, with its parts for logging.
+/// The detector's loss for one image or a batch ([`Targets::stack`]), with its parts for
+/// logging.
 #[derive(Debug)]
 pub struct DetectionLoss {
     /// Weighted sum, differentiable.
@@ -277,9 +315,12 @@ impl DetectionLoss {
         let (size, offset) = if targets.count == 0 {
             (logits.zeros_like().sum(Kind::Float), logits.zeros_like().sum(Kind::Float))
         } else {
+            // [n, 2, h, w] → [2, n·h·w], indexed by `image·h·w + y·w + x`.
             let at = |map: &Tensor| {
                 let s = map.size();
-                map.reshape([2, s[2] * s[3]]).index_select(1, &targets.indices)
+                map.transpose(0, 1)
+                    .reshape([2, s[0] * s[2] * s[3]])
+                    .index_select(1, &targets.indices)
             };
             // Weighted mean over the samples and both coordinates.
             let w = &targets.weights;

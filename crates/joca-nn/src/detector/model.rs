@@ -1,7 +1,10 @@
 //! The detector with its variables and optimiser, behind an interface free of tensor types, so
 //! that training loops outside this crate never touch the framework.
 
-use super::{DetectionLoss, Detector, DetectorConfig, Regression, Targets, decode, image_tensor};
+use super::{
+    DetectionLoss, Detector, DetectorConfig, Precision, Regression, Targets, batch_tensor, decode,
+    image_tensor,
+};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
 use joca_core::{Annotation, Detection, Rgb8Image};
 use serde::{Deserialize, Serialize};
@@ -27,6 +30,17 @@ pub struct LossParts {
     pub offset: f64,
 }
 
+/// One training image with its ground truth and ignore regions.
+#[derive(Debug, Clone, Copy)]
+pub struct TrainFrame<'a> {
+    /// The image.
+    pub image: &'a Rgb8Image,
+    /// Annotated objects.
+    pub truth: &'a [Annotation],
+    /// Regions where detections are neither rewarded nor punished.
+    pub ignore: &'a [Annotation],
+}
+
 /// A trainable detector: network, variables, optimiser.
 #[derive(Debug)]
 pub struct DetectorModel {
@@ -36,6 +50,7 @@ pub struct DetectorModel {
     device: Device,
     class_weights: Vec<f64>,
     regression: Regression,
+    precision: Precision,
 }
 
 impl DetectorModel {
@@ -47,7 +62,8 @@ impl DetectorModel {
         let optimizer = Adam::new(&vs, adam);
         let class_weights = vec![1.0; config.classes as usize];
         let regression = Regression::Centre;
-        Self { vs, net, optimizer, device: engine.device(), class_weights, regression }
+        let precision = Precision::Fp32;
+        Self { vs, net, optimizer, device: engine.device(), class_weights, regression, precision }
     }
 
     /// The network (for the NeuralAE, which reads its features).
@@ -98,6 +114,12 @@ impl DetectorModel {
         if trainable { self.vs.unfreeze() } else { self.vs.freeze() }
     }
 
+    /// The type [`DetectorModel::train_batch`] computes in (float32 by default; inference
+    /// always runs in float32).
+    pub fn set_precision(&mut self, precision: Precision) {
+        self.precision = precision;
+    }
+
     /// One gradient step on one frame with its ground truth and ignore regions. A non-finite
     /// loss is reported before any weight changes.
     pub fn train_step(
@@ -106,19 +128,46 @@ impl DetectorModel {
         truth: &[Annotation],
         ignore: &[Annotation],
     ) -> Result<LossParts, NnError> {
-        let x = image_tensor(frame, self.device);
-        let out = self.net.forward(&x);
+        self.train_batch(&[TrainFrame { image: frame, truth, ignore }])
+    }
+
+    /// One gradient step on a batch of frames of one size (the loss normalised by the batch's
+    /// object count, see [`Targets::stack`]). A non-finite loss is reported before any weight
+    /// changes.
+    pub fn train_batch(&mut self, batch: &[TrainFrame<'_>]) -> Result<LossParts, NnError> {
+        let Some(first) = batch.first() else {
+            return Err(NnError::Batch("no frames".into()));
+        };
+        let size = (first.image.width(), first.image.height());
+        if let Some(f) = batch.iter().find(|f| (f.image.width(), f.image.height()) != size) {
+            return Err(NnError::Batch(format!(
+                "frames of {}×{} and {}×{}: a batch needs frames of one size",
+                size.0,
+                size.1,
+                f.image.width(),
+                f.image.height()
+            )));
+        }
+        let images: Vec<&Rgb8Image> = batch.iter().map(|f| f.image).collect();
+        let out = self.net.forward(&batch_tensor(&images, self.device, self.precision));
         let s = out.heatmap.size();
         let classes = self.net.config().classes;
-        let targets = Targets::with_regression(
-            truth,
-            ignore,
-            classes,
-            (s[2], s[3]),
-            self.regression,
-            self.device,
-        )
-        .with_class_weights(&self.class_weights);
+        let targets = Targets::stack(
+            batch
+                .iter()
+                .map(|f| {
+                    Targets::with_regression(
+                        f.truth,
+                        f.ignore,
+                        classes,
+                        (s[2], s[3]),
+                        self.regression,
+                        self.device,
+                    )
+                    .with_class_weights(&self.class_weights)
+                })
+                .collect(),
+        );
         let loss = DetectionLoss::new(&out, &targets);
         let total = loss.total.double_value(&[]);
         if !total.is_finite() {

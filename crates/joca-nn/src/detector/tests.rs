@@ -328,3 +328,121 @@ fn the_weight_average_follows_the_closed_form() {
     // The source is untouched.
     assert_eq!(value(&model), -1.0);
 }
+
+/// Random weights with a non-trivial head (the initial output weights are ~1e-3, which would
+/// make every comparison below trivially close).
+fn random_detector(engine: &Engine, seed: i64) -> (VarStore, Detector) {
+    engine.seed(seed as u64);
+    let vs = VarStore::new(engine.device());
+    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3, deep: true });
+    let _guard = tch::no_grad_guard();
+    for (name, mut t) in vs.variables() {
+        if name.ends_with("out.weight") {
+            let _ = t.normal_(0.0, 0.1);
+        }
+    }
+    (vs, d)
+}
+
+#[test]
+fn a_batch_loss_is_the_object_weighted_combination_of_its_images() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let engine = Engine::cpu(1);
+    let (_vs, d) = random_detector(&engine, 3);
+    let boxes = [
+        vec![
+            Annotation { bbox: BBox::new(4.0, 6.0, 20.0, 18.0), class: Class::Vehicle },
+            Annotation { bbox: BBox::new(30.0, 10.0, 38.0, 30.0), class: Class::Walker },
+        ],
+        vec![
+            Annotation { bbox: BBox::new(10.0, 2.0, 22.0, 12.0), class: Class::TrafficSign },
+            Annotation { bbox: BBox::new(40.0, 20.0, 60.0, 34.0), class: Class::Vehicle },
+            Annotation { bbox: BBox::new(2.0, 24.0, 14.0, 44.0), class: Class::Walker },
+        ],
+    ];
+    let ignore = [Annotation { bbox: BBox::new(44.0, 2.0, 60.0, 10.0), class: Class::Vehicle }];
+    let frames =
+        [frame_with_box(64, 48, boxes[0][0].bbox), frame_with_box(64, 48, boxes[1][1].bbox)];
+    let targets = |i: usize| {
+        let ig: &[Annotation] = if i == 1 { &ignore } else { &[] };
+        Targets::with_regression(&boxes[i], ig, 3, (12, 16), Regression::Gaussian, Device::Cpu)
+    };
+    let single: Vec<DetectionLoss> = (0..2)
+        .map(|i| {
+            DetectionLoss::new(&d.forward(&image_tensor(&frames[i], Device::Cpu)), &targets(i))
+        })
+        .collect();
+    let x = batch_tensor(&[&frames[0], &frames[1]], Device::Cpu, Precision::Fp32);
+    assert_eq!(x.size(), [2, 3, 48, 64]);
+    let stacked = Targets::stack(vec![targets(0), targets(1)]);
+    assert_eq!(stacked.count, 5);
+    let both = DetectionLoss::new(&d.forward(&x), &stacked);
+    // Heatmap: per-image sums over all cells, normalised by the batch's 5 objects.
+    let heatmap = (single[0].heatmap * 2.0 + single[1].heatmap * 3.0) / 5.0;
+    // (float32 sums in another order: relative tolerance)
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-5 * b.abs().max(1.0);
+    assert!(close(both.heatmap, heatmap), "{} vs {heatmap}", both.heatmap);
+    // Size and offset: means weighted by each image's total sample weight.
+    let w = |i: usize| targets(i).weights.sum(Kind::Float).double_value(&[]);
+    let (w0, w1) = (w(0), w(1));
+    for (b, s0, s1) in [
+        (both.size, single[0].size, single[1].size),
+        (both.offset, single[0].offset, single[1].offset),
+    ] {
+        let expect = (s0 * w0 + s1 * w1) / (w0 + w1);
+        assert!(close(b, expect), "{b} vs {expect}");
+    }
+}
+
+#[test]
+fn bfloat16_computation_stays_close_to_float32_and_trains_the_float32_weights() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let engine = Engine::cpu(1);
+    let (vs, d) = random_detector(&engine, 4);
+    let frame = frame_with_box(64, 48, BBox::new(10.0, 8.0, 34.0, 26.0));
+    let fp32 = d.forward(&batch_tensor(&[&frame], Device::Cpu, Precision::Fp32));
+    let bf16 = d.forward(&batch_tensor(&[&frame], Device::Cpu, Precision::Bf16));
+    for (a, b) in [(&fp32.heatmap, &bf16.heatmap), (&fp32.size, &bf16.size)] {
+        assert_eq!(b.kind(), Kind::Float);
+        let scale = a.abs().max().double_value(&[]);
+        let diff = (a - b).abs().max().double_value(&[]);
+        // bfloat16 keeps 8 significant bits (relative rounding 2^-9 per operation).
+        assert!(scale > 0.1 && diff < 0.05 * scale, "diff {diff}, scale {scale}");
+    }
+    assert_eq!(bf16.features.kind(), Kind::Float);
+    assert!(vs.variables().values().all(|t| t.kind() == Kind::Float));
+
+    let mut model = DetectorModel::new(
+        &engine,
+        DetectorConfig { width: 8, classes: 3, deep: false },
+        AdamConfig::DETECTOR,
+    );
+    model.set_precision(Precision::Bf16);
+    let truth = [Annotation { bbox: BBox::new(10.0, 8.0, 34.0, 26.0), class: Class::Vehicle }];
+    let before = model.vs.variables()["backbone.stem.weight"].copy();
+    let first = model.train_step(&frame, &truth, &[]).unwrap().total;
+    let after = &model.vs.variables()["backbone.stem.weight"];
+    assert_eq!(after.kind(), Kind::Float);
+    assert!((after - &before).abs().max().double_value(&[]) > 0.0, "the stem did not learn");
+    for _ in 0..30 {
+        model.train_step(&frame, &truth, &[]).unwrap();
+    }
+    let last = model.train_step(&frame, &truth, &[]).unwrap().total;
+    assert!(last < 0.5 * first, "bfloat16 training does not fit one frame: {first} → {last}");
+}
+
+#[test]
+fn a_batch_of_frames_of_different_sizes_is_refused() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let engine = Engine::cpu(1);
+    let mut model = DetectorModel::new(
+        &engine,
+        DetectorConfig { width: 8, classes: 3, deep: false },
+        AdamConfig::DETECTOR,
+    );
+    let (a, b) = (Rgb8Image::zeros(32, 24), Rgb8Image::zeros(24, 32));
+    let frame = |image| TrainFrame { image, truth: &[], ignore: &[] };
+    let err = model.train_batch(&[frame(&a), frame(&b)]).unwrap_err().to_string();
+    assert_eq!(err, "training batch: frames of 32×24 and 24×32: a batch needs frames of one size");
+    assert!(model.train_batch(&[]).is_err());
+}
