@@ -102,6 +102,10 @@ pub struct PretrainConfig {
     /// or `"gaussian"` (every cell of its heatmap Gaussian, weighted by it).
     #[serde(default)]
     pub regression: Regression,
+    /// Smallest radius of an object's heatmap Gaussian, cells (0: CenterNet's radius, which is
+    /// 0 for objects under ~12 px such as most traffic signs).
+    #[serde(default)]
+    pub min_radius: u32,
 }
 
 fn one() -> f64 {
@@ -206,6 +210,9 @@ impl PretrainConfig {
         if !(self.sign_density >= 0.0 && self.sign_density <= 8.0) {
             return bad("sign_density", self.sign_density.to_string(), "0 to 8");
         }
+        if self.min_radius > 4 {
+            return bad("min_radius", self.min_radius.to_string(), "0 to 4 cells");
+        }
         if !self.class_weights.iter().all(|w| *w > 0.0 && *w <= 100.0) {
             return bad(
                 "class_weights",
@@ -292,6 +299,7 @@ pub fn pretrain(
     model.set_class_weights(&config.class_weights);
     model.set_regression(config.regression);
     model.set_precision(config.precision);
+    model.set_min_radius(i64::from(config.min_radius));
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let mut start = 0;
     let mut average = None;

@@ -36,6 +36,7 @@ fn tiny() -> PretrainConfig {
         sign_density: 2.0,
         class_weights: [1.0, 2.0, 1.0],
         regression: Regression::Gaussian,
+        min_radius: 1,
     }
 }
 

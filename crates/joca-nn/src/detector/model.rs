@@ -50,6 +50,7 @@ pub struct DetectorModel {
     device: Device,
     class_weights: Vec<f64>,
     regression: Regression,
+    min_radius: i64,
     precision: Precision,
 }
 
@@ -63,7 +64,16 @@ impl DetectorModel {
         let class_weights = vec![1.0; config.classes as usize];
         let regression = Regression::Centre;
         let precision = Precision::Fp32;
-        Self { vs, net, optimizer, device: engine.device(), class_weights, regression, precision }
+        Self {
+            vs,
+            net,
+            optimizer,
+            device: engine.device(),
+            class_weights,
+            regression,
+            min_radius: 0,
+            precision,
+        }
     }
 
     /// The network (for the NeuralAE, which reads its features).
@@ -114,6 +124,12 @@ impl DetectorModel {
         if trainable { self.vs.unfreeze() } else { self.vs.freeze() }
     }
 
+    /// The smallest heatmap Gaussian radius in training targets, cells (0 by default, as
+    /// CenterNet; see [`Targets::with_style`]).
+    pub fn set_min_radius(&mut self, cells: i64) {
+        self.min_radius = cells;
+    }
+
     /// The type [`DetectorModel::train_batch`] computes in (float32 by default; inference
     /// always runs in float32).
     pub fn set_precision(&mut self, precision: Precision) {
@@ -156,12 +172,13 @@ impl DetectorModel {
             batch
                 .iter()
                 .map(|f| {
-                    Targets::with_regression(
+                    Targets::with_style(
                         f.truth,
                         f.ignore,
                         classes,
                         (s[2], s[3]),
                         self.regression,
+                        self.min_radius,
                         self.device,
                     )
                     .with_class_weights(&self.class_weights)

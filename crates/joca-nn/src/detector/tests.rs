@@ -446,3 +446,30 @@ fn a_batch_of_frames_of_different_sizes_is_refused() {
     assert_eq!(err, "training batch: frames of 32×24 and 24×32: a batch needs frames of one size");
     assert!(model.train_batch(&[]).is_err());
 }
+
+#[test]
+fn a_minimum_radius_softens_the_neighbours_of_a_small_objects_centre() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // A 10×10 px sign centred at (18, 18) px: 2.5 cells, CenterNet radius 0, centre cell (4, 4).
+    let a = [Annotation { bbox: BBox::new(13.0, 13.0, 23.0, 23.0), class: Class::TrafficSign }];
+    let at = |t: &Targets, y: i64, x: i64| t.heatmap.double_value(&[0, 2, y, x]);
+    let plain = Targets::with_style(&a, &[], 3, (10, 10), Regression::Centre, 0, Device::Cpu);
+    assert_eq!(at(&plain, 4, 4), 1.0);
+    assert_eq!(at(&plain, 4, 5), 0.0);
+    let soft = Targets::with_style(&a, &[], 3, (10, 10), Regression::Centre, 1, Device::Cpu);
+    assert_eq!(at(&soft, 4, 4), 1.0);
+    // Radius 1: σ = (2·1 + 1)/6 = 0.5, so a side neighbour has exp(−1/(2·0.25)) = e^−2 and a
+    // diagonal one e^−4; nothing beyond the radius.
+    for (y, x) in [(4, 5), (4, 3), (3, 4), (5, 4)] {
+        assert!((at(&soft, y, x) - (-2f64).exp()).abs() < 1e-6);
+    }
+    assert!((at(&soft, 5, 5) - (-4f64).exp()).abs() < 1e-6);
+    assert_eq!(at(&soft, 4, 6), 0.0);
+    // The regression sample and object count do not change.
+    assert_eq!((soft.count, soft.indices.int64_value(&[0])), (1, 44));
+    // A large object keeps CenterNet's radius (here 2 cells > 1).
+    let big = [Annotation { bbox: BBox::new(0.0, 0.0, 40.0, 40.0), class: Class::Vehicle }];
+    let r0 = Targets::with_style(&big, &[], 3, (10, 10), Regression::Centre, 0, Device::Cpu);
+    let r1 = Targets::with_style(&big, &[], 3, (10, 10), Regression::Centre, 1, Device::Cpu);
+    assert!(r0.heatmap.equal(&r1.heatmap));
+}
