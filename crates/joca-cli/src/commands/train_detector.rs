@@ -43,8 +43,10 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let run_dir = args.out.with_extension("run");
     println!(
-        "pre-training the detector: {} steps, {} frames per random camera, render scale {}, {} threads; run directory {}",
+        "pre-training the detector: {} frames ({} per step, {}), {} frames per random camera, render scale {}, {} threads; run directory {}",
         cfg.steps,
+        cfg.batch,
+        format!("{:?}", cfg.precision).to_lowercase(),
         cfg.frames_per_design,
         cfg.render_scale,
         cfg.threads,
@@ -137,7 +139,7 @@ fn report_progress(event: &PretrainEvent, started: &Instant, smoothed: &mut Opti
                 let elapsed = started.elapsed().as_secs_f64();
                 let eta = elapsed / *step as f64 * (*of - *step) as f64;
                 eprint!(
-                    "\r  step {step:>6}/{of}  loss {s:.3}  {:.0} ms/step  ETA {:.0} s   ",
+                    "\r  frame {step:>6}/{of}  loss {s:.3}  {:.0} ms/frame  ETA {:.0} s   ",
                     1e3 * elapsed / *step as f64,
                     eta
                 );
