@@ -360,8 +360,9 @@ pub fn pretrain(
         while step < block.end_step {
             let tick = (step - block.first_step) / b;
             let (d, j) = (tick % block.designs, tick / block.designs);
+            let lanes = &mut runs[d * b..(d + 1) * b];
             let mut shots = Vec::with_capacity(b);
-            for (lane, run) in runs[d * b..(d + 1) * b].iter_mut().enumerate() {
+            for (lane, run) in lanes.iter_mut().enumerate() {
                 if j % config.frames_per_episode == 0 {
                     run.start_episode(j / config.frames_per_episode, &world, &mut sims)?;
                 }
@@ -402,8 +403,7 @@ pub fn pretrain(
                     return Err(e.into());
                 }
             };
-            let runs = &mut runs[d * b..(d + 1) * b];
-            for (run, (image, _)) in runs.iter_mut().zip(&shots) {
+            for (run, (image, _)) in lanes.iter_mut().zip(&shots) {
                 run.settings = world.ae.step(run.settings, image);
             }
             step += b;
@@ -411,7 +411,7 @@ pub fn pretrain(
                 average.update((step / b) as u64);
             }
             if crossed(step, 10) || step == config.steps {
-                let run = &runs[0];
+                let run = &lanes[0];
                 let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": run.index, "design": run.design, "map_seed": run.map_seed, "episode": run.episode});
                 writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
             }

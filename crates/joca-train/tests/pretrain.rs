@@ -44,6 +44,14 @@ fn go(_: &PretrainEvent) -> ControlFlow<()> {
     ControlFlow::Continue(())
 }
 
+/// Interrupts a run once it reports `frames` trained frames (a kill).
+fn stop_at(frames: usize) -> impl FnMut(&PretrainEvent) -> ControlFlow<()> {
+    move |e| match e {
+        PretrainEvent::Step { step, .. } if *step == frames => ControlFlow::Break(()),
+        _ => ControlFlow::Continue(()),
+    }
+}
+
 #[test]
 fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -54,10 +62,7 @@ fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
     let report_a = pretrain(&cfg, &a_dir, &a_w, false, &mut go).unwrap();
 
     // Stop at step 10: the last checkpoint covers 8 steps; steps 9–10 are lost and redone.
-    let mut stop = |e: &PretrainEvent| match e {
-        PretrainEvent::Step { step: 10, .. } => ControlFlow::Break(()),
-        _ => ControlFlow::Continue(()),
-    };
+    let mut stop = stop_at(10);
     assert!(matches!(
         pretrain(&cfg, &b_dir, &b_w, false, &mut stop),
         Err(TrainError::Interrupted { step: 10 })
@@ -100,10 +105,7 @@ fn a_batched_bfloat16_run_is_reproducible_across_kill_and_resume() {
     let report_a = pretrain(&cfg, &a_dir, &a_w, false, &mut record).unwrap();
     // Six steps of two frames each.
     assert_eq!(steps, [2, 4, 6, 8, 10, 12]);
-    let mut stop = |e: &PretrainEvent| match e {
-        PretrainEvent::Step { step: 10, .. } => ControlFlow::Break(()),
-        _ => ControlFlow::Continue(()),
-    };
+    let mut stop = stop_at(10);
     assert!(pretrain(&cfg, &b_dir, &b_w, false, &mut stop).is_err());
     let report_b = pretrain(&cfg, &b_dir, &b_w, true, &mut go).unwrap();
     assert_eq!(std::fs::read(&a_w).unwrap(), std::fs::read(&b_w).unwrap());

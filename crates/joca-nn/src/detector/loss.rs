@@ -85,7 +85,8 @@ struct Sample {
 
 impl Targets {
     /// Targets for `annotations` (and the `ignore` regions) on an output grid of
-    /// `out_h × out_w` cells and `classes`, regressing sizes at the centres only.
+    /// `out_h × out_w` cells and `classes`, as CenterNet: sizes regressed at the centres,
+    /// CenterNet's Gaussian radius.
     pub fn new(
         annotations: &[Annotation],
         ignore: &[Annotation],
@@ -94,30 +95,19 @@ impl Targets {
         out_w: i64,
         device: Device,
     ) -> Self {
-        Self::with_regression(
+        Self::with_style(
             annotations,
             ignore,
             classes,
             (out_h, out_w),
             Regression::Centre,
+            0,
             device,
         )
     }
 
-    /// Targets as [`Targets::new`], with the size and offset samples chosen by `regression`.
-    pub fn with_regression(
-        annotations: &[Annotation],
-        ignore: &[Annotation],
-        classes: i64,
-        grid: (i64, i64),
-        regression: Regression,
-        device: Device,
-    ) -> Self {
-        Self::with_style(annotations, ignore, classes, grid, regression, 0, device)
-    }
-
-    /// Targets as [`Targets::with_regression`], with every heatmap Gaussian at least
-    /// `min_radius` cells in radius. CenterNet's radius (the corner shift that keeps IoU ≥ 0.7)
+    /// Targets as [`Targets::new`], with the size and offset samples chosen by `regression`
+    /// and every heatmap Gaussian at least `min_radius` cells in radius. CenterNet's radius (the corner shift that keeps IoU ≥ 0.7)
     /// is 0 for objects under about 3 cells (12 px at stride 4): the target is then a single
     /// positive cell between full-weight negatives, although the centre of a 10-px sign can fall
     /// on either side of a cell border. With radius 1 the 4 neighbours are penalty-reduced

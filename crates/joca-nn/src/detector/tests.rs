@@ -14,6 +14,15 @@ fn frame_with_box(w: usize, h: usize, b: BBox) -> Rgb8Image {
     Rgb8Image::from_vec(w, h, data).unwrap()
 }
 
+/// A freshly initialised width-8 detector without the stride-32 stage.
+fn small_model(engine: &Engine) -> DetectorModel {
+    DetectorModel::new(
+        engine,
+        DetectorConfig { width: 8, classes: 3, deep: false },
+        AdamConfig::DETECTOR,
+    )
+}
+
 #[test]
 fn any_input_size_gives_a_quarter_resolution_grid() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -133,7 +142,7 @@ fn gaussian_regression_decodes_the_box_from_a_peak_next_to_the_centre() {
     let b = BBox::new(20.0, 8.0, 60.0, 40.0);
     let ann = [Annotation { bbox: b, class: Class::Vehicle }];
     let (h, w) = (10, 20);
-    let t = Targets::with_regression(&ann, &[], 3, (h, w), Regression::Gaussian, Device::Cpu);
+    let t = Targets::with_style(&ann, &[], 3, (h, w), Regression::Gaussian, 0, Device::Cpu);
     assert_eq!(t.count, 1);
     assert_eq!(t.indices.size(), vec![25]);
     let sample = |x: i64, y: i64| {
@@ -175,7 +184,7 @@ fn gaussian_regression_keeps_every_centre_for_its_own_object() {
     // Gaussian, but a centre (value 1) outranks a neighbour.
     let a = Annotation { bbox: BBox::new(20.0, 8.0, 60.0, 40.0), class: Class::Vehicle };
     let b = Annotation { bbox: BBox::new(28.0, 12.0, 64.0, 38.0), class: Class::Vehicle };
-    let t = Targets::with_regression(&[a, b], &[], 3, (10, 20), Regression::Gaussian, Device::Cpu);
+    let t = Targets::with_style(&[a, b], &[], 3, (10, 20), Regression::Gaussian, 0, Device::Cpu);
     let cells: Vec<i64> = Vec::try_from(&t.indices).unwrap();
     let at = |cell: i64| cells.iter().position(|&c| c == cell).unwrap() as i64;
     assert_eq!(cells.len(), cells.iter().collect::<std::collections::BTreeSet<_>>().len());
@@ -286,11 +295,7 @@ fn the_deep_detector_keeps_the_quarter_resolution_heads_on_any_input() {
 fn a_non_finite_loss_is_refused_before_any_weight_changes() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(1);
-    let mut model = DetectorModel::new(
-        &engine,
-        DetectorConfig { width: 8, classes: 3, deep: false },
-        AdamConfig::DETECTOR,
-    );
+    let mut model = small_model(&engine);
     let frame = frame_with_box(32, 32, BBox::new(4.0, 4.0, 12.0, 12.0));
     let before = model.detect(&frame);
     let bad = [Annotation { bbox: BBox::new(4.0, 4.0, f32::INFINITY, 12.0), class: Class::Walker }];
@@ -365,7 +370,7 @@ fn a_batch_loss_is_the_object_weighted_combination_of_its_images() {
         [frame_with_box(64, 48, boxes[0][0].bbox), frame_with_box(64, 48, boxes[1][1].bbox)];
     let targets = |i: usize| {
         let ig: &[Annotation] = if i == 1 { &ignore } else { &[] };
-        Targets::with_regression(&boxes[i], ig, 3, (12, 16), Regression::Gaussian, Device::Cpu)
+        Targets::with_style(&boxes[i], ig, 3, (12, 16), Regression::Gaussian, 0, Device::Cpu)
     };
     let single: Vec<DetectionLoss> = (0..2)
         .map(|i| {
@@ -412,11 +417,7 @@ fn bfloat16_computation_stays_close_to_float32_and_trains_the_float32_weights() 
     assert_eq!(bf16.features.kind(), Kind::Float);
     assert!(vs.variables().values().all(|t| t.kind() == Kind::Float));
 
-    let mut model = DetectorModel::new(
-        &engine,
-        DetectorConfig { width: 8, classes: 3, deep: false },
-        AdamConfig::DETECTOR,
-    );
+    let mut model = small_model(&engine);
     model.set_precision(Precision::Bf16);
     let truth = [Annotation { bbox: BBox::new(10.0, 8.0, 34.0, 26.0), class: Class::Vehicle }];
     let before = model.vs.variables()["backbone.stem.weight"].copy();
@@ -435,11 +436,7 @@ fn bfloat16_computation_stays_close_to_float32_and_trains_the_float32_weights() 
 fn a_batch_of_frames_of_different_sizes_is_refused() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(1);
-    let mut model = DetectorModel::new(
-        &engine,
-        DetectorConfig { width: 8, classes: 3, deep: false },
-        AdamConfig::DETECTOR,
-    );
+    let mut model = small_model(&engine);
     let (a, b) = (Rgb8Image::zeros(32, 24), Rgb8Image::zeros(24, 32));
     let frame = |image| TrainFrame { image, truth: &[], ignore: &[] };
     let err = model.train_batch(&[frame(&a), frame(&b)]).unwrap_err().to_string();
