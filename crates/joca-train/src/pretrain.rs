@@ -12,13 +12,13 @@ use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, GenomeCodec,
     ImageFormation, SensorEncoding, sensor_by_name,
 };
-use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
+use joca_core::{Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams};
 use joca_metrics::TaskScores;
 use joca_nn::detector::{
     DetectorConfig, DetectorModel, LossParts, Precision, Regression, TrainFrame, WeightAverage,
 };
 use joca_nn::{AdamConfig, Engine};
-use joca_sim::{CityConfig, Illumination, SimConfig, Simulator, train_map_seed};
+use joca_sim::{CityConfig, Illumination, SimConfig, Simulator, VisibilityRules, train_map_seed};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -106,10 +106,27 @@ pub struct PretrainConfig {
     /// 0 for objects under ~12 px such as most traffic signs).
     #[serde(default)]
     pub min_radius: u32,
+    /// Smallest box width and height, pixels, that is a training object in the training towns
+    /// (the simulator's rule, and the test's, is 8); smaller objects in view stay ignore
+    /// regions. With the small images of random designs at `render_scale` 0.08 (100–330 px
+    /// wide) nearly every traffic sign and most walkers in view are under 8 px.
+    #[serde(default = "eight")]
+    pub min_box_px: f64,
+    /// Extra times a training frame is trained on when it holds an object of each class
+    /// (vehicle, walker, traffic sign; the largest applies), in its design's next batches:
+    /// repeat-factor sampling (Gupta et al., LVIS 2019) for the rare classes, within a block so
+    /// that a resumed run repeats the same frames. The repeats are extra gradient samples, not
+    /// frames of `steps`.
+    #[serde(default)]
+    pub repeats: [u32; 3],
 }
 
 fn one() -> f64 {
     1.0
+}
+
+fn eight() -> f64 {
+    f64::from(VisibilityRules::default().min_box_px)
 }
 
 fn one_frame() -> usize {
@@ -210,6 +227,12 @@ impl PretrainConfig {
         if !(self.sign_density >= 0.0 && self.sign_density <= 8.0) {
             return bad("sign_density", self.sign_density.to_string(), "0 to 8");
         }
+        if !(self.min_box_px >= 1.0 && self.min_box_px <= 64.0) {
+            return bad("min_box_px", self.min_box_px.to_string(), "1 to 64 pixels");
+        }
+        if self.repeats.iter().any(|&r| r > 8) {
+            return bad("repeats", format!("{:?}", self.repeats), "each 0 to 8");
+        }
         if self.min_radius > 4 {
             return bad("min_radius", self.min_radius.to_string(), "0 to 4 cells");
         }
@@ -248,7 +271,7 @@ pub enum PretrainEvent {
         loss: LossParts,
     },
     /// A test-town evaluation finished.
-    Eval(EvalReport),
+    Eval(Box<EvalReport>),
     /// A checkpoint was written.
     Checkpoint {
         /// Steps covered.
@@ -342,6 +365,10 @@ pub fn pretrain(
             city: CityConfig::default()
                 .with_walker_density(config.walker_density as f32)
                 .with_sign_density(config.sign_density as f32),
+            visibility: VisibilityRules {
+                min_box_px: config.min_box_px as f32,
+                ..VisibilityRules::default()
+            },
             ..SimConfig::default()
         },
     };
@@ -357,6 +384,8 @@ pub fn pretrain(
             .flat_map(|d| (0..b).map(move |lane| (d, lane)))
             .map(|(d, lane)| DesignRun::new(d, lane, &codec, &world))
             .collect::<Result<Vec<_>, TrainError>>()?;
+        let mut replays: Vec<Repeats<(Rgb8Image, Frame)>> =
+            (0..block.designs).map(|_| Repeats::default()).collect();
         while step < block.end_step {
             let tick = (step - block.first_step) / b;
             let (d, j) = (tick % block.designs, tick / block.designs);
@@ -386,6 +415,8 @@ pub fn pretrain(
             model.set_lr(config.lr_at(step));
             let batch: Vec<TrainFrame<'_>> = shots
                 .iter()
+                .map(|(image, frame)| (image, frame))
+                .chain(replays[d].due().map(|(image, frame)| (image, frame)))
                 .map(|(image, frame)| TrainFrame {
                     image,
                     truth: &frame.boxes,
@@ -406,6 +437,10 @@ pub fn pretrain(
             for (run, (image, _)) in lanes.iter_mut().zip(&shots) {
                 run.settings = world.ae.step(run.settings, image);
             }
+            replays[d].advance(shots.into_iter().map(|(image, frame)| {
+                let n = frame.boxes.iter().map(|a| config.repeats[a.class.index()]).max();
+                ((image, frame), n.unwrap_or(0))
+            }));
             step += b;
             if let Some(average) = &mut average {
                 average.update((step / b) as u64);
@@ -424,7 +459,7 @@ pub fn pretrain(
                     evaluate_day_night(result, config, config.eval_episodes, &streams, step)?;
                 writeln!(log, "{}", serde_json::json!({"eval": report}))
                     .map_err(|e| TrainError::io(&log_path, e))?;
-                let _ = progress(&PretrainEvent::Eval(report));
+                let _ = progress(&PretrainEvent::Eval(Box::new(report)));
                 last_eval = Some(report);
             }
         }
@@ -453,7 +488,7 @@ pub fn pretrain(
             let r = evaluate_day_night(result, config, final_episodes, &streams, step)?;
             writeln!(log, "{}", serde_json::json!({"eval": r}))
                 .map_err(|e| TrainError::io(&log_path, e))?;
-            let _ = progress(&PretrainEvent::Eval(r));
+            let _ = progress(&PretrainEvent::Eval(Box::new(r)));
             r
         }
     };
@@ -463,6 +498,34 @@ pub fn pretrain(
         &serde_json::to_string_pretty(&report).unwrap_or_default(),
     )?;
     Ok(report)
+}
+
+/// The frames of one design waiting to be trained on again (`repeats`): each is due in as
+/// many of the design's next batches as it has repeats.
+#[derive(Debug)]
+struct Repeats<T> {
+    queue: Vec<(T, u32)>,
+}
+
+impl<T> Default for Repeats<T> {
+    fn default() -> Self {
+        Self { queue: Vec::new() }
+    }
+}
+
+impl<T> Repeats<T> {
+    /// The frames to add to the design's current batch, oldest first.
+    fn due(&self) -> impl Iterator<Item = &T> {
+        self.queue.iter().map(|(item, _)| item)
+    }
+
+    /// After a batch: each due frame has one repeat less, and `fresh` frames (with their
+    /// repeats, 0 for none) join the queue.
+    fn advance(&mut self, fresh: impl IntoIterator<Item = (T, u32)>) {
+        self.queue.iter_mut().for_each(|(_, left)| *left -= 1);
+        self.queue.retain(|(_, left)| *left > 0);
+        self.queue.extend(fresh.into_iter().filter(|(_, n)| *n > 0));
+    }
 }
 
 /// A run of consecutive steps over `designs` camera designs, `frames_per_design` frames each,
@@ -673,6 +736,21 @@ pub fn differing_fields<T: Serialize>(a: &T, b: &T) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_frame_is_repeated_in_exactly_as_many_later_batches_as_asked() {
+        let mut r = Repeats::default();
+        let mut batches = Vec::new();
+        // Batch 0 brings frames a (2 repeats), b (none), c (1); batch 1 brings d (3).
+        let fresh: [&[(char, u32)]; 5] =
+            [&[('a', 2), ('b', 0), ('c', 1)], &[('d', 3)], &[], &[], &[]];
+        for frames in fresh {
+            batches.push(r.due().copied().collect::<String>());
+            r.advance(frames.iter().copied());
+        }
+        assert_eq!(batches, ["", "ac", "ad", "d", "d"]);
+        assert_eq!(r.due().count(), 0);
+    }
 
     #[test]
     fn the_frames_of_a_design_come_from_distinct_episodes_per_lane() {

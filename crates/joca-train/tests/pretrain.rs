@@ -37,6 +37,8 @@ fn tiny() -> PretrainConfig {
         class_weights: [1.0, 2.0, 1.0],
         regression: Regression::Gaussian,
         min_radius: 1,
+        min_box_px: 6.0,
+        repeats: [0, 1, 2],
     }
 }
 
@@ -113,6 +115,27 @@ fn a_batched_bfloat16_run_is_reproducible_across_kill_and_resume() {
 }
 
 #[test]
+fn repeated_frames_change_what_is_learned() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let mut runs = 0;
+    let mut weights = |repeats| {
+        let cfg = PretrainConfig { repeats, steps: 8, ..tiny() };
+        runs += 1;
+        let name = format!("run{runs}");
+        let w = dir.path().join(format!("{name}.safetensors"));
+        pretrain(&cfg, &dir.path().join(name), &w, false, &mut go).unwrap();
+        std::fs::read(w).unwrap()
+    };
+    // Repeating every frame with an object once, in its design's next batch, trains on the
+    // same frames plus repeats: other weights, and again the same ones on a second run.
+    let none = weights([0, 0, 0]);
+    let once = weights([1, 1, 1]);
+    assert_ne!(none, once);
+    assert_eq!(once, weights([1, 1, 1]));
+}
+
+#[test]
 fn invalid_configuration_names_the_field_and_the_range() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
@@ -136,5 +159,15 @@ fn invalid_configuration_names_the_field_and_the_range() {
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
         "pretrain.sign_density = 9 is invalid: 0 to 8"
+    );
+    let cfg = PretrainConfig { min_box_px: 0.5, ..tiny() };
+    assert_eq!(
+        cfg.validate().unwrap_err().to_string(),
+        "pretrain.min_box_px = 0.5 is invalid: 1 to 64 pixels"
+    );
+    let cfg = PretrainConfig { repeats: [0, 9, 0], ..tiny() };
+    assert_eq!(
+        cfg.validate().unwrap_err().to_string(),
+        "pretrain.repeats = [0, 9, 0] is invalid: each 0 to 8"
     );
 }
