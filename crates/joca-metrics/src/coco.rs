@@ -120,6 +120,8 @@ pub struct CocoSummary {
     pub stats: [f64; 12],
     /// AP@[.50:.95] per category that has ground truth.
     pub per_category_ap: BTreeMap<u32, f64>,
+    /// AP at IoU 0.5 per category that has ground truth.
+    pub per_category_ap50: BTreeMap<u32, f64>,
     /// Detections matched at IoU 0.5 (area all, 100 detections per image), not ignored.
     pub true_positives_50: usize,
     /// Non-ignored ground-truth objects.
@@ -301,21 +303,26 @@ impl CocoEvaluator {
             ar(2, 2),
             ar(3, 2),
         ];
-        let per_category_ap = categories
-            .iter()
-            .enumerate()
-            .filter_map(|(k, &c)| {
-                let mut v = Vec::new();
-                for t in 0..nt {
-                    for r in 0..RECALL_POINTS {
-                        v.push(precision[p_index(t, r, k, 0, 2)]);
+        // Area "all", maxDets 100, over the IoU thresholds `ts`, as summarize() averages.
+        let per_category = |ts: std::ops::Range<usize>| -> BTreeMap<u32, f64> {
+            categories
+                .iter()
+                .enumerate()
+                .filter_map(|(k, &c)| {
+                    let mut v = Vec::new();
+                    for t in ts.clone() {
+                        for r in 0..RECALL_POINTS {
+                            v.push(precision[p_index(t, r, k, 0, 2)]);
+                        }
                     }
-                }
-                let m = mean_of(v);
-                (m > -1.0).then_some((c, m))
-            })
-            .collect();
-        CocoSummary { stats, per_category_ap, true_positives_50, ground_truths }
+                    let m = mean_of(v);
+                    (m > -1.0).then_some((c, m))
+                })
+                .collect()
+        };
+        let per_category_ap = per_category(0..nt);
+        let per_category_ap50 = per_category(0..1);
+        CocoSummary { stats, per_category_ap, per_category_ap50, true_positives_50, ground_truths }
     }
 }
 

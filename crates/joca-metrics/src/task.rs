@@ -40,6 +40,9 @@ pub struct TaskScores {
     /// for a class without ground truth in these frames.
     #[serde(default)]
     pub class_map: [Option<f64>; 3],
+    /// AP at IoU 0.5 per class, as `class_map`.
+    #[serde(default)]
+    pub class_ap50: [Option<f64>; 3],
     /// Annotated objects (not ignore regions) per class, summed over frames: how many boxes
     /// each entry of `class_map` rests on.
     #[serde(default)]
@@ -101,6 +104,7 @@ impl TaskMetrics {
         let defined = |v: f64| if v < 0.0 { 0.0 } else { v };
         let tp = summary.true_positives_50 as u64;
         let class_map = Class::ALL.map(|c| summary.per_category_ap.get(&c.coco_id()).copied());
+        let class_ap50 = Class::ALL.map(|c| summary.per_category_ap50.get(&c.coco_id()).copied());
         TaskScores {
             map: defined(summary.stats[0]),
             ap50: defined(summary.stats[1]),
@@ -109,6 +113,7 @@ impl TaskMetrics {
             visible_180: self.visible_180,
             frames: self.frames,
             class_map,
+            class_ap50,
             class_objects: self.class_objects,
         }
     }
@@ -140,6 +145,8 @@ mod tests {
         assert!((s.map - 1.0).abs() < 1e-12 && (s.tp_ratio - 0.5).abs() < 1e-12);
         assert!((s.class_map[0].unwrap() - 1.0).abs() < 1e-12);
         assert_eq!(s.class_map[1..], [None, None]);
+        assert!((s.class_ap50[0].unwrap() - 1.0).abs() < 1e-12);
+        assert_eq!(s.class_ap50[1..], [None, None]);
         assert_eq!(s.class_objects, [1, 0, 0]);
         assert!((s.fitness() - 1.55).abs() < 1e-12);
         m.reset();

@@ -4,7 +4,10 @@
 use joca_metrics::{CocoEvaluator, GroundTruth, STAT_NAMES, ScoredBox, iou_xywh};
 use serde_json::Value;
 
-fn load(name: &str) -> (CocoEvaluator, Vec<f64>) {
+/// Per category: AP@[.5:.95] and AP50 as pycocotools' precision array gives them.
+type PerCategory = Vec<(u32, [f64; 2])>;
+
+fn load(name: &str) -> (CocoEvaluator, Vec<f64>, PerCategory) {
     let path = format!("{}/tests/fixtures/{name}.json", env!("CARGO_MANIFEST_DIR"));
     let v: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     let mut eval = CocoEvaluator::default();
@@ -30,14 +33,29 @@ fn load(name: &str) -> (CocoEvaluator, Vec<f64>) {
         eval.add_image(d["image_id"].as_u64().unwrap(), vec![], vec![s]);
     }
     let stats = v["stats"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
-    (eval, stats)
+    let per_category = v["per_category"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(c, x)| (c.parse().unwrap(), [0, 1].map(|i| x[i].as_f64().unwrap())))
+        .collect();
+    (eval, stats, per_category)
 }
 
 fn agree(name: &str) {
-    let (eval, want) = load(name);
-    let got = eval.evaluate().stats;
-    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+    let (eval, want, want_per_category) = load(name);
+    let summary = eval.evaluate();
+    for (i, (g, w)) in summary.stats.iter().zip(&want).enumerate() {
         assert!((g - w).abs() < 1e-6, "{name}: {} = {g}, pycocotools {w}", STAT_NAMES[i]);
+    }
+    // The same categories (those with ground truth), each with pycocotools' AP and AP50.
+    let got: Vec<u32> = summary.per_category_ap.keys().copied().collect();
+    assert_eq!(got, want_per_category.iter().map(|(c, _)| *c).collect::<Vec<_>>(), "{name}");
+    assert_eq!(summary.per_category_ap50.len(), got.len(), "{name}");
+    for (c, [ap, ap50]) in want_per_category {
+        let (g, g50) = (summary.per_category_ap[&c], summary.per_category_ap50[&c]);
+        assert!((g - ap).abs() < 1e-6, "{name}: category {c} AP {g}, pycocotools {ap}");
+        assert!((g50 - ap50).abs() < 1e-6, "{name}: category {c} AP50 {g50}, pycocotools {ap50}");
     }
 }
 

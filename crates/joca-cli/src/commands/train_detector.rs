@@ -110,17 +110,18 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
     Ok(())
 }
 
-/// The final table: scores per light, AP per class with the number of boxes it rests on.
+/// The final table: scores per light, AP@[.5:.95] and AP50 per class with the number of boxes
+/// they rest on.
 fn print_table(report: &EvalReport) {
     println!(
-        "| light | mAP@[.5:.95] | AP50 | TP ratio | AP vehicle (boxes) | AP walker (boxes) | AP sign (boxes) | frames |"
+        "| light | mAP@[.5:.95] | AP50 | TP ratio | vehicles: AP / AP50 (boxes) | walkers: AP / AP50 (boxes) | signs: AP / AP50 (boxes) | frames |"
     );
     println!("|---|---|---|---|---|---|---|---|");
     for (name, s) in [("day", report.day), ("night", report.night)] {
-        let mut cells =
-            s.class_map.iter().zip(s.class_objects).map(|(ap, n)| {
-                ap.map_or_else(|| format!("- ({n})"), |ap| format!("{ap:.3} ({n})"))
-            });
+        let mut cells = (0..3).map(|c| match (s.class_map[c], s.class_ap50[c]) {
+            (Some(ap), Some(ap50)) => format!("{ap:.3} / {ap50:.3} ({})", s.class_objects[c]),
+            _ => format!("- ({})", s.class_objects[c]),
+        });
         let mut cell = || cells.next().unwrap_or_default();
         let (v, w, t) = (cell(), cell(), cell());
         println!(
