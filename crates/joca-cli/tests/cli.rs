@@ -311,6 +311,14 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
         first.contains("IoU=0.50:0.95 | area=   all | maxDets=100") && first.ends_with(&want),
         "{first}"
     );
+    // Then each category with ground truth, with pycocotools' AP and AP50 for it.
+    let pc = &v["per_category"]["3"];
+    let want = format!(
+        " category 3: AP@[.50:.95] = {:.3}  AP50 = {:.3}",
+        pc[0].as_f64().unwrap(),
+        pc[1].as_f64().unwrap()
+    );
+    assert!(stdout(&o).lines().any(|l| l == want), "{want} in\n{}", stdout(&o));
 
     std::fs::write(&dt, r#"[{"image_id": 1, "category_id": 1, "bbox": [1, 2, 3], "score": 0.5}]"#)
         .unwrap();

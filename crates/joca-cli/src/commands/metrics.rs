@@ -115,7 +115,8 @@ pub fn run(args: &Args) -> Result<()> {
         let kind = if name.starts_with("AP") { "Average Precision" } else { "Average Recall" };
         println!(" {kind:<18} {} = {value:.3}", &name[2..]);
     }
-    for ((c, ap), ap50) in summary.per_category_ap.iter().zip(summary.per_category_ap50.values()) {
+    for (c, ap) in &summary.per_category_ap {
+        let ap50 = summary.per_category_ap50.get(c).copied().unwrap_or(-1.0);
         println!(" category {c}: AP@[.50:.95] = {ap:.3}  AP50 = {ap50:.3}");
     }
     Ok(())
