@@ -12,7 +12,7 @@ use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, GenomeCodec,
     ImageFormation, SensorEncoding, sensor_by_name,
 };
-use joca_core::{Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams};
+use joca_core::{Annotation, FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams};
 use joca_metrics::TaskScores;
 use joca_nn::detector::{
     DetectorConfig, DetectorModel, LossParts, Precision, Regression, TrainFrame, WeightAverage,
@@ -384,7 +384,7 @@ pub fn pretrain(
             .flat_map(|d| (0..b).map(move |lane| (d, lane)))
             .map(|(d, lane)| DesignRun::new(d, lane, &codec, &world))
             .collect::<Result<Vec<_>, TrainError>>()?;
-        let mut replays: Vec<Repeats<(Rgb8Image, Frame)>> =
+        let mut replays: Vec<Repeats<Shot>> =
             (0..block.designs).map(|_| Repeats::default()).collect();
         while step < block.end_step {
             let tick = (step - block.first_step) / b;
@@ -410,19 +410,11 @@ pub fn pretrain(
                     run.pitch_um,
                     &mut streams.indexed("pretrain-noise", (step + lane) as u64),
                 );
-                shots.push((image, frame));
+                shots.push(Shot { image, truth: frame.boxes, ignore: frame.ignore });
             }
             model.set_lr(config.lr_at(step));
-            let batch: Vec<TrainFrame<'_>> = shots
-                .iter()
-                .map(|(image, frame)| (image, frame))
-                .chain(replays[d].due().map(|(image, frame)| (image, frame)))
-                .map(|(image, frame)| TrainFrame {
-                    image,
-                    truth: &frame.boxes,
-                    ignore: &frame.ignore,
-                })
-                .collect();
+            let batch: Vec<TrainFrame<'_>> =
+                shots.iter().chain(replays[d].due()).map(Shot::train_frame).collect();
             let loss = match model.train_batch(&batch) {
                 Ok(loss) => loss,
                 Err(e) => {
@@ -434,12 +426,12 @@ pub fn pretrain(
                     return Err(e.into());
                 }
             };
-            for (run, (image, _)) in lanes.iter_mut().zip(&shots) {
-                run.settings = world.ae.step(run.settings, image);
+            for (run, shot) in lanes.iter_mut().zip(&shots) {
+                run.settings = world.ae.step(run.settings, &shot.image);
             }
-            replays[d].advance(shots.into_iter().map(|(image, frame)| {
-                let n = frame.boxes.iter().map(|a| config.repeats[a.class.index()]).max();
-                ((image, frame), n.unwrap_or(0))
+            replays[d].advance(shots.into_iter().map(|shot| {
+                let n = shot.truth.iter().map(|a| config.repeats[a.class.index()]).max();
+                (shot, n.unwrap_or(0))
             }));
             step += b;
             if let Some(average) = &mut average {
@@ -498,6 +490,20 @@ pub fn pretrain(
         &serde_json::to_string_pretty(&report).unwrap_or_default(),
     )?;
     Ok(report)
+}
+
+/// A formed training frame with its ground truth (the HDR render is not kept).
+#[derive(Debug)]
+struct Shot {
+    image: Rgb8Image,
+    truth: Vec<Annotation>,
+    ignore: Vec<Annotation>,
+}
+
+impl Shot {
+    fn train_frame(&self) -> TrainFrame<'_> {
+        TrainFrame { image: &self.image, truth: &self.truth, ignore: &self.ignore }
+    }
 }
 
 /// The frames of one design waiting to be trained on again (`repeats`): each is due in as

@@ -118,7 +118,7 @@ fn print_table(report: &EvalReport) {
     );
     println!("|---|---|---|---|---|---|---|---|");
     for (name, s) in [("day", report.day), ("night", report.night)] {
-        let mut cells = (0..3).map(|c| match (s.class_map[c], s.class_ap50[c]) {
+        let mut cells = (0..s.class_map.len()).map(|c| match (s.class_map[c], s.class_ap50[c]) {
             (Some(ap), Some(ap50)) => format!("{ap:.3} / {ap50:.3} ({})", s.class_objects[c]),
             _ => format!("- ({})", s.class_objects[c]),
         });
