@@ -43,8 +43,13 @@ if ! compgen -G "$cache/torch-$TORCH_VERSION-*.whl" >/dev/null; then
 fi
 if ! compgen -G "$cache/nvidia_cuda_runtime-*.whl" >/dev/null || ! compgen -G "$cache/nvidia_cuda_cupti-*.whl" >/dev/null; then
   echo "bootstrap-libtorch: downloading cuda-toolkit[cudart,cupti]==$CUDA_TOOLKIT_VERSION (~13 MB)"
-  "$python" -m pip download --quiet --only-binary=:all: \
-    --platform manylinux_2_28_x86_64 --python-version 3.11 --implementation cp \
+  # NVIDIA tags these wheels with different manylinux levels (cudart manylinux_2_17, cupti
+  # manylinux_2_25), and pip before 24 does not count an older manylinux as compatible with an
+  # explicit --platform, so every level up to torch's 2_28 is listed.
+  platforms=(--platform manylinux2014_x86_64)
+  for glibc_minor in $(seq 17 28); do platforms+=(--platform "manylinux_2_${glibc_minor}_x86_64"); done
+  "$python" -m pip download --quiet --only-binary=:all: "${platforms[@]}" \
+    --python-version 3.11 --implementation cp \
     "cuda-toolkit[cudart,cupti]==$CUDA_TOOLKIT_VERSION" -d "$cache"
 fi
 
