@@ -649,8 +649,7 @@ fn detect_writes_coco_results_that_metrics_scores() {
     let o =
         joca(&["render", "--frames", "2", "--illumination", "day", "--out", rec.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let weights =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector-standard.safetensors");
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector.safetensors");
     let gt = rec.join("annotations.json");
     let dt = dir.path().join("dt.json");
     let detect = |extra: &[&str]| {
@@ -671,17 +670,12 @@ fn detect_writes_coco_results_that_metrics_scores() {
     assert!(stdout(&o).contains("area= small"), "{}", stdout(&o));
     // Weights of another width are refused naming a tensor.
     let o = detect(&["--width", "8"]);
-    assert!(
-        !o.status.success() && stderr(&o).contains("detector-standard.safetensors"),
-        "{}",
-        stderr(&o)
-    );
+    assert!(!o.status.success() && stderr(&o).contains("detector.safetensors"), "{}", stderr(&o));
 }
 
 #[test]
 fn eval_detector_scores_weights_and_names_a_missing_file() {
-    let weights =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector-standard.safetensors");
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector.safetensors");
     let o = joca(&[
         "eval-detector",
         "--weights",
