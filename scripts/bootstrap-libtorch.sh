@@ -45,8 +45,8 @@ if ! compgen -G "$cache/nvidia_cuda_runtime-*.whl" >/dev/null || ! compgen -G "$
   echo "bootstrap-libtorch: downloading cuda-toolkit[cudart,cupti]==$CUDA_TOOLKIT_VERSION (~13 MB)"
   # NVIDIA tags these wheels with different manylinux levels (cudart manylinux_2_17, cupti
   # manylinux_2_25), and pip before 24 does not count an older manylinux as compatible with an
-  # explicit --platform, so every level up to torch's 2_28 is listed.
-  platforms=(--platform manylinux2014_x86_64)
+  # explicit --platform, so every level from 2_17 (= manylinux2014) up to torch's 2_28 is listed.
+  platforms=()
   for glibc_minor in $(seq 17 28); do platforms+=(--platform "manylinux_2_${glibc_minor}_x86_64"); done
   "$python" -m pip download --quiet --only-binary=:all: "${platforms[@]}" \
     --python-version 3.11 --implementation cp \
