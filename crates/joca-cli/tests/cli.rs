@@ -3,7 +3,7 @@
 
 use joca_camera::{Calibration, DynamicSettings, ImageFormation};
 use joca_core::{HdrImage, SeedStreams};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn joca(args: &[&str]) -> Output {
@@ -16,6 +16,11 @@ fn stdout(o: &Output) -> String {
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The detector weights the repository ships (what every preset starts from).
+fn shipped_weights() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector.safetensors")
 }
 
 #[test]
@@ -649,7 +654,7 @@ fn detect_writes_coco_results_that_metrics_scores() {
     let o =
         joca(&["render", "--frames", "2", "--illumination", "day", "--out", rec.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector.safetensors");
+    let weights = shipped_weights();
     let gt = rec.join("annotations.json");
     let dt = dir.path().join("dt.json");
     let detect = |extra: &[&str]| {
@@ -675,7 +680,7 @@ fn detect_writes_coco_results_that_metrics_scores() {
 
 #[test]
 fn eval_detector_scores_weights_and_names_a_missing_file() {
-    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector.safetensors");
+    let weights = shipped_weights();
     let o = joca(&[
         "eval-detector",
         "--weights",
