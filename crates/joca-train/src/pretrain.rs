@@ -20,6 +20,7 @@ use joca_nn::detector::{
 use joca_nn::{AdamConfig, Engine};
 use joca_sim::{CityConfig, Illumination, SimConfig, Simulator, VisibilityRules, train_map_seed};
 use rand::Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::io::Write;
@@ -378,6 +379,9 @@ pub fn pretrain(
     let b = config.batch;
     // Whether `step` frames passed a multiple of `every` with the last batch.
     let crossed = |step: usize, every: usize| every > 0 && step / every > (step - b) / every;
+    // Seconds this process spent making frames (render, formation, AverageAE) and in gradient
+    // steps: where pre-training's time goes, logged with the loss.
+    let (mut simulate_s, mut train_s) = (0.0_f64, 0.0_f64);
     while step < config.steps {
         let block = Block::containing(config, step);
         let mut runs = (block.first_design..block.first_design + block.designs)
@@ -390,28 +394,40 @@ pub fn pretrain(
             let tick = (step - block.first_step) / b;
             let (d, j) = (tick % block.designs, tick / block.designs);
             let lanes = &mut runs[d * b..(d + 1) * b];
-            let mut shots = Vec::with_capacity(b);
-            for (lane, run) in lanes.iter_mut().enumerate() {
+            let clock = std::time::Instant::now();
+            for run in lanes.iter_mut() {
                 if j % config.frames_per_episode == 0 {
                     run.start_episode(j / config.frames_per_episode, &world, &mut sims)?;
                 }
-                let sim = run.simulator(&world, &mut sims);
-                let request = FrameRequest {
-                    episode: run.episode,
-                    time_s: run.t0
-                        + (j % config.frames_per_episode) as f64 * sim.frame_interval_s(),
-                    exposure_s: run.settings.exposure_s,
-                    motion_scale: 1.0,
-                };
-                let frame = sim.render(&run.camera, &request)?;
-                let image = world.formation.form(
-                    &frame.hdr,
-                    run.settings,
-                    run.pitch_um,
-                    &mut streams.indexed("pretrain-noise", (step + lane) as u64),
-                );
-                shots.push(Shot { image, truth: frame.boxes, ignore: frame.ignore });
+                run.simulator(&world, &mut sims);
             }
+            // The lanes' frames render side by side: a small frame with few sub-frames keeps
+            // one core busy at most. Each lane's noise stream is its own, so the frames are
+            // the same in any order.
+            let shots = lanes
+                .par_iter()
+                .enumerate()
+                .map(|(lane, run)| {
+                    let sim = &sims[&run.map_seed];
+                    let request = FrameRequest {
+                        episode: run.episode,
+                        time_s: run.t0
+                            + (j % config.frames_per_episode) as f64 * sim.frame_interval_s(),
+                        exposure_s: run.settings.exposure_s,
+                        motion_scale: 1.0,
+                    };
+                    let frame = sim.render(&run.camera, &request)?;
+                    let image = world.formation.form(
+                        &frame.hdr,
+                        run.settings,
+                        run.pitch_um,
+                        &mut streams.indexed("pretrain-noise", (step + lane) as u64),
+                    );
+                    Ok(Shot { image, truth: frame.boxes, ignore: frame.ignore })
+                })
+                .collect::<Result<Vec<_>, TrainError>>()?;
+            simulate_s += clock.elapsed().as_secs_f64();
+            let clock = std::time::Instant::now();
             model.set_lr(config.lr_at(step));
             let batch: Vec<TrainFrame<'_>> =
                 shots.iter().chain(replays[d].due()).map(Shot::train_frame).collect();
@@ -426,9 +442,12 @@ pub fn pretrain(
                     return Err(e.into());
                 }
             };
+            train_s += clock.elapsed().as_secs_f64();
+            let clock = std::time::Instant::now();
             for (run, shot) in lanes.iter_mut().zip(&shots) {
                 run.settings = world.ae.step(run.settings, &shot.image);
             }
+            simulate_s += clock.elapsed().as_secs_f64();
             replays[d].advance(shots.into_iter().map(|shot| {
                 let n = shot.truth.iter().map(|a| config.repeats[a.class.index()]).max();
                 (shot, n.unwrap_or(0))
@@ -439,7 +458,7 @@ pub fn pretrain(
             }
             if crossed(step, 10) || step == config.steps {
                 let run = &lanes[0];
-                let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": run.index, "design": run.design, "map_seed": run.map_seed, "episode": run.episode});
+                let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": run.index, "design": run.design, "map_seed": run.map_seed, "episode": run.episode, "simulate_s": simulate_s, "train_s": train_s});
                 writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
             }
             if progress(&PretrainEvent::Step { step, of: config.steps, loss }).is_break() {
