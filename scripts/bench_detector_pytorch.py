@@ -5,7 +5,7 @@ Optional reference for the Rust benchmark (needs `pip install torch==2.13.0`). I
 object: {"HxW": {"infer_ms": ..., "train_ms": ...}, ...}. `joca bench detector` runs it when
 `python3 -c "import torch"` works and reports the ratio joca / PyTorch measured in the same run.
 
-Usage: python3 scripts/bench_detector_pytorch.py --width 16 [--deep] --threads 2 --repeats 10
+Usage: python3 scripts/bench_detector_pytorch.py --width 16 [--deep] [--shared-head] --threads 2 --repeats 10
 """
 import argparse
 import json
@@ -44,8 +44,31 @@ class Head(nn.Module):
         return self.out(F.relu(self.hidden(x)))
 
 
+class SharedHeads(nn.Module):
+    """One 3x3 hidden layer for the three outputs (joca's `shared_head`)."""
+
+    def __init__(self, c, classes):
+        super().__init__()
+        self.hidden = nn.Conv2d(c, c, 3, 1, 1)
+        self.heat, self.size, self.offset = nn.Conv2d(c, classes, 1), nn.Conv2d(c, 2, 1), nn.Conv2d(c, 2, 1)
+        nn.init.constant_(self.heat.bias, -2.19)
+
+    def forward(self, x):
+        h = F.relu(self.hidden(x))
+        return self.heat(h), self.size(h), self.offset(h)
+
+
+class SeparateHeads(nn.Module):
+    def __init__(self, c, classes):
+        super().__init__()
+        self.heat, self.size, self.offset = Head(c, classes, -2.19), Head(c, 2, 0.0), Head(c, 2, 0.0)
+
+    def forward(self, x):
+        return self.heat(x), self.size(x), self.offset(x)
+
+
 class Detector(nn.Module):
-    def __init__(self, c, classes=3, deep=False):
+    def __init__(self, c, classes=3, deep=False, shared_head=False):
         super().__init__()
         self.stem, self.stem_norm = nn.Conv2d(3, c, 3, 2, 1, bias=False), gn(c)
         self.l1_down, self.l1_norm = nn.Conv2d(c, 2 * c, 3, 2, 1, bias=False), gn(2 * c)
@@ -62,7 +85,7 @@ class Detector(nn.Module):
         self.lat1 = nn.Conv2d(2 * c, 4 * c, 1, bias=False)
         self.smooth2 = nn.Conv2d(4 * c, 4 * c, 3, 1, 1, bias=False)
         self.smooth1 = nn.Conv2d(4 * c, 4 * c, 3, 1, 1, bias=False)
-        self.heat, self.size, self.offset = Head(4 * c, classes, -2.19), Head(4 * c, 2, 0.0), Head(4 * c, 2, 0.0)
+        self.heads = (SharedHeads if shared_head else SeparateHeads)(4 * c, classes)
 
     def forward(self, x):
         x = F.relu(self.stem_norm(self.stem(x)))
@@ -77,7 +100,7 @@ class Detector(nn.Module):
             p4 = self.lat3(c4)
         p3 = F.relu(self.smooth2(F.interpolate(p4, size=c3.shape[2:], mode="nearest") + self.lat2(c3)))
         p2 = F.relu(self.smooth1(F.interpolate(p3, size=c2.shape[2:], mode="nearest") + self.lat1(c2)))
-        return self.heat(p2), self.size(p2), self.offset(p2)
+        return self.heads(p2)
 
 
 def loss_fn(heat, size, offset, target, idx, size_t, off_t):
@@ -106,12 +129,13 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeats", type=int, default=10)
     ap.add_argument("--deep", action="store_true")
+    ap.add_argument("--shared-head", action="store_true")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     torch.manual_seed(0)
     out = {}
     for h, w in [(240, 320), (480, 640)]:
-        net = Detector(args.width, deep=args.deep)
+        net = Detector(args.width, deep=args.deep, shared_head=args.shared_head)
         opt = torch.optim.AdamW(net.parameters(), lr=1e-4, weight_decay=1e-6)
         x = torch.rand(1, 3, h, w) - 0.5
         with torch.no_grad():

@@ -26,7 +26,7 @@ fn tiny() -> PretrainConfig {
         warmup_steps: 2,
         weight_decay: 1e-6,
         ema_decay: 0.9,
-        detector: DetectorConfig { width: 8, classes: 3, deep: false },
+        detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
         eval_every: 0,
         eval_episodes: 1,
         final_eval_episodes: Some(2),

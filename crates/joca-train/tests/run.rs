@@ -26,7 +26,7 @@ fn tiny(method: Method) -> RunConfig {
         render_scale: 0.03,
         train_maps: 2,
         max_speed_mps: 15.0,
-        detector: DetectorConfig { width: 8, classes: 3, deep: false },
+        detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
         detector_weights: String::new(),
         test_episodes: 1,
         test_frames_per_episode: 3,
@@ -126,7 +126,7 @@ fn every_method_runs() {
     let engine = joca_nn::Engine::cpu(1);
     joca_nn::detector::DetectorModel::new(
         &engine,
-        DetectorConfig { width: 8, classes: 3, deep: false },
+        DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
         joca_nn::AdamConfig::DETECTOR,
     )
     .save_weights(&weights)

@@ -42,6 +42,9 @@ pub struct Args {
     /// weights' architecture).
     #[arg(long)]
     deep: bool,
+    /// `bench detector`: one hidden layer shared by the three heads (`detector.shared_head`).
+    #[arg(long)]
+    shared_head: bool,
     /// Python interpreter with torch installed, for the PyTorch reference of `bench detector`.
     #[arg(long, default_value = "python3")]
     python: String,
@@ -56,7 +59,12 @@ pub fn run(args: &Args) -> Result<()> {
         Target::Formation => bench_formation(args.repeats.max(1)),
         Target::Render => bench_render(args.repeats.max(1)),
         Target::Detector => {
-            bench_detector(args.repeats.max(1), args.threads, args.deep, &args.python)
+            let config = joca_nn::detector::DetectorConfig {
+                deep: args.deep,
+                shared_head: args.shared_head,
+                ..Default::default()
+            };
+            bench_detector(args.repeats.max(1), args.threads, config, &args.python)
         }
         Target::Step => bench_step(args.repeats.max(2), &args.preset),
         Target::Flow => bench_flow(args.repeats.clamp(1, 5)),
@@ -280,18 +288,23 @@ fn bench_render(repeats: usize) -> Result<()> {
 /// 16 lanes × 2 flops at ~1.8 GHz), GFLOP/s. A reference for the utilisation column only.
 const PEAK_GFLOPS_PER_CORE: f64 = 115.0;
 
-fn bench_detector(repeats: usize, threads: usize, deep: bool, python: &str) -> Result<()> {
-    use joca_nn::detector::{
-        DetectorConfig, Precision, forward_flops, time_detector, time_training,
-    };
+fn bench_detector(
+    repeats: usize,
+    threads: usize,
+    config: joca_nn::detector::DetectorConfig,
+    python: &str,
+) -> Result<()> {
+    use joca_nn::detector::{Precision, forward_flops, time_detector, time_training};
     let engine = joca_nn::Engine::cpu(threads);
-    let config = DetectorConfig { deep, ..DetectorConfig::default() };
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scripts/bench_detector_pytorch.py");
     let mut script_args = vec![script.to_owned(), "--width".into(), config.width.to_string()];
     script_args.extend(["--threads".into(), threads.to_string()]);
     script_args.extend(["--repeats".into(), repeats.to_string()]);
-    if deep {
+    if config.deep {
         script_args.push("--deep".into());
+    }
+    if config.shared_head {
+        script_args.push("--shared-head".into());
     }
     let reference: Option<serde_json::Value> = std::process::Command::new(python)
         .args(&script_args)
@@ -300,9 +313,10 @@ fn bench_detector(repeats: usize, threads: usize, deep: bool, python: &str) -> R
         .filter(|o| o.status.success())
         .and_then(|o| serde_json::from_slice(&o.stdout).ok());
     println!(
-        "detector (width {}{}, {} threads), best of {repeats}; training step = forward + loss + backward + AdamW",
+        "detector (width {}{}{}, {} threads), best of {repeats}; training step = forward + loss + backward + AdamW",
         config.width,
-        if deep { ", deep" } else { "" },
+        if config.deep { ", deep" } else { "" },
+        if config.shared_head { ", shared head" } else { "" },
         threads
     );
     println!(

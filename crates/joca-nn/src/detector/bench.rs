@@ -38,8 +38,10 @@ pub fn forward_flops(config: DetectorConfig, h: i64, w: i64) -> f64 {
         + conv(4.0 * c, 4.0 * c, 1.0, h8, w8)
         + conv(4.0 * c, 4.0 * c, 3.0, h8, w8);
     f += conv(2.0 * c, 4.0 * c, 1.0, h4, w4) + conv(4.0 * c, 4.0 * c, 3.0, h4, w4);
-    let head = |out: f64| conv(4.0 * c, 4.0 * c, 3.0, h4, w4) + conv(4.0 * c, out, 1.0, h4, w4);
-    f + head(config.classes as f64) + head(2.0) + head(2.0)
+    let hidden = conv(4.0 * c, 4.0 * c, 3.0, h4, w4);
+    let hiddens = if config.shared_head { 1.0 } else { 3.0 };
+    let outs = conv(4.0 * c, config.classes as f64 + 4.0, 1.0, h4, w4);
+    f + hiddens * hidden + outs
 }
 
 /// Best-of-`repeats` wall times in milliseconds of inference and of one training step

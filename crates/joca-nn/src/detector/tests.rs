@@ -18,7 +18,7 @@ fn frame_with_box(w: usize, h: usize, b: BBox) -> Rgb8Image {
 fn small_model(engine: &Engine) -> DetectorModel {
     DetectorModel::new(
         engine,
-        DetectorConfig { width: 8, classes: 3, deep: false },
+        DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
         AdamConfig::DETECTOR,
     )
 }
@@ -198,32 +198,35 @@ fn gaussian_regression_keeps_every_centre_for_its_own_object() {
 #[test]
 fn learns_to_find_a_box_in_a_few_hundred_steps() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    let engine = Engine::cpu(2);
-    engine.seed(3);
-    let vs = VarStore::new(engine.device());
-    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3, deep: false });
-    let mut opt = Adam::new(&vs, AdamConfig { lr: 2e-3, ..AdamConfig::DETECTOR });
-    let b = BBox::new(20.0, 16.0, 44.0, 36.0);
-    let frame = frame_with_box(64, 48, b);
-    let x = image_tensor(&frame, engine.device());
-    let ann = [Annotation { bbox: b, class: Class::Vehicle }];
-    let targets = Targets::new(&ann, &[], 3, 12, 16, engine.device());
-    let mut first = 0.0;
-    for step in 0..250 {
-        let loss = DetectionLoss::new(&d.forward(&x), &targets);
-        if step == 0 {
-            first = loss.total.double_value(&[]);
+    for shared_head in [false, true] {
+        let engine = Engine::cpu(2);
+        engine.seed(3);
+        let vs = VarStore::new(engine.device());
+        let config = DetectorConfig { width: 8, classes: 3, deep: false, shared_head };
+        let d = Detector::new(&vs.root(), config);
+        let mut opt = Adam::new(&vs, AdamConfig { lr: 2e-3, ..AdamConfig::DETECTOR });
+        let b = BBox::new(20.0, 16.0, 44.0, 36.0);
+        let frame = frame_with_box(64, 48, b);
+        let x = image_tensor(&frame, engine.device());
+        let ann = [Annotation { bbox: b, class: Class::Vehicle }];
+        let targets = Targets::new(&ann, &[], 3, 12, 16, engine.device());
+        let mut first = 0.0;
+        for step in 0..250 {
+            let loss = DetectionLoss::new(&d.forward(&x), &targets);
+            if step == 0 {
+                first = loss.total.double_value(&[]);
+            }
+            opt.zero_grad();
+            loss.total.backward();
+            opt.step();
         }
-        opt.zero_grad();
-        loss.total.backward();
-        opt.step();
+        let last = DetectionLoss::new(&d.forward(&x), &targets).total.double_value(&[]);
+        assert!(last < 0.1 * first, "shared head {shared_head}: loss {first} -> {last}");
+        let dets = decode(&d.forward(&x), 64, 48, 100, 0.05);
+        let best = dets.first().unwrap();
+        assert_eq!(best.class, Class::Vehicle);
+        assert!(best.bbox.iou(&b) > 0.6, "shared head {shared_head}: {best:?}");
     }
-    let last = DetectionLoss::new(&d.forward(&x), &targets).total.double_value(&[]);
-    assert!(last < 0.1 * first, "loss {first} -> {last}");
-    let dets = decode(&d.forward(&x), 64, 48, 100, 0.05);
-    let best = dets.first().unwrap();
-    assert_eq!(best.class, Class::Vehicle);
-    assert!(best.bbox.iou(&b) > 0.6, "{best:?}");
 }
 
 #[test]
@@ -246,33 +249,56 @@ fn weights_round_trip_and_refuse_another_architecture() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("det.safetensors");
     let vs = VarStore::new(Device::Cpu);
-    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3, deep: false });
+    let d = Detector::new(
+        &vs.root(),
+        DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
+    );
     save_weights(&vs, &path).unwrap();
     let mut same = VarStore::new(Device::Cpu);
-    let d2 = Detector::new(&same.root(), DetectorConfig { width: 8, classes: 3, deep: false });
+    let d2 = Detector::new(
+        &same.root(),
+        DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
+    );
     load_weights(&mut same, &path).unwrap();
     let x = Tensor::rand([1, 3, 32, 32], (Kind::Float, Device::Cpu));
     let diff = (d.forward(&x).heatmap - d2.forward(&x).heatmap).abs().max().double_value(&[]);
     assert_eq!(diff, 0.0);
 
     let mut wider = VarStore::new(Device::Cpu);
-    let _ = Detector::new(&wider.root(), DetectorConfig { width: 16, classes: 3, deep: false });
+    let _ = Detector::new(
+        &wider.root(),
+        DetectorConfig { width: 16, classes: 3, deep: false, shared_head: false },
+    );
     let e = load_weights(&mut wider, &path).unwrap_err().to_string();
     assert!(e.contains("det.safetensors") && e.contains("backbone.") && e.contains("shape"), "{e}");
     // Weights without the stride-32 stage do not load into a deep detector: the error names a
     // tensor of that stage.
     let mut deep = VarStore::new(Device::Cpu);
-    let _ = Detector::new(&deep.root(), DetectorConfig { width: 8, classes: 3, deep: true });
+    let _ = Detector::new(
+        &deep.root(),
+        DetectorConfig { width: 8, classes: 3, deep: true, shared_head: false },
+    );
     let e = load_weights(&mut deep, &path).unwrap_err().to_string();
     assert!(e.contains("layer4") || e.contains("lateral4") || e.contains("smooth3"), "{e}");
     // The file tells its architecture.
-    let shallow = DetectorConfig { width: 8, classes: 3, deep: false };
+    let shallow = DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false };
     assert_eq!(DetectorConfig::of_weights(&path).unwrap(), shallow);
     save_weights(&deep, &path).unwrap();
     assert_eq!(
         DetectorConfig::of_weights(&path).unwrap(),
         DetectorConfig { deep: true, ..shallow }
     );
+    // A shared-head file says so, and does not load into separate heads (nor the reverse).
+    let shared = DetectorConfig { shared_head: true, ..shallow };
+    let mut one_head = VarStore::new(Device::Cpu);
+    let _ = Detector::new(&one_head.root(), shared);
+    save_weights(&one_head, &path).unwrap();
+    assert_eq!(DetectorConfig::of_weights(&path).unwrap(), shared);
+    let e = load_weights(&mut same, &path).unwrap_err().to_string();
+    assert!(e.contains("heads."), "{e}");
+    save_weights(&same, &path).unwrap();
+    let e = load_weights(&mut one_head, &path).unwrap_err().to_string();
+    assert!(e.contains("heads.shared"), "{e}");
     std::fs::write(&path, b"not safetensors").unwrap();
     let e = DetectorConfig::of_weights(&path).unwrap_err().to_string();
     assert!(e.contains("det.safetensors") && e.contains("not a readable"), "{e}");
@@ -282,7 +308,10 @@ fn weights_round_trip_and_refuse_another_architecture() {
 #[test]
 fn the_deep_detector_keeps_the_quarter_resolution_heads_on_any_input() {
     let vs = VarStore::new(Device::Cpu);
-    let d = Detector::new(&vs.root(), DetectorConfig { width: 4, classes: 3, deep: true });
+    let d = Detector::new(
+        &vs.root(),
+        DetectorConfig { width: 4, classes: 3, deep: true, shared_head: false },
+    );
     for (h, w) in [(48i64, 64i64), (77, 102), (33, 35)] {
         let out = d.forward(&Tensor::rand([1, 3, h, w], (Kind::Float, Device::Cpu)));
         let expect = [1, 3, (h + 3) / 4, (w + 3) / 4];
@@ -309,7 +338,7 @@ fn the_weight_average_follows_the_closed_form() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let engine = Engine::cpu(1);
     engine.seed(5);
-    let config = DetectorConfig { width: 8, classes: 3, deep: false };
+    let config = DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false };
     let mut model = DetectorModel::new(&engine, config, AdamConfig::DETECTOR);
     let mut average = WeightAverage::new(&engine, &model, 0.99);
     let name = "heads.heatmap.out.bias";
@@ -339,7 +368,10 @@ fn the_weight_average_follows_the_closed_form() {
 fn random_detector(engine: &Engine, seed: i64) -> (VarStore, Detector) {
     engine.seed(seed as u64);
     let vs = VarStore::new(engine.device());
-    let d = Detector::new(&vs.root(), DetectorConfig { width: 8, classes: 3, deep: true });
+    let d = Detector::new(
+        &vs.root(),
+        DetectorConfig { width: 8, classes: 3, deep: true, shared_head: false },
+    );
     let _guard = tch::no_grad_guard();
     for (name, mut t) in vs.variables() {
         if name.ends_with("out.weight") {
@@ -469,4 +501,22 @@ fn a_minimum_radius_softens_the_neighbours_of_a_small_objects_centre() {
     let r0 = Targets::with_style(&big, &[], 3, (10, 10), Regression::Centre, 0, Device::Cpu);
     let r1 = Targets::with_style(&big, &[], 3, (10, 10), Regression::Centre, 1, Device::Cpu);
     assert!(r0.heatmap.equal(&r1.heatmap));
+}
+
+#[test]
+fn a_shared_head_saves_two_hidden_convolutions() {
+    // Two 3×3 convolutions of 4c → 4c channels at stride 4, 2 FLOPs per multiply-add.
+    let separate = DetectorConfig { width: 16, classes: 3, deep: true, shared_head: false };
+    let shared = DetectorConfig { shared_head: true, ..separate };
+    let (h, w) = (240, 320);
+    let hidden = 2.0 * 64.0 * 64.0 * 9.0 * (60.0 * 80.0);
+    let saved = forward_flops(separate, h, w) - forward_flops(shared, h, w);
+    assert_eq!(saved, 2.0 * hidden);
+    // Same parameter count difference: two hidden layers (weights and biases).
+    let count = |config| {
+        let vs = VarStore::new(Device::Cpu);
+        let _ = Detector::new(&vs.root(), config);
+        vs.trainable_variables().iter().map(Tensor::numel).sum::<usize>()
+    };
+    assert_eq!(count(separate) - count(shared), 2 * (64 * 64 * 9 + 64));
 }
