@@ -399,12 +399,12 @@ pub fn pretrain(
                 if j % config.frames_per_episode == 0 {
                     run.start_episode(j / config.frames_per_episode, &world, &mut sims)?;
                 }
-                run.simulator(&world, &mut sims);
+                run.simulator(&world, &mut sims); // builds the lane's town if it is new
             }
-            // The lanes' frames render side by side: a small frame with few sub-frames keeps
-            // one core busy at most. Each lane's noise stream is its own, so the frames are
-            // the same in any order.
-            let shots = lanes
+            // The lanes' frames render side by side, each with AverageAE's settings for its
+            // next frame: a small frame with few sub-frames keeps one core busy at most. Each
+            // lane's noise stream is its own, so the frames are the same in any order.
+            let made = lanes
                 .par_iter()
                 .enumerate()
                 .map(|(lane, run)| {
@@ -423,9 +423,14 @@ pub fn pretrain(
                         run.pitch_um,
                         &mut streams.indexed("pretrain-noise", (step + lane) as u64),
                     );
-                    Ok(Shot { image, truth: frame.boxes, ignore: frame.ignore })
+                    let next = world.ae.step(run.settings, &image);
+                    Ok((Shot { image, truth: frame.boxes, ignore: frame.ignore }, next))
                 })
                 .collect::<Result<Vec<_>, TrainError>>()?;
+            let (shots, next): (Vec<Shot>, Vec<DynamicSettings>) = made.into_iter().unzip();
+            for (run, settings) in lanes.iter_mut().zip(next) {
+                run.settings = settings;
+            }
             simulate_s += clock.elapsed().as_secs_f64();
             let clock = std::time::Instant::now();
             model.set_lr(config.lr_at(step));
@@ -443,11 +448,6 @@ pub fn pretrain(
                 }
             };
             train_s += clock.elapsed().as_secs_f64();
-            let clock = std::time::Instant::now();
-            for (run, shot) in lanes.iter_mut().zip(&shots) {
-                run.settings = world.ae.step(run.settings, &shot.image);
-            }
-            simulate_s += clock.elapsed().as_secs_f64();
             replays[d].advance(shots.into_iter().map(|shot| {
                 let n = shot.truth.iter().map(|a| config.repeats[a.class.index()]).max();
                 (shot, n.unwrap_or(0))
