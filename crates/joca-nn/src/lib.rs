@@ -74,6 +74,14 @@ impl Engine {
     pub fn seed(&self, seed: u64) {
         tch::manual_seed(seed as i64);
     }
+
+    /// Runs `f` with `threads` intra-op threads, then returns to this engine's count.
+    pub fn with_threads<R>(&self, threads: usize, f: impl FnOnce() -> R) -> R {
+        tch::set_num_threads(i32::try_from(threads.max(1)).unwrap_or(i32::MAX));
+        let result = f();
+        tch::set_num_threads(i32::try_from(self.threads).unwrap_or(i32::MAX));
+        result
+    }
 }
 
 #[cfg(test)]

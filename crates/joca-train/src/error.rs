@@ -40,6 +40,14 @@ pub enum TrainError {
         /// Steps done when stopped.
         step: usize,
     },
+    /// A worker thread could not start or stopped unexpectedly.
+    #[error("the {what} failed: {reason}")]
+    Thread {
+        /// Which thread.
+        what: String,
+        /// What happened.
+        reason: String,
+    },
     /// A run file is corrupt.
     #[error("{path} is corrupt: {reason}")]
     Corrupt {
@@ -57,6 +65,19 @@ pub enum TrainError {
         generation: usize,
         /// Candidate in the generation (0-based).
         candidate: usize,
+        /// The last checkpoint, described.
+        checkpoint: String,
+        /// The non-finite loss.
+        #[source]
+        source: joca_nn::NnError,
+    },
+    /// A loss became NaN or infinite during pre-training; the checkpoint before it is intact.
+    #[error(
+        "pre-training diverged in the batch after frame {frame}: {source}. The last checkpoint ({checkpoint}) is intact; after fixing the cause, --resume continues from it"
+    )]
+    PretrainDiverged {
+        /// Frames trained before the diverging batch.
+        frame: usize,
         /// The last checkpoint, described.
         checkpoint: String,
         /// The non-finite loss.

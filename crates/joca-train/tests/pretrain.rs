@@ -1,6 +1,9 @@
 //! Pre-training end to end on a tiny configuration: determinism, kill-and-resume, refusals.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
+use common::{poison_first_tensor, snapshot};
 use joca_nn::detector::{DetectorConfig, Precision, Regression};
 use joca_train::{PretrainConfig, PretrainEvent, TrainError, evaluate_weights, pretrain};
 use std::ops::ControlFlow;
@@ -39,6 +42,7 @@ fn tiny() -> PretrainConfig {
         min_radius: 1,
         min_box_px: 6.0,
         repeats: [0, 1, 2],
+        pipeline: false,
     }
 }
 
@@ -91,6 +95,36 @@ fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
 }
 
 #[test]
+fn a_nan_loss_stops_pretraining_cleanly_and_leaves_the_last_checkpoint_intact() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let (run_dir, weights) = (dir.path().join("r.run"), dir.path().join("r.safetensors"));
+    let cfg = tiny();
+    // Killed in the second block of designs (4 frames each): the checkpoint covers 4 frames.
+    assert!(matches!(
+        pretrain(&cfg, &run_dir, &weights, false, &mut stop_at(6)),
+        Err(TrainError::Interrupted { step: 6 })
+    ));
+    // Divergence injected into the saved detector: the resumed run's first loss is NaN.
+    let ckpt = run_dir.join("checkpoint");
+    poison_first_tensor(&ckpt.join("detector.safetensors"));
+    let before = snapshot(&ckpt);
+    let e = pretrain(&cfg, &run_dir, &weights, true, &mut go).unwrap_err();
+    assert!(matches!(e, TrainError::PretrainDiverged { frame: 4, .. }), "{e}");
+    let text = e.to_string();
+    assert!(
+        text.contains("pre-training diverged in the batch after frame 4") && text.contains("NaN"),
+        "{text}"
+    );
+    assert!(text.contains("after 4 frames) is intact") && text.contains("--resume"), "{text}");
+    // Nothing was written over the checkpoint, and no weights or results were claimed.
+    assert_eq!(snapshot(&ckpt), before);
+    assert!(!weights.exists() && !run_dir.join("results.json").exists());
+    let log = std::fs::read_to_string(run_dir.join("events.jsonl")).unwrap();
+    assert!(log.lines().last().unwrap().contains("\"error\""), "{log}");
+}
+
+#[test]
 fn a_batched_bfloat16_run_is_reproducible_across_kill_and_resume() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
@@ -112,6 +146,36 @@ fn a_batched_bfloat16_run_is_reproducible_across_kill_and_resume() {
     let report_b = pretrain(&cfg, &b_dir, &b_w, true, &mut go).unwrap();
     assert_eq!(std::fs::read(&a_w).unwrap(), std::fs::read(&b_w).unwrap());
     assert_eq!(report_a, report_b);
+}
+
+#[test]
+fn a_pipelined_run_learns_what_a_serial_run_on_its_trainer_threads_learns() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let w = |name: &str| dir.path().join(format!("{name}.safetensors"));
+    let run = |name: &str| dir.path().join(format!("{name}.run"));
+    // Two threads: one makes the frames of the next batch while one trains on this batch.
+    let piped = PretrainConfig { threads: 2, pipeline: true, batch: 2, ..tiny() };
+    let serial = PretrainConfig { threads: 1, pipeline: false, ..piped.clone() };
+    assert_eq!(piped.trainer_threads(), 1);
+    pretrain(&piped, &run("piped"), &w("piped"), false, &mut go).unwrap();
+    pretrain(&serial, &run("serial"), &w("serial"), false, &mut go).unwrap();
+    // The same frames in the same order, trained on one thread: the same weights, byte for byte.
+    assert_eq!(std::fs::read(w("piped")).unwrap(), std::fs::read(w("serial")).unwrap());
+    // Killed while the frame thread is a batch ahead, and resumed: still the same weights.
+    assert!(matches!(
+        pretrain(&piped, &run("killed"), &w("killed"), false, &mut stop_at(10)),
+        Err(TrainError::Interrupted { step: 10 })
+    ));
+    pretrain(&piped, &run("killed"), &w("killed"), true, &mut go).unwrap();
+    assert_eq!(std::fs::read(w("piped")).unwrap(), std::fs::read(w("killed")).unwrap());
+    // Both logs tell where the time went.
+    let log = std::fs::read_to_string(run("piped").join("events.jsonl")).unwrap();
+    let last_step = log.lines().rfind(|l| l.contains("\"loss\"")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(last_step).unwrap();
+    for key in ["simulate_s", "train_s", "wait_s"] {
+        assert!(v[key].as_f64().unwrap() > 0.0, "{key} in {last_step}");
+    }
 }
 
 #[test]
@@ -159,6 +223,12 @@ fn invalid_configuration_names_the_field_and_the_range() {
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
         "pretrain.sign_density = 9 is invalid: 0 to 8"
+    );
+    let cfg = PretrainConfig { pipeline: true, threads: 1, ..tiny() };
+    assert_eq!(
+        cfg.validate().unwrap_err().to_string(),
+        "pretrain.threads = 1 is invalid: at least 2 with pipeline = true (one makes frames, one \
+         trains)"
     );
     let cfg = PretrainConfig { min_box_px: 0.5, ..tiny() };
     assert_eq!(

@@ -1,6 +1,9 @@
 //! The joint loop end to end on a tiny configuration: determinism, kill-and-resume, refusals.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
+use common::{poison_first_tensor, snapshot};
 use joca_nn::detector::DetectorConfig;
 use joca_train::{FixedCamera, Method, RealConfig, RunConfig, RunEvent, Scenario, TrainError, run};
 use std::ops::ControlFlow;
@@ -142,28 +145,6 @@ fn every_method_runs() {
     );
 }
 
-/// Overwrites every value of the first F32 tensor of a safetensors file with NaN (the format: an
-/// 8-byte little-endian header length, a JSON header with each tensor's byte range, the data).
-fn poison_first_tensor(path: &std::path::Path) {
-    let mut bytes = std::fs::read(path).unwrap();
-    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
-    let header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
-    let (_, info) = header
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(k, v)| *k != "__metadata__" && v["dtype"] == "F32")
-        .unwrap();
-    let (a, b) = (
-        info["data_offsets"][0].as_u64().unwrap() as usize,
-        info["data_offsets"][1].as_u64().unwrap() as usize,
-    );
-    for chunk in bytes[8 + n + a..8 + n + b].chunks_exact_mut(4) {
-        chunk.copy_from_slice(&f32::NAN.to_le_bytes());
-    }
-    std::fs::write(path, bytes).unwrap();
-}
-
 #[test]
 fn a_nan_loss_mid_run_stops_cleanly_and_leaves_the_last_checkpoint_intact() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -178,13 +159,7 @@ fn a_nan_loss_mid_run_stops_cleanly_and_leaves_the_last_checkpoint_intact() {
     // Divergence injected into the saved detector: the next step's loss is NaN.
     let ckpt = run_dir.join("checkpoint");
     poison_first_tensor(&ckpt.join("detector.safetensors"));
-    let snapshot: Vec<(std::ffi::OsString, Vec<u8>)> = std::fs::read_dir(&ckpt)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (e.file_name(), std::fs::read(e.path()).unwrap())
-        })
-        .collect();
+    let before = snapshot(&ckpt);
     let e = run(&cfg, &run_dir, true, &mut go).unwrap_err();
     assert!(matches!(e, TrainError::Diverged { generation: 0, candidate: 1, .. }), "{e}");
     let text = e.to_string();
@@ -194,7 +169,7 @@ fn a_nan_loss_mid_run_stops_cleanly_and_leaves_the_last_checkpoint_intact() {
     );
     assert!(text.contains("after 1 candidate(s)) is intact"), "{text}");
     // Nothing was written over the last checkpoint, and no results were claimed.
-    for (name, bytes) in &snapshot {
+    for (name, bytes) in &before {
         assert_eq!(&std::fs::read(ckpt.join(name)).unwrap(), bytes, "{name:?} changed");
     }
     assert!(!run_dir.join("results.json").exists());

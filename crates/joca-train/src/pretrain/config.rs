@@ -1,0 +1,258 @@
+//! The settings of a pre-training run (`[pretrain]` in a preset or config file), checked field
+//! by field, and the learning-rate schedule.
+
+use crate::TrainError;
+use joca_nn::detector::{DetectorConfig, Precision, Regression};
+use joca_sim::VisibilityRules;
+use serde::{Deserialize, Serialize};
+
+/// Settings of a pre-training run (the `[pretrain]` presets in `presets/`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PretrainConfig {
+    /// Run seed.
+    pub seed: u64,
+    /// libtorch and rayon threads.
+    pub threads: usize,
+    /// Training frames (`steps / batch` gradient steps). `warmup_steps` and `eval_every`
+    /// count frames too.
+    pub steps: usize,
+    /// Frames per gradient step (default 1, as the paper): frames of one design, each from
+    /// its own episode (a "lane" of the design's frames), so that they have one size and
+    /// are not near-copies of one scene. Must divide `frames_per_design` and `steps`.
+    #[serde(default = "one_frame")]
+    pub batch: usize,
+    /// Floating-point type of the training steps: `"fp32"` (default) or `"bf16"` (bfloat16
+    /// convolutions with float32 weights, optimiser and loss; evaluation stays float32).
+    #[serde(default)]
+    pub precision: Precision,
+    /// Frames per random camera design (45 in the paper).
+    pub frames_per_design: usize,
+    /// Consecutive frames per episode: a design's frames come from several episodes (each in a
+    /// random training town, with its own drive, time and light), because 45 consecutive frames
+    /// at 10 frames/s are nearly the same scene.
+    pub frames_per_episode: usize,
+    /// Output resolution = sensor grid × this.
+    pub render_scale: f64,
+    /// Number of training towns to draw episodes from.
+    pub train_maps: u64,
+    /// Peak learning rate (AdamW).
+    pub lr: f64,
+    /// Learning rate at the end of the cosine decay.
+    pub lr_final: f64,
+    /// Linear warm-up steps.
+    pub warmup_steps: usize,
+    /// AdamW weight decay.
+    pub weight_decay: f64,
+    /// Decay of the running weight average that is evaluated and written as the result
+    /// (0: none, the last weights are the result). 0.999 averages over about the last 1000
+    /// steps.
+    #[serde(default)]
+    pub ema_decay: f64,
+    /// Detector size.
+    pub detector: DetectorConfig,
+    /// Evaluate on the test town every this many steps (0: only at the end).
+    pub eval_every: usize,
+    /// Test episodes per illumination in each evaluation (10 scored frames each).
+    pub eval_episodes: u64,
+    /// Test episodes per illumination of the final evaluation, the one in `results.json`
+    /// (default: `eval_episodes`). The test town's rarer classes need many: in 100 day frames
+    /// there may be no traffic sign at all and a dozen walkers.
+    #[serde(default)]
+    pub final_eval_episodes: Option<u64>,
+    /// Write a checkpoint every this many designs; the designs between two checkpoints have
+    /// their frames interleaved.
+    pub checkpoint_every_designs: usize,
+    /// Ego top speed, m/s.
+    pub max_speed_mps: f64,
+    /// Walkers in the training towns, as a multiple of the simulator's density (the test town
+    /// keeps 1): annotated walkers are about a tenth as frequent as vehicles, so more of them
+    /// re-balances the classes with new examples rather than re-weighting the few there are.
+    #[serde(default = "one")]
+    pub walker_density: f64,
+    /// Traffic signs in the training towns, as a multiple of the simulator's density (the test
+    /// town keeps 1): up to ≈ 2.2 at more intersection approaches, beyond that along the blocks.
+    #[serde(default = "one")]
+    pub sign_density: f64,
+    /// Loss weight of each class's objects (vehicle, walker, traffic sign): a class-balanced
+    /// loss for the rarer classes. The background term is not weighted.
+    #[serde(default = "ones")]
+    pub class_weights: [f64; 3],
+    /// Where the size and offset heads learn: `"centre"` (CenterNet: each object's centre cell)
+    /// or `"gaussian"` (every cell of its heatmap Gaussian, weighted by it).
+    #[serde(default)]
+    pub regression: Regression,
+    /// Smallest radius of an object's heatmap Gaussian, cells (0: CenterNet's radius, which is
+    /// 0 for objects under ~12 px such as most traffic signs).
+    #[serde(default)]
+    pub min_radius: u32,
+    /// Smallest box width and height, pixels, that is a training object in the training towns
+    /// (the simulator's rule, and the test's, is 8); smaller objects in view stay ignore
+    /// regions. With the small images of random designs at `render_scale` 0.08 (100–330 px
+    /// wide) nearly every traffic sign and most walkers in view are under 8 px.
+    #[serde(default = "eight")]
+    pub min_box_px: f64,
+    /// Extra times a training frame is trained on when it holds an object of each class
+    /// (vehicle, walker, traffic sign; the largest applies), in its design's next batches:
+    /// repeat-factor sampling (Gupta et al., LVIS 2019) for the rare classes, within a block so
+    /// that a resumed run repeats the same frames. The repeats are extra gradient samples, not
+    /// frames of `steps`.
+    #[serde(default)]
+    pub repeats: [u32; 3],
+    /// Make each batch's frames in a thread of their own while the detector trains on the
+    /// previous batch: `threads / 2` threads make frames, the rest train (libtorch); every
+    /// evaluation uses all `threads`. The frames are the same as without it; the weights are
+    /// those of a run without it on `threads − threads / 2` threads. Needs `threads` ≥ 2.
+    #[serde(default)]
+    pub pipeline: bool,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn eight() -> f64 {
+    f64::from(VisibilityRules::default().min_box_px)
+}
+
+fn one_frame() -> usize {
+    1
+}
+
+fn ones() -> [f64; 3] {
+    [1.0; 3]
+}
+
+impl PretrainConfig {
+    /// Test episodes per illumination of the final evaluation.
+    pub fn final_episodes(&self) -> u64 {
+        self.final_eval_episodes.unwrap_or(self.eval_episodes)
+    }
+
+    /// libtorch threads of the gradient steps (with [`PretrainConfig::pipeline`], the threads
+    /// that do not make frames).
+    pub fn trainer_threads(&self) -> usize {
+        if self.pipeline { self.threads - self.threads / 2 } else { self.threads }
+    }
+
+    /// Checks every field; the error names the field and what is allowed.
+    pub fn validate(&self) -> Result<(), TrainError> {
+        let bad = |field: &str, value: String, allowed: &str| {
+            Err(TrainError::Config {
+                field: format!("pretrain.{field}"),
+                value,
+                allowed: allowed.to_owned(),
+            })
+        };
+        if !(1..=64).contains(&self.threads) {
+            return bad("threads", self.threads.to_string(), "1 to 64");
+        }
+        if self.steps == 0 {
+            return bad("steps", "0".into(), "at least 1");
+        }
+        if self.frames_per_design == 0 || self.frames_per_design > 400 {
+            return bad(
+                "frames_per_design",
+                self.frames_per_design.to_string(),
+                "1 to 400 (episodes last 60 s at 10 frames/s)",
+            );
+        }
+        if !(1..=64).contains(&self.batch)
+            || self.frames_per_design % self.batch != 0
+            || self.steps % self.batch != 0
+        {
+            return bad(
+                "batch",
+                self.batch.to_string(),
+                "1 to 64, dividing frames_per_design and steps",
+            );
+        }
+        if self.frames_per_episode == 0 || self.frames_per_episode > self.frames_per_design {
+            return bad(
+                "frames_per_episode",
+                self.frames_per_episode.to_string(),
+                "1 to frames_per_design",
+            );
+        }
+        if !(self.render_scale > 0.0 && self.render_scale <= 1.0) {
+            return bad("render_scale", self.render_scale.to_string(), "above 0, at most 1");
+        }
+        if self.train_maps == 0 {
+            return bad("train_maps", "0".into(), "at least 1");
+        }
+        for (name, v) in [("lr", self.lr), ("lr_final", self.lr_final)] {
+            if !(v > 0.0 && v < 1.0) {
+                return bad(name, v.to_string(), "between 0 and 1");
+            }
+        }
+        if !(self.ema_decay >= 0.0 && self.ema_decay < 1.0) {
+            return bad("ema_decay", self.ema_decay.to_string(), "0 (off) up to below 1");
+        }
+        if !(self.weight_decay >= 0.0 && self.weight_decay < 1.0) {
+            return bad("weight_decay", self.weight_decay.to_string(), "0 to 1");
+        }
+        if !(4..=128).contains(&self.detector.width) {
+            return bad("detector.width", self.detector.width.to_string(), "4 to 128");
+        }
+        if self.detector.classes != 3 {
+            return bad(
+                "detector.classes",
+                self.detector.classes.to_string(),
+                "3 (vehicle, walker, traffic sign)",
+            );
+        }
+        if !(1..=10_000).contains(&self.eval_episodes) {
+            return bad("eval_episodes", self.eval_episodes.to_string(), "1 to 10000");
+        }
+        if let Some(n) = self.final_eval_episodes.filter(|n| !(1..=10_000).contains(n)) {
+            return bad("final_eval_episodes", n.to_string(), "1 to 10000");
+        }
+        if self.checkpoint_every_designs == 0 {
+            return bad("checkpoint_every_designs", "0".into(), "at least 1");
+        }
+        if !(self.max_speed_mps >= 0.0 && self.max_speed_mps <= 40.0) {
+            return bad("max_speed_mps", self.max_speed_mps.to_string(), "0 to 40");
+        }
+        if !(self.walker_density >= 0.0 && self.walker_density <= 8.0) {
+            return bad("walker_density", self.walker_density.to_string(), "0 to 8");
+        }
+        if !(self.sign_density >= 0.0 && self.sign_density <= 8.0) {
+            return bad("sign_density", self.sign_density.to_string(), "0 to 8");
+        }
+        if !(self.min_box_px >= 1.0 && self.min_box_px <= 64.0) {
+            return bad("min_box_px", self.min_box_px.to_string(), "1 to 64 pixels");
+        }
+        if self.pipeline && self.threads < 2 {
+            return bad(
+                "threads",
+                self.threads.to_string(),
+                "at least 2 with pipeline = true (one makes frames, one trains)",
+            );
+        }
+        if self.repeats.iter().any(|&r| r > 8) {
+            return bad("repeats", format!("{:?}", self.repeats), "each 0 to 8");
+        }
+        if self.min_radius > 4 {
+            return bad("min_radius", self.min_radius.to_string(), "0 to 4 cells");
+        }
+        if !self.class_weights.iter().all(|w| *w > 0.0 && *w <= 100.0) {
+            return bad(
+                "class_weights",
+                format!("{:?}", self.class_weights),
+                "each above 0, at most 100",
+            );
+        }
+        Ok(())
+    }
+
+    /// Learning rate at `step`: linear warm-up, then cosine decay to `lr_final`.
+    pub fn lr_at(&self, step: usize) -> f64 {
+        if step < self.warmup_steps {
+            return self.lr * (step + 1) as f64 / self.warmup_steps as f64;
+        }
+        let span = (self.steps - self.warmup_steps.min(self.steps)).max(1) as f64;
+        let progress = ((step - self.warmup_steps) as f64 / span).min(1.0);
+        self.lr_final
+            + 0.5 * (self.lr - self.lr_final) * (1.0 + (std::f64::consts::PI * progress).cos())
+    }
+}

@@ -1,0 +1,355 @@
+//! Detector pre-training (`joca train-detector`): the detector alone, on simulator frames from
+//! random camera designs of the synthetic design space, exposed by AverageAE — the paper's
+//! "frozen detector" pre-training (15,750 frames from 350 random cameras, 45 frames each).
+//!
+//! Every random choice is drawn from a stream indexed by design or step, so the data of any step
+//! can be regenerated: a resumed run continues exactly where the checkpoint left it.
+
+mod config;
+mod frames;
+
+pub use config::PretrainConfig;
+
+use crate::TrainError;
+use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
+use crate::eval::{AverageControl, EvalSpec, evaluate};
+use frames::{Batch, Block, FRAMES_AHEAD, FrameStream, Repeats, Shot, World, frame_pool};
+use joca_camera::{
+    AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, GenomeCodec, ImageFormation,
+    SensorEncoding, sensor_by_name,
+};
+use joca_core::SeedStreams;
+use joca_metrics::TaskScores;
+use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts, TrainFrame, WeightAverage};
+use joca_nn::{AdamConfig, Engine};
+use joca_sim::{CityConfig, Illumination, SimConfig, VisibilityRules};
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::ops::ControlFlow;
+use std::path::Path;
+
+/// Progress reported to the caller.
+#[derive(Debug, Clone)]
+pub enum PretrainEvent {
+    /// A training step finished.
+    Step {
+        /// Steps done.
+        step: usize,
+        /// Total steps.
+        of: usize,
+        /// Its loss.
+        loss: LossParts,
+    },
+    /// A test-town evaluation finished.
+    Eval(Box<EvalReport>),
+    /// A checkpoint was written.
+    Checkpoint {
+        /// Steps covered.
+        step: usize,
+    },
+}
+
+/// Test-town scores under day and night light.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EvalReport {
+    /// Steps trained.
+    pub step: usize,
+    /// Daylight.
+    pub day: TaskScores,
+    /// Night.
+    pub night: TaskScores,
+}
+
+/// The fixed camera every pre-training evaluation uses: a FLIR-like IMX172 behind 3.6 mm at the
+/// nuScenes-like mount (DESIGN.md's baseline camera).
+pub fn reference_design() -> CameraDesign {
+    let sensor_index = sensor_by_name("IMX172").map(|s| s.index).unwrap_or(19);
+    CameraDesign { x_m: 0.43, z_m: 1.65, focal_length_mm: 3.6, sensor_index }
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct State {
+    step: usize,
+    config: PretrainConfig,
+}
+
+/// Runs (or resumes) pre-training into `run_dir` and writes the final weights to `weights_out`.
+pub fn pretrain(
+    config: &PretrainConfig,
+    run_dir: &Path,
+    weights_out: &Path,
+    resume: bool,
+    progress: &mut dyn FnMut(&PretrainEvent) -> ControlFlow<()>,
+) -> Result<EvalReport, TrainError> {
+    config.validate()?;
+    std::fs::create_dir_all(run_dir).map_err(|e| TrainError::io(run_dir, e))?;
+    let engine = Engine::cpu(config.trainer_threads());
+    let streams = SeedStreams::new(config.seed);
+    engine.seed(streams.stream("detector-init").random());
+    let adam =
+        AdamConfig { lr: config.lr, weight_decay: config.weight_decay, ..AdamConfig::DETECTOR };
+    let mut model = DetectorModel::new(&engine, config.detector, adam);
+    model.set_class_weights(&config.class_weights);
+    model.set_regression(config.regression);
+    model.set_precision(config.precision);
+    model.set_min_radius(i64::from(config.min_radius));
+    let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
+    let mut start = 0;
+    let mut average = None;
+    let resumed_from = ckpt.existing().filter(|_| resume);
+    if let Some(dir) = &resumed_from {
+        let state: State = read_json(&dir.join("state.json"))?;
+        check_resume(&state.config, config, run_dir)?;
+        model.load_weights(&dir.join("detector.safetensors"))?;
+        model.load_optimizer(&dir.join("optimizer.safetensors"))?;
+        start = state.step;
+    } else if !resume && ckpt.existing().is_some() {
+        return Err(TrainError::Config {
+            field: "run directory".into(),
+            value: run_dir.display().to_string(),
+            allowed: "a directory without a checkpoint (pass --resume to continue it)".into(),
+        });
+    }
+    if config.ema_decay > 0.0 {
+        let mut a = WeightAverage::new(&engine, &model, config.ema_decay);
+        if let Some(dir) = &resumed_from {
+            a.load(&dir.join(AVERAGE_FILE))?;
+        }
+        average = Some(a);
+    }
+    let log_path = run_dir.join("events.jsonl");
+    let mut log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&log_path)
+        .map_err(|e| TrainError::io(&log_path, e))?;
+
+    let codec = GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?;
+    let world = World {
+        config,
+        streams: &streams,
+        formation: ImageFormation::new(Calibration::DEFAULT)?,
+        ae: AverageAe::new(AccRanges::PAPER),
+        sim_config: SimConfig {
+            max_speed_mps: config.max_speed_mps,
+            city: CityConfig::default()
+                .with_walker_density(config.walker_density as f32)
+                .with_sign_density(config.sign_density as f32),
+            visibility: VisibilityRules {
+                min_box_px: config.min_box_px as f32,
+                ..VisibilityRules::default()
+            },
+            ..SimConfig::default()
+        },
+    };
+    let mut step = start;
+    let mut last_eval = None;
+    let b = config.batch;
+    // Whether `step` frames passed a multiple of `every` with the last batch.
+    let crossed = |step: usize, every: usize| every > 0 && step / every > (step - b) / every;
+    // Seconds spent making frames (render, formation, AverageAE; in the frame thread when
+    // pipelined), in gradient steps, and waiting for frames: where pre-training's time goes,
+    // logged with the loss.
+    let (mut simulate_s, mut train_s, mut wait_s) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let mut frames = FrameStream::new(&world, &codec);
+    std::thread::scope(|scope| -> Result<(), TrainError> {
+        // The frames do not depend on the detector, so with `pipeline` they are made in a
+        // thread of their own, one batch ahead, while the detector trains on the previous one.
+        let mut next: Box<dyn FnMut(usize) -> Result<Batch, TrainError> + '_> = if config.pipeline {
+            let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Batch, TrainError>>(FRAMES_AHEAD);
+            let (first, pool) = (start, frame_pool(config)?);
+            scope.spawn(move || {
+                pool.install(|| {
+                    for step in (first..config.steps).step_by(b) {
+                        let made = frames.make(step);
+                        let failed = made.is_err();
+                        // The trainer hung up (it stopped or failed): nothing more is needed.
+                        if tx.send(made).is_err() || failed {
+                            break;
+                        }
+                    }
+                });
+            });
+            Box::new(move |step| {
+                let made = rx.recv().map_err(|_| TrainError::Thread {
+                    what: "frame thread".into(),
+                    reason: "it stopped without a frame or an error".into(),
+                })??;
+                debug_assert_eq!(made.step, step, "frames arrive in step order");
+                Ok(made)
+            })
+        } else {
+            Box::new(move |step| frames.make(step))
+        };
+        while step < config.steps {
+            let block = Block::containing(config, step);
+            let mut replays: Vec<Repeats<Shot>> =
+                (0..block.designs).map(|_| Repeats::default()).collect();
+            while step < block.end_step {
+                let clock = std::time::Instant::now();
+                let Batch { shots, design: d, about, seconds, .. } = next(step)?;
+                wait_s += clock.elapsed().as_secs_f64();
+                simulate_s += seconds;
+                let clock = std::time::Instant::now();
+                model.set_lr(config.lr_at(step));
+                let batch: Vec<TrainFrame<'_>> =
+                    shots.iter().chain(replays[d].due()).map(Shot::train_frame).collect();
+                let loss = match model.train_batch(&batch) {
+                    Ok(loss) => loss,
+                    Err(e) => {
+                        let _ = writeln!(
+                            log,
+                            "{}",
+                            serde_json::json!({"step": step, "error": e.to_string()})
+                        );
+                        // Checkpoints are written at block ends, so the last one is this
+                        // block's start; nothing of this block was written.
+                        return Err(match e {
+                            source @ joca_nn::NnError::NonFinite { .. } => {
+                                TrainError::PretrainDiverged {
+                                    frame: step,
+                                    checkpoint: ckpt.existing().map_or_else(
+                                        || "none yet: no block of designs had finished".to_owned(),
+                                        |d| {
+                                            format!(
+                                                "{}, after {} frames",
+                                                d.display(),
+                                                block.first_step
+                                            )
+                                        },
+                                    ),
+                                    source,
+                                }
+                            }
+                            e => e.into(),
+                        });
+                    }
+                };
+                train_s += clock.elapsed().as_secs_f64();
+                replays[d].advance(shots.into_iter().map(|shot| {
+                    let n = shot.repeats(&config.repeats);
+                    (shot, n)
+                }));
+                step += b;
+                if let Some(average) = &mut average {
+                    average.update((step / b) as u64);
+                }
+                if crossed(step, 10) || step == config.steps {
+                    let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": about.index, "design": about.design, "map_seed": about.map_seed, "episode": about.episode, "simulate_s": simulate_s, "train_s": train_s, "wait_s": wait_s});
+                    writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
+                }
+                if progress(&PretrainEvent::Step { step, of: config.steps, loss }).is_break() {
+                    return Err(TrainError::Interrupted { step });
+                }
+                if crossed(step, config.eval_every) && step < config.steps {
+                    let result = average.as_ref().map_or(&model, WeightAverage::model);
+                    let report = engine.with_threads(config.threads, || {
+                        evaluate_day_night(result, config, config.eval_episodes, &streams, step)
+                    })?;
+                    writeln!(log, "{}", serde_json::json!({"eval": report}))
+                        .map_err(|e| TrainError::io(&log_path, e))?;
+                    let _ = progress(&PretrainEvent::Eval(Box::new(report)));
+                    last_eval = Some(report);
+                }
+            }
+            // Every design's state is rebuilt from the seed at a block's start, so a checkpoint
+            // at a block's end is all a resumed run needs.
+            ckpt.write(|dir| {
+                model.save_weights(&dir.join("detector.safetensors"))?;
+                model.save_optimizer(&dir.join("optimizer.safetensors"))?;
+                if let Some(average) = &average {
+                    average.model().save_weights(&dir.join(AVERAGE_FILE))?;
+                }
+                let state = State { step, config: config.clone() };
+                let text = serde_json::to_string_pretty(&state).map_err(|e| {
+                    TrainError::Corrupt { path: "state.json".into(), reason: e.to_string() }
+                })?;
+                write_atomic(&dir.join("state.json"), &text)
+            })?;
+            let _ = progress(&PretrainEvent::Checkpoint { step });
+        }
+        Ok(())
+    })?;
+    let result = average.as_ref().map_or(&model, WeightAverage::model);
+    let final_episodes = config.final_episodes();
+    let report = match last_eval {
+        Some(r) if r.step == step && final_episodes == config.eval_episodes => r,
+        _ => {
+            let r = engine.with_threads(config.threads, || {
+                evaluate_day_night(result, config, final_episodes, &streams, step)
+            })?;
+            writeln!(log, "{}", serde_json::json!({"eval": r}))
+                .map_err(|e| TrainError::io(&log_path, e))?;
+            let _ = progress(&PretrainEvent::Eval(Box::new(r)));
+            r
+        }
+    };
+    result.save_weights(weights_out)?;
+    write_atomic(
+        &run_dir.join("results.json"),
+        &serde_json::to_string_pretty(&report).unwrap_or_default(),
+    )?;
+    Ok(report)
+}
+
+/// The running weight average in a checkpoint.
+const AVERAGE_FILE: &str = "detector-average.safetensors";
+
+/// Scores the detector weights in `weights` (architecture read from the file) exactly as a
+/// pre-training run with `config` evaluates: reference camera, AverageAE, test town,
+/// [`PretrainConfig::final_episodes`] day and night episodes, noise from `config.seed`. With the
+/// config a run was trained with, this reproduces its `results.json`.
+pub fn evaluate_weights(config: &PretrainConfig, weights: &Path) -> Result<EvalReport, TrainError> {
+    config.validate()?;
+    let engine = Engine::cpu(config.threads);
+    let mut model =
+        DetectorModel::new(&engine, DetectorConfig::of_weights(weights)?, AdamConfig::DETECTOR);
+    model.load_weights(weights)?;
+    evaluate_day_night(&model, config, config.final_episodes(), &SeedStreams::new(config.seed), 0)
+}
+
+fn evaluate_day_night(
+    model: &DetectorModel,
+    config: &PretrainConfig,
+    episodes: u64,
+    streams: &SeedStreams,
+    step: usize,
+) -> Result<EvalReport, TrainError> {
+    let design = reference_design();
+    let spec = |illumination| EvalSpec {
+        illumination,
+        episodes,
+        frames_per_episode: 10,
+        warmup_frames: 3,
+        render_scale: config.render_scale,
+        noise_scale: 1.0,
+        motion_scale: 1.0,
+    };
+    let mut control = AverageControl(AverageAe::new(AccRanges::PAPER));
+    let day = evaluate(model, &design, &mut control, &spec(Illumination::Day), streams)?;
+    let night = evaluate(model, &design, &mut control, &spec(Illumination::Night), streams)?;
+    Ok(EvalReport { step, day, night })
+}
+
+/// Top-level field names whose values differ between two configurations.
+pub fn differing_fields<T: Serialize>(a: &T, b: &T) -> Vec<String> {
+    let (Ok(serde_json::Value::Object(a)), Ok(serde_json::Value::Object(b))) =
+        (serde_json::to_value(a), serde_json::to_value(b))
+    else {
+        return vec!["(unreadable)".into()];
+    };
+    let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    keys.into_iter()
+        .filter(|k| a.get(*k) != b.get(*k))
+        .map(|k| {
+            format!(
+                "{k} ({} → {})",
+                a.get(k).map_or("-".into(), |v| v.to_string()),
+                b.get(k).map_or("-".into(), |v| v.to_string())
+            )
+        })
+        .collect()
+}
