@@ -155,7 +155,7 @@ pub fn pretrain(
     let mut frames = FrameStream::new(&world, &codec);
     std::thread::scope(|scope| -> Result<(), TrainError> {
         // The frames do not depend on the detector, so with `pipeline` they are made in a
-        // thread of their own, one batch ahead, while the detector trains on the previous one.
+        // thread of their own, up to `FRAMES_AHEAD` batches ahead, while the detector trains.
         let mut next: Box<dyn FnMut(usize) -> Result<Batch, TrainError> + '_> = if config.pipeline {
             let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Batch, TrainError>>(FRAMES_AHEAD);
             let (first, pool) = (start, frame_pool(config)?);
