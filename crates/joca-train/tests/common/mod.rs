@@ -23,13 +23,16 @@ pub fn poison_first_tensor(path: &std::path::Path) {
     std::fs::write(path, bytes).unwrap();
 }
 
-/// Every file of a directory with its bytes, to check later that nothing was written over it.
+/// Every file of a directory with its bytes, by name (`read_dir` promises no order), to check
+/// later that nothing was written over it.
 pub fn snapshot(dir: &std::path::Path) -> Vec<(std::ffi::OsString, Vec<u8>)> {
-    std::fs::read_dir(dir)
+    let mut files: Vec<_> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| {
             let e = e.unwrap();
             (e.file_name(), std::fs::read(e.path()).unwrap())
         })
-        .collect()
+        .collect();
+    files.sort();
+    files
 }
