@@ -23,6 +23,7 @@ fn tiny() -> PretrainConfig {
         frames_per_design: 4,
         frames_per_episode: 2,
         render_scale: 0.03,
+        train_render_scale: None,
         train_maps: 2,
         lr: 1e-3,
         lr_final: 1e-4,
@@ -199,6 +200,55 @@ fn repeated_frames_change_what_is_learned() {
     assert_eq!(once, weights([1, 1, 1]));
 }
 
+/// The frame sizes a run's `events.jsonl` logged, and its final evaluation.
+fn frame_sizes(run: &std::path::Path) -> (Vec<[usize; 2]>, serde_json::Value) {
+    let log = std::fs::read_to_string(run.join("events.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> =
+        log.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let sizes = lines
+        .iter()
+        .filter_map(|l| l.get("frame_px"))
+        .map(|p| serde_json::from_value(p.clone()).unwrap())
+        .collect();
+    (sizes, lines.iter().rev().find_map(|l| l.get("eval")).unwrap().clone())
+}
+
+#[test]
+fn training_frames_follow_train_render_scale_and_the_test_stays_at_render_scale() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, cfg: &PretrainConfig| {
+        let w = dir.path().join(format!("{name}.safetensors"));
+        pretrain(cfg, &dir.path().join(name), &w, false, &mut go).unwrap();
+        (frame_sizes(&dir.path().join(name)), std::fs::read(w).unwrap())
+    };
+    let coarse = tiny();
+    let fine = PretrainConfig { train_render_scale: Some(0.06), ..tiny() };
+    let ((coarse_px, coarse_eval), coarse_w) = run("coarse", &coarse);
+    let ((fine_px, fine_eval), fine_w) = run("fine", &fine);
+    // The same designs, each sensor grid × 0.06 instead of × 0.03 (each side rounded).
+    assert_eq!(coarse_px.len(), fine_px.len());
+    assert!(!coarse_px.is_empty());
+    for (c, f) in coarse_px.iter().zip(&fine_px) {
+        for k in 0..2 {
+            assert!(f[k].abs_diff(2 * c[k]) <= 1, "{c:?} at 0.03, {f:?} at 0.06");
+        }
+    }
+    // Other frames, other weights; the test is the same test town at render_scale 0.03: the
+    // same annotated boxes, whatever the weights.
+    assert_ne!(coarse_w, fine_w);
+    for light in ["day", "night"] {
+        assert_eq!(coarse_eval[light]["class_objects"], fine_eval[light]["class_objects"]);
+    }
+    let at_fine = PretrainConfig { render_scale: 0.06, ..tiny() };
+    let w = dir.path().join("fine.safetensors");
+    let other = evaluate_weights(&at_fine, &w).unwrap();
+    assert_ne!(
+        serde_json::to_value(other.day.class_objects).unwrap(),
+        fine_eval["day"]["class_objects"]
+    );
+}
+
 #[test]
 fn invalid_configuration_names_the_field_and_the_range() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -229,6 +279,11 @@ fn invalid_configuration_names_the_field_and_the_range() {
         cfg.validate().unwrap_err().to_string(),
         "pretrain.threads = 1 is invalid: at least 2 with pipeline = true (one makes frames, one \
          trains)"
+    );
+    let cfg = PretrainConfig { train_render_scale: Some(0.0), ..tiny() };
+    assert_eq!(
+        cfg.validate().unwrap_err().to_string(),
+        "pretrain.train_render_scale = 0 is invalid: above 0, at most 1"
     );
     let cfg = PretrainConfig { min_box_px: 0.5, ..tiny() };
     assert_eq!(

@@ -43,11 +43,12 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let run_dir = args.out.with_extension("run");
     println!(
-        "pre-training the detector: {} frames ({} per step, {}), {} frames per random camera, render scale {}, {} threads; run directory {}",
+        "pre-training the detector: {} frames ({} per step, {}), {} frames per random camera, render scale {} (test {}), {} threads; run directory {}",
         cfg.steps,
         cfg.batch,
         format!("{:?}", cfg.precision).to_lowercase(),
         cfg.frames_per_design,
+        cfg.train_scale(),
         cfg.render_scale,
         cfg.threads,
         run_dir.display()

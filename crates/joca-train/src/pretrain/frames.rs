@@ -113,6 +113,8 @@ pub(super) struct BatchAbout {
     pub(super) design: CameraDesign,
     pub(super) map_seed: u64,
     pub(super) episode: u64,
+    /// The frames' width and height, pixels.
+    pub(super) frame_px: [usize; 2],
 }
 
 /// Makes the training frames batch by batch, in step order: a block's lanes are rebuilt from
@@ -190,6 +192,7 @@ impl<'w> FrameStream<'w> {
             design: run.design,
             map_seed: run.map_seed,
             episode: run.episode,
+            frame_px: [shots[0].image.width(), shots[0].image.height()],
         };
         Ok(Batch { step, design: d, shots, about, seconds: clock.elapsed().as_secs_f64() })
     }
@@ -261,7 +264,7 @@ impl DesignRun {
             index,
             lane,
             episodes_per_lane: lane_frames.div_ceil(config.frames_per_episode),
-            camera: design.pinhole(world.config.render_scale),
+            camera: design.pinhole(world.config.train_scale()),
             pitch_um: design.sensor().pixel_pitch_um,
             design,
             settings: default_settings(),
@@ -299,7 +302,7 @@ impl DesignRun {
         let sim_config = &world.sim_config;
         let span = config.frames_per_episode as f64 * sim_config.frame_interval_s;
         self.t0 = rng.random_range(1.0..(sim_config.episode_s - 1.0 - span).max(1.0 + 1e-9));
-        let probe = self.design.pinhole(config.render_scale / 4.0);
+        let probe = self.design.pinhole(config.train_scale() / 4.0);
         let request = FrameRequest {
             episode: self.episode,
             time_s: self.t0,

@@ -236,7 +236,7 @@ pub fn pretrain(
                     average.update((step / b) as u64);
                 }
                 if crossed(step, 10) || step == config.steps {
-                    let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": about.index, "design": about.design, "map_seed": about.map_seed, "episode": about.episode, "simulate_s": simulate_s, "train_s": train_s, "wait_s": wait_s});
+                    let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": about.index, "design": about.design, "map_seed": about.map_seed, "episode": about.episode, "frame_px": about.frame_px, "simulate_s": simulate_s, "train_s": train_s, "wait_s": wait_s});
                     writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
                 }
                 if progress(&PretrainEvent::Step { step, of: config.steps, loss }).is_break() {
