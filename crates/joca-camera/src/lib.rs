@@ -7,6 +7,8 @@
 //! - [`ImageFormation`] — paper Eq. 2–3: exposure/gain/pixel-area scaling, affine noise, clipping
 //!   and 8-bit quantisation.
 //! - [`compensate_for_pixel_size`] — paper Eq. 4.
+//! - [`ImageFormation::capture`] — render and form one frame (the exposure sets blur and
+//!   brightness alike).
 //! - [`AverageAe`] — the mean-intensity auto-exposure baseline.
 //! - [`calibrate_noise`] — photon-transfer estimation of the noise parameters from frames.
 //!
@@ -24,6 +26,7 @@
 #![deny(missing_docs)]
 
 mod average_ae;
+mod capture;
 pub mod catalogue;
 mod compensation;
 mod design;
@@ -34,6 +37,7 @@ mod noise_calibration;
 mod settings;
 
 pub use average_ae::{AverageAe, MIN_MEAN_DN};
+pub use capture::Capture;
 pub use catalogue::{Sensor, Shutter, sensor_by_name};
 pub use compensation::compensate_for_pixel_size;
 pub use design::{CameraDesign, DesignSpace};

@@ -76,8 +76,11 @@ pub fn calibrate_noise(
     for (c, fit) in fits.iter_mut().enumerate() {
         let pairs: Vec<(f64, f64)> = (c..values).step_by(3).map(|k| (means[k], vars[k])).collect();
         // First pass on a conservative range, second with the clipping margin from that fit.
-        let (a0, b0, _) = fit_line(&pairs, None, |mu| (10.0..=245.0).contains(&mu))
-            .ok_or_else(|| bad("the frames hold too little intensity variation between 10 and 245 DN to fit a noise curve; use a scene with a range of grey levels"))?;
+        let (a0, b0, _) =
+            fit_line(&pairs, None, |mu| (10.0..=245.0).contains(&mu)).ok_or_else(|| {
+                bad("the frames hold too little intensity variation between 10 and 245 \
+                DN to fit a noise curve; use a scene with a range of grey levels")
+            })?;
         let (a, b, used) = fit_line(&pairs, Some((a0, b0)), |mu| {
             let sigma = (a0 * mu + b0).max(0.25).sqrt();
             mu - 4.0 * sigma > 0.0 && mu + 4.0 * sigma < 255.0

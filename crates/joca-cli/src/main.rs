@@ -7,6 +7,7 @@
 mod commands;
 mod config;
 mod draw;
+mod grid;
 mod io;
 
 use clap::{Parser, Subcommand};

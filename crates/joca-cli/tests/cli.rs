@@ -154,7 +154,12 @@ fn form_applies_exposure_and_reports_unreadable_files() {
 fn a_bad_calibration_file_names_the_file_and_the_field() {
     let dir = tempfile::tempdir().unwrap();
     let cal = dir.path().join("cal.toml");
-    std::fs::write(&cal, "[calibration]\npixel_pitch_um = 3.75\nexposure_s = 0.005\ngain_db = 10\nsigma_p2 = [0.2, 0.1, 0.3]\nsigma_r2 = [1.0, -1.0, 3.0]\n").unwrap();
+    std::fs::write(
+        &cal,
+        "[calibration]\npixel_pitch_um = 3.75\nexposure_s = 0.005\ngain_db = 10\n\
+         sigma_p2 = [0.2, 0.1, 0.3]\nsigma_r2 = [1.0, -1.0, 3.0]\n",
+    )
+    .unwrap();
     let o = joca(&[
         "form",
         "--input",
@@ -384,8 +389,8 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
 }
 
 /// A grid small enough for a test: 2 variants × 2 scenarios of a 1-generation run.
-const TINY_RUN: &str = "[run]\nthreads = 1\ngenerations = 1\npopulation = 2\nsteps_per_candidate = 3\n\
-                        test_episodes = 1\ntest_frames_per_episode = 2\n";
+const TINY_RUN: &str = "[run]\nthreads = 1\ngenerations = 1\npopulation = 2\n\
+                        steps_per_candidate = 3\ntest_episodes = 1\ntest_frames_per_episode = 2\n";
 const TINY_EXPERIMENT: &str = r#"
 title = "tiny"
 label_header = "Method"
@@ -704,7 +709,7 @@ fn eval_detector_scores_weights_and_names_a_missing_file() {
     );
     let o = joca(&["eval-detector", "--weights", weights.to_str().unwrap(), "--episodes", "0"]);
     assert!(
-        stderr(&o).contains("final_eval_episodes") && stderr(&o).contains("1 to 10000"),
+        stderr(&o).contains("eval.final_episodes") && stderr(&o).contains("1 to 10000"),
         "{}",
         stderr(&o)
     );

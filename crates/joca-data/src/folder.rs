@@ -14,11 +14,11 @@
 //! `traffic_sign` or `ignore`).
 //!
 //! Emulation (the paper's real-image experiment): a recorded frame is linearised (a setting,
-//! [`Linearize`]), put in calibrated units by `E0·G0 / (E_rec·G_rec)` (linear gains), centre-cropped
-//! to the requested camera's aspect ratio and resized bilinearly to its pixel grid; the motion
-//! blur of the requested exposure is added along the optical flow to the next frame
-//! ([`crate::blur`]). Boxes are cropped and scaled with the image. Image formation then adds the
-//! sensor's noise as for simulated frames.
+//! [`Linearize`]), put in calibrated units by `E0·G0 / (E_rec·G_rec)` (linear gains),
+//! centre-cropped to the requested camera's aspect ratio and resized bilinearly to its pixel
+//! grid; the motion blur of the requested exposure is added along the optical flow to the next
+//! frame ([`crate::blur`]). Boxes are cropped and scaled with the image. Image formation then
+//! adds the sensor's noise as for simulated frames.
 
 use crate::blur::{Linearize, motion_blur};
 use crate::flow::{DisParams, DisPreset, Gray, dis};
@@ -199,7 +199,9 @@ fn class_of(c: &CocoCategory) -> Result<Option<Class>, String> {
         "ignore" => None,
         _ => {
             return Err(format!(
-                "category {} {:?} is not a joca class; name it vehicle, walker or traffic_sign (or car, truck, bus, pedestrian, person, cyclist, sign), or add \"joca_class\": \"vehicle\" | \"walker\" | \"traffic_sign\" | \"ignore\"",
+                "category {} {:?} is not a joca class; name it vehicle, walker or traffic_sign \
+                    (or car, truck, bus, pedestrian, person, cyclist, sign), or add \
+                    \"joca_class\": \"vehicle\" | \"walker\" | \"traffic_sign\" | \"ignore\"",
                 c.id, c.name
             ));
         }
@@ -279,10 +281,25 @@ impl Recording {
         for img in &coco.images {
             let path = dir.join(&img.file_name);
             let timestamp_s = img.timestamp_s.ok_or_else(|| {
-                read_err(&json_path, format!("image {} ({}) has no timestamp_s; every frame needs its capture time in seconds", img.id, img.file_name))
+                read_err(
+                    &json_path,
+                    format!(
+                        "image {} ({}) has no timestamp_s; every frame needs its capture time \
+                         in seconds",
+                        img.id, img.file_name
+                    ),
+                )
             })?;
             let exposure_s = img.exposure_s.or(config.default_exposure_s).ok_or_else(|| {
-                read_err(&json_path, format!("image {} ({}) has no exposure_s: add the recorded exposure time in seconds to each image, or set a default exposure (--default-exposure-ms) if the whole recording used one", img.id, img.file_name))
+                read_err(
+                    &json_path,
+                    format!(
+                        "image {} ({}) has no exposure_s: add the recorded exposure time in \
+                         seconds to each image, or set a default exposure \
+                         (--default-exposure-ms) if the whole recording used one",
+                        img.id, img.file_name
+                    ),
+                )
             })?;
             if exposure_s.is_nan() || exposure_s <= 0.0 {
                 return Err(read_err(

@@ -7,8 +7,11 @@
 //! // A smooth pattern moved 1.5 pixels to the right: I0(x) = I1(x + 1.5).
 //! let pattern = |x: f32, y: f32| 128.0 + 60.0 * (0.3 * x).sin() * (0.23 * y).cos();
 //! let (w, h) = (64, 48);
-//! let i0 = Gray::new(w, h, (0..w * h).map(|k| pattern((k % w) as f32, (k / w) as f32)).collect());
-//! let i1 = Gray::new(w, h, (0..w * h).map(|k| pattern((k % w) as f32 - 1.5, (k / w) as f32)).collect());
+//! let image = |dx: f32| -> Vec<f32> {
+//!     (0..w * h).map(|k| pattern((k % w) as f32 - dx, (k / w) as f32)).collect()
+//! };
+//! let i0 = Gray::new(w, h, image(0.0));
+//! let i1 = Gray::new(w, h, image(1.5));
 //! let flow = dis(&i0, &i1, &DisParams::preset(DisPreset::Medium));
 //! let centre = flow.at(32, 24);
 //! assert!((centre[0] - 1.5).abs() < 0.2 && centre[1].abs() < 0.2, "{centre:?}");

@@ -174,7 +174,13 @@ impl Recording {
                     shutter
                 } else {
                     config.default_exposure_s.ok_or_else(|| {
-                        read_err(&path, format!("{label} has no usable exposure ({SHUTTER} = {shutter}); set a default exposure (--default-exposure-ms)"))
+                        read_err(
+                            &path,
+                            format!(
+                                "{label} has no usable exposure ({SHUTTER} = {shutter}); set a \
+                                 default exposure (--default-exposure-ms)"
+                            ),
+                        )
                     })?
                 };
                 let origin = FrameOrigin::Encoded { label: label.clone(), bytes: Arc::new(bytes) };

@@ -26,17 +26,20 @@ fn write_sequence(dir: &Path, n: usize, exposure: bool) {
         });
         let name = format!("frames/{k:03}.png");
         img.save(dir.join(&name)).unwrap();
-        let mut image = serde_json::json!({"id": k + 1, "file_name": name, "width": 200, "height": 100,
-            "timestamp_s": 10.0 + 0.1 * k as f64});
+        let mut image = serde_json::json!({"id": k + 1, "file_name": name, "width": 200,
+            "height": 100, "timestamp_s": 10.0 + 0.1 * k as f64});
         if exposure {
             image["exposure_s"] = serde_json::json!(0.005);
         }
         images.push(image);
-        annotations.push(serde_json::json!({"id": k + 1, "image_id": k + 1, "bbox": [x0, 40, 40, 20], "category_id": 7}));
-        annotations.push(serde_json::json!({"id": 1000 + k, "image_id": k + 1, "bbox": [120, 10, 30, 20], "category_id": 7, "iscrowd": 1}));
+        annotations.push(serde_json::json!({"id": k + 1, "image_id": k + 1,
+            "bbox": [x0, 40, 40, 20], "category_id": 7}));
+        annotations.push(serde_json::json!({"id": 1000 + k, "image_id": k + 1,
+            "bbox": [120, 10, 30, 20], "category_id": 7, "iscrowd": 1}));
     }
     let coco = serde_json::json!({"images": images, "annotations": annotations,
-        "categories": [{"id": 7, "name": "car"}, {"id": 8, "name": "traffic light", "joca_class": "ignore"}]});
+        "categories": [{"id": 7, "name": "car"},
+            {"id": 8, "name": "traffic light", "joca_class": "ignore"}]});
     std::fs::write(dir.join("annotations.json"), coco.to_string()).unwrap();
 }
 

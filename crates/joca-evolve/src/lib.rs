@@ -20,7 +20,8 @@
 //! let mut ga = Ga::new(config, &mut rng);
 //! for _ in 0..30 {
 //!     // Maximise −(x−3)² − (y−7)².
-//!     let fitness: Vec<f64> = ga.ask().iter().map(|g| -(g[0] - 3.0).powi(2) - (g[1] - 7.0).powi(2)).collect();
+//!     let fitness: Vec<f64> =
+//!         ga.ask().iter().map(|g| -(g[0] - 3.0).powi(2) - (g[1] - 7.0).powi(2)).collect();
 //!     ga.tell(&fitness, &mut rng, |_| {}).unwrap();
 //! }
 //! let (best, _) = ga.best().unwrap();

@@ -15,7 +15,8 @@
 //! use joca_metrics::{CocoEvaluator, GroundTruth, ScoredBox};
 //!
 //! let mut eval = CocoEvaluator::default();
-//! eval.add_image(1, vec![GroundTruth::new([10.0, 10.0, 40.0, 30.0], 1)], vec![ScoredBox::new([10.0, 10.0, 40.0, 30.0], 1, 0.9)]);
+//! let truth = vec![GroundTruth::new([10.0, 10.0, 40.0, 30.0], 1)];
+//! eval.add_image(1, truth, vec![ScoredBox::new([10.0, 10.0, 40.0, 30.0], 1, 0.9)]);
 //! let summary = eval.evaluate();
 //! assert!((summary.stats[0] - 1.0).abs() < 1e-12); // a perfect detection
 //! ```

@@ -186,7 +186,8 @@ mod tests {
             },
             Detection { bbox: gt[0].bbox, class: Class::Vehicle, score: 0.5 },
         ];
-        // The first lies inside the region, so its crowd IoU (intersection over the detection's area) is 1.
+        // The first lies inside the region, so its crowd IoU (intersection over the detection's
+        // area) is 1.
         // Without the region the confident detection is a false positive ranked first: precision
         // 1/2 at full recall, AP 0.5 at every threshold.
         let mut plain = TaskMetrics::default();

@@ -20,8 +20,9 @@
 //! `2·width` = 32 channels, so the compression keeps k = 16 per CFM (6k = 96-d pooled vector,
 //! 128 with the embedding); the branches meet in 256 dimensions as in the original.
 //!
-//! Outputs are bounded as the paper requires: exposure `exp(log Emin + σ(o₁)·(log Emax − log Emin))`
-//! (a sigmoid in log space), gain `Gmin + σ(o₂)·(Gmax − Gmin)` dB (already logarithmic).
+//! Outputs are bounded as the paper requires: exposure
+//! `exp(log Emin + σ(o₁)·(log Emax − log Emin))` (a sigmoid in log space), gain
+//! `Gmin + σ(o₂)·(Gmax − Gmin)` dB (already logarithmic).
 
 use joca_core::Rgb8Image;
 use tch::nn;
@@ -181,7 +182,8 @@ impl NeuralAe {
         let max = |t: &Tensor| t.amax(&[2i64, 3][..], false);
         let prev = Tensor::from_slice(&previous).to_device(device).view([1, 2]);
         let e = prev.apply(&self.prev[0]).relu().apply(&self.prev[1]); // [1, 32]
-        let pooled = Tensor::cat(&[avg(&parts[0]), max(&parts[1]), max(&parts[2]), avg(&f), e], 1); // [1, 6k + 32]
+        // [1, 6k + 32]
+        let pooled = Tensor::cat(&[avg(&parts[0]), max(&parts[1]), max(&parts[2]), avg(&f), e], 1);
         let s = pooled.apply(&self.semantic[0]).relu().apply(&self.semantic[1]); // [1, 256]
 
         let o = (g + s).apply(&self.out).sigmoid(); // [1, 2]

@@ -5,9 +5,9 @@
 //! constant: its dependence on exposure through blur is not differentiable — the gap DF-Grad's
 //! GA supervision fills. For a given noise field `z` (taken from
 //! `joca_camera::ImageFormation::standard_normals`, i.e. the very sample the 8-bit formation
-//! uses) the forward value equals the 8-bit frame: clipping at 0 and 255 and rounding to the
-//! nearest integer are applied with straight-through gradients (the gradient of clip is 1 inside
-//! and 0 outside; rounding passes the gradient unchanged).
+//! uses) the forward value equals the 8-bit frame. Clipping at 0 and 255 keeps the clamp's own
+//! gradient (1 inside, 0 outside, so a saturated pixel passes no gradient to exposure and gain);
+//! rounding to the nearest integer is straight-through (it passes the gradient unchanged).
 
 use joca_camera::ImageFormation;
 use tch::{Device, Kind, Tensor};

@@ -20,7 +20,7 @@ use crate::detector::{
 };
 use crate::formation::{Scene, form, to_detector_input};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
-use joca_camera::ImageFormation;
+use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
 use joca_core::{Annotation, Detection, Rgb8Image};
 use std::path::Path;
 use tch::nn::VarStore;
@@ -35,27 +35,31 @@ pub struct DfGradWeights {
     pub ga: f64,
 }
 
-/// Settings predicted by NeuralAE for the next frame, as plain numbers.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// NeuralAE's prediction for the next frame ([`JointModel::predict`]): the settings for the
+/// calibration pixel pitch, and the network outputs they came from, which a training step
+/// ([`JointModel::step`] with [`Exposure::Predicted`]) differentiates through.
+#[derive(Debug)]
 pub struct Prediction {
-    /// Predicted exposure (for the calibration pixel pitch), seconds.
-    pub exposure_s: f64,
-    /// Predicted gain, dB.
-    pub gain_db: f64,
+    settings: DynamicSettings,
+    exposure_s: Tensor,
+    gain_db: Tensor,
+}
+
+impl Prediction {
+    /// Predicted exposure and gain for the calibration pixel pitch (before Eq. 4).
+    pub fn settings(&self) -> DynamicSettings {
+        self.settings
+    }
 }
 
 /// How a step's exposure and gain are set.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug)]
 pub enum Exposure {
-    /// By the last [`JointModel::predict`] (after Eq. 4); the ACC is trained.
-    Predicted,
-    /// Fixed values (AverageAE, the first frame of a sequence); no ACC gradient.
-    Fixed {
-        /// Exposure actually applied, seconds.
-        exposure_s: f64,
-        /// Gain actually applied, dB.
-        gain_db: f64,
-    },
+    /// By NeuralAE (Eq. 4 applied for the sensor's pixel pitch); the ACC is trained.
+    Predicted(Prediction),
+    /// Fixed settings as applied to the sensor (AverageAE, the first frame of a sequence); no
+    /// ACC gradient.
+    Fixed(DynamicSettings),
 }
 
 /// What one step produced.
@@ -71,10 +75,8 @@ pub struct StepReport {
     pub ga_loss: Option<f64>,
     /// Wall time of this step's parts, milliseconds.
     pub timings: StepTimings,
-    /// Exposure applied, seconds.
-    pub exposure_s: f64,
-    /// Gain applied, dB.
-    pub gain_db: f64,
+    /// Exposure and gain applied to the sensor.
+    pub applied: DynamicSettings,
 }
 
 /// Where a training step's time goes, milliseconds.
@@ -102,7 +104,7 @@ pub struct JointModel {
     bounds: AccBounds,
     formation: ImageFormation,
     device: Device,
-    pending: Option<(Tensor, Tensor)>,
+    /// Detector features of the sequence's last frame: NeuralAE's input for the next one.
     features: Option<Tensor>,
     train_detector: bool,
 }
@@ -112,13 +114,18 @@ fn unit_tensor(value: &Tensor, range: (f64, f64)) -> Tensor {
 }
 
 impl JointModel {
-    /// Fresh networks (initialised from libtorch's seeded generator).
+    /// Fresh networks (initialised from libtorch's seeded generator); NeuralAE predicts within
+    /// `ranges`.
     pub fn new(
         engine: &Engine,
         detector: DetectorConfig,
-        bounds: AccBounds,
+        ranges: AccRanges,
         formation: ImageFormation,
     ) -> Self {
+        let bounds = AccBounds::new(
+            (ranges.exposure_s.min, ranges.exposure_s.max),
+            (ranges.gain_db.min, ranges.gain_db.max),
+        );
         let det = DetectorModel::new(engine, detector, AdamConfig::DETECTOR);
         let acc_vs = VarStore::new(engine.device());
         let acc = NeuralAe::new(&acc_vs.root(), 2 * detector.width, bounds);
@@ -131,7 +138,6 @@ impl JointModel {
             bounds,
             formation,
             device: engine.device(),
-            pending: None,
             features: None,
             train_detector: true,
         }
@@ -166,7 +172,6 @@ impl JointModel {
 
     /// Forgets the previous frame (start of a new sequence).
     pub fn reset_sequence(&mut self) {
-        self.pending = None;
         self.features = None;
     }
 
@@ -175,62 +180,51 @@ impl JointModel {
         self.features.is_some()
     }
 
-    /// NeuralAE's prediction for the next frame from the previous frame and its settings.
-    /// Returns `None` at the start of a sequence.
+    /// NeuralAE's prediction for the next frame from the previous frame and the settings
+    /// NeuralAE predicted for it. Returns `None` at the start of a sequence (no features yet).
     pub fn predict(
-        &mut self,
-        previous: &Rgb8Image,
-        previous_exposure_s: f64,
-        previous_gain_db: f64,
+        &self,
+        previous_frame: &Rgb8Image,
+        previous: DynamicSettings,
     ) -> Option<Prediction> {
         let features = self.features.as_ref()?;
         let out = self.acc.forward(
-            &histograms(previous),
+            &histograms(previous_frame),
             features,
-            self.bounds.unit(previous_exposure_s, previous_gain_db),
+            self.bounds.unit(previous.exposure_s, previous.gain_db),
             self.device,
         );
-        let p = Prediction {
-            exposure_s: out.exposure_s.double_value(&[0]),
-            gain_db: out.gain_db.double_value(&[0]),
-        };
-        self.pending = Some((out.exposure_s, out.gain_db));
-        Some(p)
+        let settings =
+            DynamicSettings::new(out.exposure_s.double_value(&[0]), out.gain_db.double_value(&[0]));
+        Some(Prediction { settings, exposure_s: out.exposure_s, gain_db: out.gain_db })
     }
 
     /// One training step on a rendered frame (see the module documentation). `ga_target` is the
-    /// best perturbed `(exposure s, gain dB)` when the GA loss applies this step.
+    /// best perturbed setting (for the calibration pitch) when the GA loss applies this step.
     pub fn step(
         &mut self,
         scene: &Scene<'_>,
         truth: &[Annotation],
         ignore: &[Annotation],
         exposure: Exposure,
-        ga_target: Option<(f64, f64)>,
+        ga_target: Option<DynamicSettings>,
         weights: DfGradWeights,
     ) -> Result<StepReport, NnError> {
-        let pending = if exposure == Exposure::Predicted { self.pending.take() } else { None };
-        let (e_t, g_t, pred) = match (&pending, exposure) {
-            (Some((e_pred, g_pred)), _) => {
+        let (e_t, g_t, pred) = match &exposure {
+            Exposure::Predicted(p) => {
                 let (e, g) = eq4(
-                    e_pred,
-                    g_pred,
+                    &p.exposure_s,
+                    &p.gain_db,
                     scene.pixel_pitch_um,
                     self.formation.calibration().pixel_pitch_um,
                 );
-                (e, g, Some((e_pred, g_pred)))
+                (e, g, Some((&p.exposure_s, &p.gain_db)))
             }
-            (None, Exposure::Fixed { exposure_s, gain_db }) => (
-                Tensor::from_slice(&[exposure_s as f32]).to_device(self.device),
-                Tensor::from_slice(&[gain_db as f32]).to_device(self.device),
+            Exposure::Fixed(applied) => (
+                Tensor::from_slice(&[applied.exposure_s as f32]).to_device(self.device),
+                Tensor::from_slice(&[applied.gain_db as f32]).to_device(self.device),
                 None,
             ),
-            (None, Exposure::Predicted) => {
-                return Err(NnError::Weights {
-                    path: "(none)".into(),
-                    reason: "step(Predicted) without a prediction".into(),
-                });
-            }
         };
         let mut timings = StepTimings::default();
         let mut clock = std::time::Instant::now();
@@ -253,16 +247,8 @@ impl JointModel {
         // they become ∇ (w_task·l_task + w_ga·l_GA).
         let mut ga_loss = None;
         let mut objective = loss.total.shallow_clone();
-        if let (Some((e_pred, g_pred)), Some((e_star, g_star))) = (pred, ga_target) {
-            let e_unit = unit_tensor(&e_pred.log(), self.bounds.log_exposure);
-            let g_unit = unit_tensor(g_pred, self.bounds.gain_db);
-            let e_star_unit = (e_star.ln() - self.bounds.log_exposure.0)
-                / (self.bounds.log_exposure.1 - self.bounds.log_exposure.0);
-            let g_star_unit =
-                (g_star - self.bounds.gain_db.0) / (self.bounds.gain_db.1 - self.bounds.gain_db.0);
-            let l_ga = ((e_unit - e_star_unit).abs() + (g_unit - g_star_unit).abs())
-                .mean(Kind::Float)
-                / 2.0;
+        if let (Some((e_pred, g_pred)), Some(target)) = (pred, ga_target) {
+            let l_ga = ga_supervision_loss(e_pred, g_pred, target, &self.bounds);
             let v = l_ga.double_value(&[]);
             if !v.is_finite() {
                 return Err(NnError::NonFinite { what: "GA supervision", value: v });
@@ -308,8 +294,7 @@ impl JointModel {
             },
             ga_loss,
             timings,
-            exposure_s: e_t.double_value(&[0]),
-            gain_db: g_t.double_value(&[0]),
+            applied: DynamicSettings::new(e_t.double_value(&[0]), g_t.double_value(&[0])),
         })
     }
 
@@ -319,7 +304,6 @@ impl JointModel {
         let _guard = tch::no_grad_guard();
         let out = self.det.net.forward(&image_tensor(frame, self.device));
         self.features = Some(out.features.detach());
-        self.pending = None;
         decode(&out, frame.width(), frame.height(), MAX_DETECTIONS, MIN_SCORE)
     }
 
@@ -327,6 +311,25 @@ impl JointModel {
     pub fn detect(&self, frame: &Rgb8Image) -> Vec<Detection> {
         self.det.detect(frame)
     }
+}
+
+/// DF-Grad's GA supervision loss (paper Sec. 5): the L1 distance between NeuralAE's prediction
+/// `(E_pred, G_pred)` and the best perturbation `(Ẽ*, G̃*)` the GA found, each in normalised units
+/// (log exposure and gain in dB, each range mapped to [0, 1]), averaged over the two:
+/// `l_GA = (|Ẽ* − E_pred| + |G̃* − G_pred|) / 2`. NeuralAE's loss is `w_task·l_task + w_ga·l_GA`.
+fn ga_supervision_loss(
+    e_pred: &Tensor,
+    g_pred_db: &Tensor,
+    target: DynamicSettings,
+    bounds: &AccBounds,
+) -> Tensor {
+    let (e_star, g_star_db) = (target.exposure_s, target.gain_db);
+    let e_unit = unit_tensor(&e_pred.log(), bounds.log_exposure);
+    let g_unit = unit_tensor(g_pred_db, bounds.gain_db);
+    let e_star_unit =
+        (e_star.ln() - bounds.log_exposure.0) / (bounds.log_exposure.1 - bounds.log_exposure.0);
+    let g_star_unit = (g_star_db - bounds.gain_db.0) / (bounds.gain_db.1 - bounds.gain_db.0);
+    ((e_unit - e_star_unit).abs() + (g_unit - g_star_unit).abs()).mean(Kind::Float) / 2.0
 }
 
 /// Eq. 4 on tensors (linear gain inside, dB outside), as `joca_camera::compensate_for_pixel_size`.
@@ -362,4 +365,43 @@ fn tensor_to_rgb8(frame_dn: &Tensor) -> Rgb8Image {
     )
     .unwrap_or_else(|_| vec![0; w * h * 3]);
     Rgb8Image::from_vec(w, h, bytes).unwrap_or_else(|_| Rgb8Image::zeros(w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// l_GA against its closed form: with the ranges 1–100 ms (log) and 0–40 dB, a prediction of
+    /// 10 ms and 10 dB sits at 1/2 and 1/4 of them; a target of 1 ms and 30 dB at 0 and 3/4.
+    #[test]
+    fn ga_supervision_loss_is_the_mean_l1_distance_in_normalised_units() {
+        let bounds = AccBounds::new((1e-3, 0.1), (0.0, 40.0));
+        let e_pred = Tensor::from_slice(&[0.01f32]);
+        let g_pred = Tensor::from_slice(&[10.0f32]);
+        let l = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(1e-3, 30.0), &bounds)
+            .double_value(&[]);
+        assert!((l - (0.5 + 0.5) / 2.0).abs() < 1e-6, "{l}");
+        let zero = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(0.01, 10.0), &bounds)
+            .double_value(&[]);
+        assert!(zero.abs() < 1e-6, "{zero}");
+    }
+
+    /// The tensor form of Eq. 4 (needed for gradients) agrees with the one the loop renders
+    /// with, `joca_camera::compensate_for_pixel_size`, for larger and smaller pixels.
+    #[test]
+    fn eq4_on_tensors_matches_the_camera_crate() {
+        for (pitch, e, g) in [(5.86, 0.02, 12.0), (5.86, 0.02, 1.0), (1.55, 0.004, 20.0)] {
+            let want =
+                joca_camera::compensate_for_pixel_size(DynamicSettings::new(e, g), pitch, 3.75);
+            let (et, gt) = eq4(
+                &Tensor::from_slice(&[e as f32]),
+                &Tensor::from_slice(&[g as f32]),
+                pitch,
+                3.75,
+            );
+            let (et, gt) = (et.double_value(&[0]), gt.double_value(&[0]));
+            assert!((et / want.exposure_s - 1.0).abs() < 1e-5, "{pitch}: E {et} vs {want:?}");
+            assert!((gt - want.gain_db).abs() < 1e-4, "{pitch}: G {gt} vs {want:?}");
+        }
+    }
 }

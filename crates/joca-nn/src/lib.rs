@@ -17,7 +17,8 @@
 //! let engine = joca_nn::Engine::cpu(1);
 //! let vs = tch::nn::VarStore::new(engine.device());
 //! let detector = Detector::new(&vs.root(), DetectorConfig::default());
-//! let out = detector.forward(&tch::Tensor::zeros([1, 3, 48, 64], (tch::Kind::Float, engine.device())));
+//! let image = tch::Tensor::zeros([1, 3, 48, 64], (tch::Kind::Float, engine.device()));
+//! let out = detector.forward(&image);
 //! assert_eq!(out.heatmap.size(), vec![1, 3, 12, 16]);
 //! ```
 #![deny(missing_docs)]

@@ -38,7 +38,8 @@ pub fn load_weights(vs: &mut VarStore, path: &Path) -> Result<(), NnError> {
         })?;
         if t.size() != var.size() {
             return Err(err(format!(
-                "tensor `{name}` has shape {:?} but this model needs {:?} (another width or class count?)",
+                "tensor `{name}` has shape {:?} but this model needs {:?} (another width or class \
+                    count?)",
                 t.size(),
                 var.size()
             )));

@@ -102,7 +102,8 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     let done = runs.len();
     let total = manifest.cells.len();
     let mut meta = format!(
-        "Preset `{}`; {done} of {total} cells finished. Each cell is a full `joca run` directory under `{}`; \
+        "Preset `{}`; {done} of {total} cells finished. Each cell is a full `joca run` directory \
+            under `{}`; \
          test on the test town, closed loop. Camera parameters marked ● were optimised, ○ fixed; \
          best of each group in bold, second underlined.",
         manifest.preset,
@@ -132,7 +133,8 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     write_text(&exp_dir.join("results.csv"), &table.csv())?;
     write_text(&exp_dir.join("report.md"), &md)?;
     html_body.push_str(
-        "<p class=\"meta\">All numbers, at full precision: results.csv. Figures follow, by scenario.</p>\n",
+        "<p class=\"meta\">All numbers, at full precision: results.csv. Figures follow, by \
+            scenario.</p>\n",
     );
     let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
     write_text(&exp_dir.join("report.html"), &page)?;

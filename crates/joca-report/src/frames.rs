@@ -6,8 +6,9 @@
 //! visible (at the presets' render scale a frame is about 150 pixels wide).
 
 use crate::ReportError;
-use crate::data::{RunData, ShowFrame, Showcase};
+use crate::data::RunData;
 use crate::plot::{FAMILY, draw_err, register_font, save_png};
+use joca_record::{BBox, Showcase, ShowcaseFrame};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -64,7 +65,7 @@ fn draw_frame(
     canvas: &mut Canvas,
     path: &Path,
     run: &RunData,
-    frame: &ShowFrame,
+    frame: &ShowcaseFrame,
     origin: (u32, u32),
     tile: (u32, u32),
 ) -> Result<(), ReportError> {
@@ -78,7 +79,7 @@ fn draw_frame(
     let x0 = origin.0 + (tile.0 - w) / 2;
     let y0 = origin.1 + (tile.1 - h) / 2;
     canvas.blit(&img, x0, y0, scale);
-    let to_px = |b: &crate::data::Box2| {
+    let to_px = |b: &BBox| {
         [
             (
                 (x0 as f32 + b.x_min * scale as f32) as i32,
@@ -193,12 +194,23 @@ pub fn qualitative_grid(path: &Path, runs: &[(String, &RunData)]) -> Result<(), 
             let d = &run.results.design;
             let sub = (FAMILY, 12).into_font().color(&RGBColor(80, 80, 80));
             root.draw(&Text::new(d.sensor.clone(), (6, y), sub.clone()))?;
-            root.draw(&Text::new(format!("f {:.2} mm", d.focal_length_mm), (6, y + 16), sub.clone()))?;
-            root.draw(&Text::new(format!("mAP {:.3}", run.results.test.map), (6, y + 32), sub.clone()))?;
+            root.draw(&Text::new(
+                format!("f {:.2} mm", d.focal_length_mm),
+                (6, y + 16),
+                sub.clone(),
+            ))?;
+            root.draw(&Text::new(
+                format!("mAP {:.3}", run.results.test.map),
+                (6, y + 32),
+                sub.clone(),
+            ))?;
         }
         let foot = (FAMILY, 13).into_font().color(&RGBColor(60, 60, 60));
         root.draw(&Text::new(
-            format!("green: ground truth; red: detections with score ≥ {DRAW_MIN_SCORE}; frames enlarged (nearest neighbour)"),
+            format!(
+                "green: ground truth; red: detections with score ≥ {DRAW_MIN_SCORE}; frames \
+                enlarged (nearest neighbour)"
+            ),
             (6, (h - 22) as i32),
             foot,
         ))?;
@@ -214,7 +226,8 @@ pub fn tunnel_animation(path: &Path, runs: &[(String, &RunData)]) -> Result<(), 
     let shows: Vec<(&String, &RunData, &Showcase)> =
         runs.iter().filter_map(|(l, r)| r.showcase("tunnel").map(|s| (l, *r, s))).collect();
     let Some(len) = shows.iter().map(|s| s.2.frames.len()).min() else { return Ok(()) };
-    // 2 s of it: 0.5 s before the switch of illumination and 1.5 s after (the controller's reaction).
+    // 2 s of it: 0.5 s before the switch of illumination and 1.5 s after (the controller's
+    // reaction).
     let switch = switch_index(shows[0].2).unwrap_or(0);
     let frames = switch.saturating_sub(ANIMATION_BEFORE)..(switch + ANIMATION_AFTER).min(len);
     let (tile, gap, head, foot) = ((176u32, 118u32), 6u32, 22u32, 40u32);

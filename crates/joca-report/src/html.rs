@@ -7,7 +7,8 @@ use base64::Engine as _;
 use std::path::Path;
 
 const STYLE: &str = "
-body { font-family: 'DejaVu Sans', Verdana, sans-serif; margin: 2em auto; max-width: 1200px; color: #222; }
+body { font-family: 'DejaVu Sans', Verdana, sans-serif; margin: 2em auto; max-width: 1200px;
+  color: #222; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; }
 table { border-collapse: collapse; font-size: 0.9em; margin: 1em 0; }
 th, td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; white-space: nowrap; }
@@ -31,7 +32,8 @@ pub(crate) fn page(
     figures: &[Figure],
 ) -> Result<String, ReportError> {
     let mut html = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n<h1>{}</h1>\n{body}\n",
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <title>{}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n<h1>{}</h1>\n{body}\n",
         escape(title),
         escape(title)
     );
@@ -45,7 +47,8 @@ pub(crate) fn page(
         let bytes = std::fs::read(&path).map_err(|e| io_err(&path, e))?;
         let mime = if f.file.ends_with(".gif") { "image/gif" } else { "image/png" };
         html.push_str(&format!(
-            "<figure>\n<img alt=\"{}\" src=\"data:{mime};base64,{}\">\n<figcaption>{}</figcaption>\n</figure>\n",
+            "<figure>\n<img alt=\"{}\" \
+                src=\"data:{mime};base64,{}\">\n<figcaption>{}</figcaption>\n</figure>\n",
             escape(&f.file),
             base64::engine::general_purpose::STANDARD.encode(bytes),
             escape(&f.caption)

@@ -11,7 +11,8 @@
 //! animation of the tunnel transition.
 //!
 //! ```no_run
-//! let text = joca_report::write_run_report(std::path::Path::new("runs/quick-joca-calibrated")).unwrap();
+//! let run = std::path::Path::new("runs/quick-joca-calibrated");
+//! let text = joca_report::write_run_report(run).unwrap();
 //! assert!(text.contains("| Scenario |"));
 //! ```
 #![deny(missing_docs)]
@@ -23,9 +24,10 @@ mod html;
 mod plot;
 mod table;
 
-pub use data::{Design, GenerationFitness, Results, RunData, Scores, ShowFrame, Showcase, StepLog};
+pub use data::{GenerationFitness, RunData, StepLog};
 pub use experiment::{CellSpec, CellState, Manifest, write_experiment_report};
 pub use frames::DRAW_MIN_SCORE;
+pub use joca_record::{DesignSummary, RunResults, Showcase, ShowcaseFrame};
 pub use table::{Row, Table};
 
 use std::fmt::Write as _;
@@ -143,8 +145,9 @@ pub fn write_figures(
             section: what.to_owned(),
             file,
             caption: format!(
-                "Fitness of the hardware GA's candidates per generation (solid: best, dashed: mean; {what}). \
-                 Each candidate is trained and scored on its own k frames, so the curves are noisy and a fixed-camera method has one candidate per generation."
+                "Fitness of the hardware GA's candidates per generation (solid: best, dashed: \
+                 mean; {what}). Each candidate is trained and scored on its own k frames, so the \
+                 curves are noisy and a fixed-camera method has one candidate per generation."
             ),
         });
     }
@@ -161,7 +164,7 @@ pub fn write_figures(
             dashed: false,
             points: first.frames.iter().map(|f| (f.time_s, f64::from(f.ambient).log10())).collect(),
         };
-        let series = |value: fn(&ShowFrame) -> f64| {
+        let series = |value: fn(&ShowcaseFrame) -> f64| {
             tunnel
                 .iter()
                 .map(|(i, l, s)| plot::Series {
@@ -194,7 +197,9 @@ pub fn write_figures(
             section: what.to_owned(),
             file,
             caption: format!(
-                "What each exposure controller chose, frame by frame, while driving through an abrupt change of illumination on the test town (closed loop: each frame's settings come from the previous frame; {what})."
+                "What each exposure controller chose, frame by frame, while driving through an \
+                    abrupt change of illumination on the test town (closed loop: each frame's \
+                    settings come from the previous frame; {what})."
             ),
         });
     }
@@ -227,7 +232,10 @@ pub fn write_figures(
         figures.push(Figure {
             section: what.to_owned(),
             file,
-            caption: format!("The detector's task loss (focal heat-map + size + offset) during joint training, logged every fifth step, moving average over 20 logs; {what}."),
+            caption: format!(
+                "The detector's task loss (focal heat-map + size + offset) during \
+                joint training, logged every fifth step, moving average over 20 logs; {what}."
+            ),
         });
     }
 
@@ -238,19 +246,23 @@ pub fn write_figures(
             section: what.to_owned(),
             file,
             caption: format!(
-                "The same test scenes through each method's camera and controller ({what}): ground truth in green, detections with score ≥ {DRAW_MIN_SCORE} in red."
+                "The same test scenes through each method's camera and controller ({what}): \
+                    ground truth in green, detections with score ≥ {DRAW_MIN_SCORE} in red."
             ),
         });
     }
 
-    let designs: Vec<(String, Design)> =
+    let designs: Vec<(String, DesignSummary)> =
         runs.iter().map(|(l, r)| (l.clone(), r.results.design.clone())).collect();
     let file = name("fov", "png");
     plot::fov_diagram(&dir.join(&file), &designs)?;
     figures.push(Figure {
         section: what.to_owned(),
         file,
-        caption: format!("Top view of each design's mount position and horizontal field of view on the ego vehicle ({what}); the mount height z is in the legend."),
+        caption: format!(
+            "Top view of each design's mount position and horizontal field of view \
+            on the ego vehicle ({what}); the mount height z is in the legend."
+        ),
     });
 
     if !tunnel.is_empty() {
@@ -259,7 +271,10 @@ pub fn write_figures(
         figures.push(Figure {
             section: what.to_owned(),
             file,
-            caption: format!("Animation (10 frames/s) of the tunnel transition through each method's camera, with the exposure and gain its controller chose ({what})."),
+            caption: format!(
+                "Animation (10 frames/s) of the tunnel transition through each \
+                method's camera, with the exposure and gain its controller chose ({what})."
+            ),
         });
     }
     Ok(figures)
@@ -270,12 +285,12 @@ pub fn write_figures(
 pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     let run = RunData::load(run_dir)?;
     let r = &run.results;
-    let title = format!("joca run: {} / {}", r.method, r.scenario);
+    let title = format!("joca run: {} / {}", r.method.name(), r.scenario.name());
     let table = Table {
         label_header: "Method".into(),
         rows: vec![Row {
-            group: r.scenario.clone(),
-            label: r.method.clone(),
+            group: r.scenario.name().to_owned(),
+            label: r.method.name().to_owned(),
             cell: run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
             results: r.clone(),
         }],
@@ -283,8 +298,8 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     let figures = write_figures(
         run_dir,
         "",
-        &format!("{} / {}", r.method, r.scenario),
-        &[(r.method.clone(), &run)],
+        &format!("{} / {}", r.method.name(), r.scenario.name()),
+        &[(r.method.name().to_owned(), &run)],
     )?;
     let mut md = format!("# {title}\n\n");
     let tested_on = if r.real_images() {
@@ -297,7 +312,8 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     };
     let _ = writeln!(
         md,
-        "Camera parameters marked ● were optimised, ○ fixed. Test on {tested_on}, closed loop, {} frames; render scale {}.\n",
+        "Camera parameters marked ● were optimised, ○ fixed. Test on {tested_on}, closed loop, {} \
+            frames; render scale {}.\n",
         r.test.frames, r.render_scale
     );
     md.push_str(&table.markdown());
@@ -307,7 +323,9 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     md.push_str(&figures_markdown(&figures));
     write_text(&run_dir.join("report.md"), &md)?;
     let body = format!(
-        "<p>Camera parameters marked <span class=\"opt\">●</span> were optimised, <span class=\"fix\">○</span> fixed. Test on {}, closed loop, {} frames; render scale {}; AP50 {:.3}.</p>\n{}",
+        "<p>Camera parameters marked <span class=\"opt\">●</span> were optimised, <span \
+            class=\"fix\">○</span> fixed. Test on {}, closed loop, {} frames; render scale {}; \
+            AP50 {:.3}.</p>\n{}",
         table::escape(&tested_on),
         r.test.frames,
         r.render_scale,
@@ -319,9 +337,10 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     Ok(md)
 }
 
-fn settings_markdown(r: &Results) -> String {
+fn settings_markdown(r: &RunResults) -> String {
     let mut md = String::from(
-        "## Exposure and gain during the closed-loop test\n\n| illumination | mean E (ms) | mean G (dB) |\n|---|---|---|\n",
+        "## Exposure and gain during the closed-loop test\n\n| illumination | mean E (ms) | mean \
+            G (dB) |\n|---|---|---|\n",
     );
     for (light, (e, g)) in &r.settings_by_illumination {
         let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} |");
@@ -335,7 +354,8 @@ fn fitness_markdown(run: &RunData) -> String {
         return String::new();
     }
     let mut md = String::from(
-        "## Hardware GA fitness (mAP + 1.1 × TP ratio over each candidate's frames)\n\n| generation | best | mean |\n|---|---|---|\n",
+        "## Hardware GA fitness (mAP + 1.1 × TP ratio over each candidate's frames)\n\n| \
+            generation | best | mean |\n|---|---|---|\n",
     );
     for g in &run.generations {
         let _ = writeln!(md, "| {} | {:.3} | {:.3} |", g.generation, g.best, g.mean);

@@ -3,7 +3,7 @@
 //! the same on a machine without any system font.
 
 use crate::ReportError;
-use crate::data::Design;
+use joca_record::DesignSummary;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use std::path::Path;
@@ -168,7 +168,7 @@ pub fn stacked_chart(
 
 /// Top-down view of the vehicle with each design's mount position and horizontal field of view
 /// (the supplementary's FoV figure). Forward is up; the vehicle frame's origin is x = 0.
-pub fn fov_diagram(path: &Path, designs: &[(String, Design)]) -> Result<(), ReportError> {
+pub fn fov_diagram(path: &Path, designs: &[(String, DesignSummary)]) -> Result<(), ReportError> {
     register_font();
     let (w, h) = (760u32, 720u32);
     let range_m = 16.0;

@@ -3,7 +3,7 @@
 //! TP/All@180°, best of each group in bold and second underlined. Markdown, HTML and CSV are
 //! three views of one [`Table`].
 
-use crate::data::Results;
+use joca_record::RunResults;
 use std::fmt::Write as _;
 
 /// One row: a method (or sweep value) in one group.
@@ -16,7 +16,7 @@ pub struct Row {
     /// Cell id (the run directory's name), for the CSV.
     pub cell: String,
     /// The run's results.
-    pub results: Results,
+    pub results: RunResults,
 }
 
 /// A result table.
@@ -74,12 +74,12 @@ impl Table {
         out
     }
 
-    fn group_values(&self, group: &str, f: fn(&Results) -> f64) -> Vec<f64> {
+    fn group_values(&self, group: &str, f: fn(&RunResults) -> f64) -> Vec<f64> {
         self.rows.iter().filter(|r| r.group == group).map(|r| f(&r.results)).collect()
     }
 
     /// A score of `row`, to 3 decimals, bold if best and underlined if second in its group.
-    fn scored(&self, style: Style, row: &Row, f: fn(&Results) -> f64) -> String {
+    fn scored(&self, style: Style, row: &Row, f: fn(&RunResults) -> f64) -> String {
         let v = f(&row.results);
         emphasise(style, format!("{v:.3}"), rank(&self.group_values(&row.group, f), v))
     }
@@ -212,7 +212,8 @@ impl Table {
     /// The table as CSV, with every number at full precision.
     pub fn csv(&self) -> String {
         let mut c = String::from(
-            "scenario,label,cell,method,source,x_m,z_m,focal_length_mm,sensor,sensor_w_mm,sensor_h_mm,pixel_pitch_um,optimised,map,ap50,tp_ratio,test_frames\n",
+            "scenario,label,cell,method,source,x_m,z_m,focal_length_mm,sensor,sensor_w_mm,\
+             sensor_h_mm,pixel_pitch_um,optimised,map,ap50,tp_ratio,test_frames\n",
         );
         for r in &self.rows {
             let d = &r.results.design;
@@ -223,7 +224,7 @@ impl Table {
                 csv_field(&r.group),
                 csv_field(&r.label),
                 csv_field(&r.cell),
-                csv_field(&r.results.method),
+                csv_field(r.results.method.name()),
                 csv_field(&r.results.source),
                 d.x_m,
                 d.z_m,
@@ -259,13 +260,13 @@ pub fn escape(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::{Design, Scores};
+    use joca_record::{DesignSummary, Method, Scenario, TaskScores};
 
-    fn results(map: f64, tp: f64, optimised: bool) -> Results {
-        Results {
-            method: "joca".into(),
-            scenario: "calibrated".into(),
-            design: Design {
+    fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
+        RunResults {
+            method: Method::Joca,
+            scenario: Scenario::Calibrated,
+            design: DesignSummary {
                 x_m: 1.35,
                 z_m: 1.3,
                 focal_length_mm: 5.19,
@@ -274,8 +275,19 @@ mod tests {
                 pixel_pitch_um: 2.4,
                 optimised,
             },
-            test: Scores { map, ap50: 0.5, tp_ratio: tp, frames: 10 },
+            test: TaskScores {
+                map,
+                ap50: 0.5,
+                tp_ratio: tp,
+                true_positives: 0,
+                visible_180: 0,
+                frames: 10,
+                class_map: [None; 3],
+                class_ap50: [None; 3],
+                class_objects: [0; 3],
+            },
             settings_by_illumination: Default::default(),
+            best_fitness: 0.0,
             render_scale: 0.08,
             source: "sim".into(),
         }
@@ -352,6 +364,8 @@ mod tests {
         let c = t.csv();
         assert_eq!(c.lines().count(), 7);
         assert!(c.starts_with("scenario,label,cell,method,source,"));
-        assert!(c.contains("Calibrated,\"TaCOS, AverageAE\",\"TaCOS, AverageAE-Calibrated\",joca,sim,1.35,1.3,5.19,IMX178,7.3728,4.9152,2.4,true,0.303,0.5,0.358,10"), "{c}");
+        let row = "Calibrated,\"TaCOS, AverageAE\",\"TaCOS, AverageAE-Calibrated\",joca,sim,\
+                   1.35,1.3,5.19,IMX178,7.3728,4.9152,2.4,true,0.303,0.5,0.358,10";
+        assert!(c.contains(row), "{c}");
     }
 }

@@ -24,7 +24,8 @@ const LIGHTMAP_RES_M: f32 = 1.0;
 /// Height of street-lamp heads, metres.
 const LAMP_HEIGHT_M: f32 = 7.85;
 /// Irradiance right under a lamp, relative to daylight (street lighting is ~10–30 lux against
-/// ~10⁴ lux of daylight; physically ~0.1 %, but 1 % keeps lamp pools visible with the exposure ranges of the paper).
+/// ~10⁴ lux of daylight; physically ~0.1 %, but 1 % keeps lamp pools visible with the exposure
+/// ranges of the paper).
 const LAMP_PEAK: f32 = 0.01;
 
 /// One straight road of the grid.

@@ -206,7 +206,8 @@ fn daylight_white_reads_about_215_dn_and_night_is_orders_darker() {
         let sim =
             scene(vec![plate.clone()], Pose2::default(), 0.0, 0.0, Illumination::Day, elevation);
         let frame = sim.render(&cam, &request(1.0, 5e-3, 1.0)).unwrap();
-        // The plate is seen around the image centre, 8 m ahead and 1.5 m down: row ≈ 120 + 200·1.5/8.
+        // The plate is seen around the image centre, 8 m ahead and 1.5 m down: row ≈ 120 +
+        // 200·1.5/8.
         let v = frame.hdr.pixel(160, 157);
         let expected = RADIANCE_SCALE_DN * 0.85 * (SUN * elevation.to_radians().sin() + SKY);
         assert!((v[1] - expected).abs() < 0.5, "{v:?} vs {expected}");

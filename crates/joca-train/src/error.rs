@@ -17,7 +17,8 @@ pub enum TrainError {
     },
     /// `--resume` with a configuration that differs from the checkpoint's.
     #[error(
-        "cannot resume {dir}: the configuration differs from the checkpoint's in {fields}; use the original configuration or start a new run"
+        "cannot resume {dir}: the configuration differs from the checkpoint's in {fields}; use \
+            the original configuration or start a new run"
     )]
     ResumeMismatch {
         /// The run directory.
@@ -58,7 +59,8 @@ pub enum TrainError {
     },
     /// A loss became NaN or infinite during joint training; nothing of that candidate was saved.
     #[error(
-        "training diverged in generation {generation}, candidate {candidate}: {source}. The last checkpoint ({checkpoint}) is intact; after fixing the cause, --resume continues from it"
+        "training diverged in generation {generation}, candidate {candidate}: {source}. The last \
+            checkpoint ({checkpoint}) is intact; after fixing the cause, --resume continues from it"
     )]
     Diverged {
         /// Generation (0-based).
@@ -73,7 +75,8 @@ pub enum TrainError {
     },
     /// A loss became NaN or infinite during pre-training; the checkpoint before it is intact.
     #[error(
-        "pre-training diverged in the batch after frame {frame}: {source}. The last checkpoint ({checkpoint}) is intact; after fixing the cause, --resume continues from it"
+        "pre-training diverged in the batch after frame {frame}: {source}. The last checkpoint \
+            ({checkpoint}) is intact; after fixing the cause, --resume continues from it"
     )]
     PretrainDiverged {
         /// Frames trained before the diverging batch.

@@ -2,8 +2,9 @@
 //! detector drive through test episodes; the frames are scored together (mAP, AP50, TP ratio).
 
 use crate::TrainError;
-use joca_camera::{AverageAe, Calibration, CameraDesign, DynamicSettings, ImageFormation};
-use joca_core::{FrameRequest, FrameSource, Rgb8Image, SeedStreams};
+use crate::control::{AverageControl, ExposureControl};
+use joca_camera::{Calibration, CameraDesign, Capture, ImageFormation};
+use joca_core::{FrameRequest, FrameSource, SeedStreams};
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::detector::DetectorModel;
 use joca_sim::{Illumination, SimConfig, Simulator, test_map_seed};
@@ -27,33 +28,11 @@ pub struct EvalSpec {
     pub motion_scale: f64,
 }
 
-/// A closed-loop exposure controller: settings for the next frame from the last frame.
-pub trait ExposureControl {
-    /// Settings for the first frame of an episode.
-    fn start(&mut self) -> DynamicSettings;
-    /// Settings for the next frame, given the last frame and the settings it was taken with.
-    fn next(&mut self, previous: DynamicSettings, frame: &Rgb8Image) -> DynamicSettings;
-}
-
-/// AverageAE as an [`ExposureControl`], starting at the calibration settings.
-#[derive(Debug, Clone, Copy)]
-pub struct AverageControl(pub AverageAe);
-
-impl ExposureControl for AverageControl {
-    fn start(&mut self) -> DynamicSettings {
-        DynamicSettings::new(Calibration::DEFAULT.exposure_s, Calibration::DEFAULT.gain_db)
-    }
-
-    fn next(&mut self, previous: DynamicSettings, frame: &Rgb8Image) -> DynamicSettings {
-        self.0.step(previous, frame)
-    }
-}
-
-/// Scores `model` seeing through `design` with `control` on the test town.
+/// Scores `model` seeing through `design` with AverageAE (`control`) on the test town.
 pub fn evaluate(
     model: &DetectorModel,
     design: &CameraDesign,
-    control: &mut dyn ExposureControl,
+    control: &mut AverageControl,
     spec: &EvalSpec,
     streams: &SeedStreams,
 ) -> Result<TaskScores, TrainError> {
@@ -71,20 +50,15 @@ pub fn evaluate(
     for episode in 0..spec.episodes {
         let mut settings = control.start();
         for k in 0..spec.warmup_frames + spec.frames_per_episode {
-            let t = 1.0 + k as f64 * dt;
             let request = FrameRequest {
                 episode,
-                time_s: t,
+                time_s: 1.0 + k as f64 * dt,
                 exposure_s: settings.exposure_s,
                 motion_scale: spec.motion_scale,
             };
-            let frame = sim.render(&camera, &request)?;
-            let image = formation.form(
-                &frame.hdr,
-                settings,
-                pitch,
-                &mut streams.indexed("eval-noise", episode * 10_000 + k as u64),
-            );
+            let mut noise = streams.indexed("eval-noise", episode * 10_000 + k as u64);
+            let Capture { frame, image } =
+                formation.capture(&sim, &camera, &request, settings, pitch, &mut noise)?;
             if k >= spec.warmup_frames {
                 metrics.update(
                     &frame.boxes,
@@ -93,7 +67,7 @@ pub fn evaluate(
                     frame.visible_180,
                 );
             }
-            settings = control.next(settings, &image);
+            settings = control.step(&image);
         }
     }
     Ok(metrics.compute())

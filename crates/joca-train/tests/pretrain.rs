@@ -5,7 +5,10 @@ mod common;
 
 use common::{poison_first_tensor, snapshot};
 use joca_nn::detector::{DetectorConfig, Precision, Regression};
-use joca_train::{PretrainConfig, PretrainEvent, TrainError, evaluate_weights, pretrain};
+use joca_train::{
+    DataConfig, EvalConfig, ExperimentalConfig, OptimizerConfig, PretrainConfig, PretrainEvent,
+    TrainError, evaluate_weights, pretrain,
+};
 use std::ops::ControlFlow;
 use std::sync::Mutex;
 
@@ -20,31 +23,42 @@ fn tiny() -> PretrainConfig {
         steps: 12,
         batch: 1,
         precision: Precision::Fp32,
-        frames_per_design: 4,
-        frames_per_episode: 2,
         render_scale: 0.03,
-        train_render_scale: None,
-        train_maps: 2,
-        lr: 1e-3,
-        lr_final: 1e-4,
-        warmup_steps: 2,
-        weight_decay: 1e-6,
-        ema_decay: 0.9,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
-        eval_every: 0,
-        eval_episodes: 1,
-        final_eval_episodes: Some(2),
         checkpoint_every_designs: 1,
-        max_speed_mps: 15.0,
-        walker_density: 2.0,
-        sign_density: 2.0,
-        class_weights: [1.0, 2.0, 1.0],
-        regression: Regression::Gaussian,
-        min_radius: 1,
-        min_box_px: 6.0,
-        repeats: [0, 1, 2],
-        pipeline: false,
+        optimizer: OptimizerConfig {
+            lr: 1e-3,
+            lr_final: 1e-4,
+            warmup_steps: 2,
+            weight_decay: 1e-6,
+            ema_decay: 0.9,
+        },
+        data: DataConfig {
+            frames_per_design: 4,
+            frames_per_episode: 2,
+            train_render_scale: None,
+            train_maps: 2,
+            max_speed_mps: 15.0,
+            walker_density: 2.0,
+            sign_density: 2.0,
+        },
+        eval: EvalConfig { every: 0, episodes: 1, final_episodes: Some(2) },
+        experimental: ExperimentalConfig {
+            class_weights: [1.0, 2.0, 1.0],
+            regression: Regression::Gaussian,
+            min_radius: 1,
+            min_box_px: 6.0,
+            repeats: [0, 1, 2],
+            pipeline: false,
+        },
     }
+}
+
+/// `tiny()` with `f` applied.
+fn tiny_with(f: impl FnOnce(&mut PretrainConfig)) -> PretrainConfig {
+    let mut c = tiny();
+    f(&mut c);
+    c
 }
 
 fn go(_: &PretrainEvent) -> ControlFlow<()> {
@@ -90,9 +104,9 @@ fn a_killed_run_resumes_to_the_same_weights_as_an_uninterrupted_one() {
 
     // Resuming with another configuration names the differing field.
     let mut other = cfg.clone();
-    other.lr = 5e-4;
+    other.optimizer.lr = 5e-4;
     let e = pretrain(&other, &b_dir, &b_w, true, &mut go).unwrap_err().to_string();
-    assert!(e.contains("lr (0.001 → 0.0005)"), "{e}");
+    assert!(e.contains("optimizer.lr (0.001 → 0.0005)"), "{e}");
 }
 
 #[test]
@@ -156,8 +170,9 @@ fn a_pipelined_run_learns_what_a_serial_run_on_its_trainer_threads_learns() {
     let w = |name: &str| dir.path().join(format!("{name}.safetensors"));
     let run = |name: &str| dir.path().join(format!("{name}.run"));
     // Two threads: one makes the frames of the next batch while one trains on this batch.
-    let piped = PretrainConfig { threads: 2, pipeline: true, batch: 2, ..tiny() };
-    let serial = PretrainConfig { threads: 1, pipeline: false, ..piped.clone() };
+    let piped = tiny_with(|c| (c.threads, c.experimental.pipeline, c.batch) = (2, true, 2));
+    let mut serial = piped.clone();
+    (serial.threads, serial.experimental.pipeline) = (1, false);
     assert_eq!(piped.trainer_threads(), 1);
     pretrain(&piped, &run("piped"), &w("piped"), false, &mut go).unwrap();
     pretrain(&serial, &run("serial"), &w("serial"), false, &mut go).unwrap();
@@ -185,7 +200,7 @@ fn repeated_frames_change_what_is_learned() {
     let dir = tempfile::tempdir().unwrap();
     let mut runs = 0;
     let mut weights = |repeats| {
-        let cfg = PretrainConfig { repeats, steps: 8, ..tiny() };
+        let cfg = tiny_with(|c| (c.experimental.repeats, c.steps) = (repeats, 8));
         runs += 1;
         let name = format!("run{runs}");
         let w = dir.path().join(format!("{name}.safetensors"));
@@ -223,7 +238,7 @@ fn training_frames_follow_train_render_scale_and_the_test_stays_at_render_scale(
         (frame_sizes(&dir.path().join(name)), std::fs::read(w).unwrap())
     };
     let coarse = tiny();
-    let fine = PretrainConfig { train_render_scale: Some(0.06), ..tiny() };
+    let fine = tiny_with(|c| c.data.train_render_scale = Some(0.06));
     let ((coarse_px, coarse_eval), coarse_w) = run("coarse", &coarse);
     let ((fine_px, fine_eval), fine_w) = run("fine", &fine);
     // The same designs, each sensor grid × 0.06 instead of × 0.03 (each side rounded).
@@ -260,39 +275,43 @@ fn invalid_configuration_names_the_field_and_the_range() {
         .to_string();
     assert_eq!(e, "pretrain.render_scale = 3 is invalid: above 0, at most 1");
     let mut cfg = tiny();
-    cfg.class_weights = [1.0, 0.0, 1.0];
+    cfg.experimental.class_weights = [1.0, 0.0, 1.0];
     let e = cfg.validate().unwrap_err().to_string();
-    assert_eq!(e, "pretrain.class_weights = [1.0, 0.0, 1.0] is invalid: each above 0, at most 100");
+    assert_eq!(
+        e,
+        "pretrain.experimental.class_weights = [1.0, 0.0, 1.0] is invalid: each above 0, at \
+         most 100"
+    );
     let cfg = PretrainConfig { batch: 3, ..tiny() };
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.batch = 3 is invalid: 1 to 64, dividing frames_per_design and steps"
+        "pretrain.batch = 3 is invalid: 1 to 64, dividing data.frames_per_design and steps"
     );
     let mut cfg = tiny();
-    cfg.sign_density = 9.0;
+    cfg.data.sign_density = 9.0;
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.sign_density = 9 is invalid: 0 to 8"
+        "pretrain.data.sign_density = 9 is invalid: 0 to 8"
     );
-    let cfg = PretrainConfig { pipeline: true, threads: 1, ..tiny() };
+    let cfg = tiny_with(|c| (c.experimental.pipeline, c.threads) = (true, 1));
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.threads = 1 is invalid: at least 2 with pipeline = true (one makes frames, one \
-         trains)"
+        "pretrain.threads = 1 is invalid: at least 2 with experimental.pipeline = true (one makes \
+         frames, one trains)"
     );
-    let cfg = PretrainConfig { train_render_scale: Some(0.0), ..tiny() };
+    let cfg = tiny_with(|c| c.data.train_render_scale = Some(0.0));
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.train_render_scale = 0 is invalid: above 0, at most 1"
+        "pretrain.data.train_render_scale = 0 is invalid: above 0, at most 1"
     );
-    let cfg = PretrainConfig { min_box_px: 0.5, ..tiny() };
+    let cfg = tiny_with(|c| c.experimental.min_box_px = 0.5);
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.min_box_px = 0.5 is invalid: 1 to 64 pixels"
+        "pretrain.experimental.min_box_px = 0.5 is invalid: 1 to 64 pixels"
     );
-    let cfg = PretrainConfig { repeats: [0, 9, 0], ..tiny() };
+    let cfg = tiny_with(|c| c.experimental.repeats = [0, 9, 0]);
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.repeats = [0, 9, 0] is invalid: each 0 to 8"
+        "pretrain.experimental.repeats = [0, 9, 0] is invalid: each 0 to 8"
     );
 }

@@ -5,7 +5,9 @@ mod common;
 
 use common::{poison_first_tensor, snapshot};
 use joca_nn::detector::DetectorConfig;
-use joca_train::{FixedCamera, Method, RealConfig, RunConfig, RunEvent, Scenario, TrainError, run};
+use joca_train::{
+    FixedCamera, Method, RealConfig, RunConfig, RunEvent, Scenario, Source, TrainError, run,
+};
 use std::ops::ControlFlow;
 use std::sync::Mutex;
 
@@ -33,8 +35,8 @@ fn tiny(method: Method) -> RunConfig {
         detector_weights: String::new(),
         test_episodes: 1,
         test_frames_per_episode: 3,
-        source: String::new(),
-        test_source: String::new(),
+        source: Source::Sim,
+        test_source: Source::Sim,
         real: RealConfig::default(),
     }
 }

@@ -166,7 +166,8 @@ fn bench_flow(repeats: usize) -> Result<()> {
     use joca_data::flow::{DisParams, DisPreset, dis};
     let (i0, i1, truth) = flow_pair();
     println!(
-        "DIS optical flow, 1920×1280 textured pair (zoom 1 % + shift), best of {repeats}; goal for `fast`: ≤ 300 ms on 2 threads"
+        "DIS optical flow, 1920×1280 textured pair (zoom 1 % + shift), best of {repeats}; goal \
+            for `fast`: ≤ 300 ms on 2 threads"
     );
     println!(
         "{:<10} {:>8} {:>10} {:>12} {:>10} {:>12}",
@@ -224,7 +225,8 @@ fn bench_render(repeats: usize) -> Result<()> {
     let times: Vec<f64> = (0..repeats).map(|k| 2.0 + k as f64 * 2.3).collect();
     let exposure_s = 10e-3;
     println!(
-        "simulator, day, f = 3.6 mm on IMX172 (81° HFoV), exposure {} ms, {} frames over one episode",
+        "simulator, day, f = 3.6 mm on IMX172 (81° HFoV), exposure {} ms, {} frames over one \
+            episode",
         exposure_s * 1e3,
         times.len()
     );
@@ -279,7 +281,8 @@ fn bench_render(repeats: usize) -> Result<()> {
         }
     }
     println!(
-        "(the middle sub-frame is rendered once and serves the blur, the ground truth and the sub-frame count)"
+        "(the middle sub-frame is rendered once and serves the blur, the ground truth and the \
+            sub-frame count)"
     );
     Ok(())
 }
@@ -313,7 +316,8 @@ fn bench_detector(
         .filter(|o| o.status.success())
         .and_then(|o| serde_json::from_slice(&o.stdout).ok());
     println!(
-        "detector (width {}{}{}, {} threads), best of {repeats}; training step = forward + loss + backward + AdamW",
+        "detector (width {}{}{}, {} threads), best of {repeats}; training step = forward + loss + \
+            backward + AdamW",
         config.width,
         if config.deep { ", deep" } else { "" },
         if config.shared_head { ", shared head" } else { "" },
@@ -378,7 +382,8 @@ fn bench_detector(
     }
     if reference.is_none() {
         println!(
-            "(PyTorch reference not run: `{python} -c \"import torch\"` failed; install torch==2.13.0 or pass --python)"
+            "(PyTorch reference not run: `{python} -c \"import torch\"` failed; install \
+                torch==2.13.0 or pass --python)"
         );
     }
     println!("(training GFLOP counted as 3x forward: backward costs about twice the forward pass)");
@@ -395,15 +400,16 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     let b = joca_train::bench_step(&cfg, &design, steps)?;
     let total = b.total_ms();
     println!(
-        "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (render scale {}), {} threads, mean of {} steps",
+        "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (render scale {}), {} threads, mean \
+            of {} steps",
         cfg.render_scale, cfg.threads, b.steps
     );
     println!("{:<46} {:>9} {:>7}", "part", "ms", "share");
     for (name, ms) in [
         ("NeuralAE prediction", b.acc_predict_ms),
         ("render forward frame (all sub-frames)", b.render_ms),
-        ("render 4 perturbed frames", b.perturbation_render_ms),
-        ("form + detect + AP50 of perturbed frames", b.perturbation_detect_ms),
+        ("render + form the perturbed frames", b.perturbation_render_ms),
+        ("detect + AP50 of the perturbed frames", b.perturbation_detect_ms),
         ("perturbation GA", b.perturbation_ga_ms),
         ("noise sample", b.noise_ms),
         ("differentiable formation", b.formation_ms),

@@ -25,7 +25,8 @@ pub fn run(args: &Args) -> Result<()> {
     let files = io::png_files(&args.frames)?;
     if files.len() < 2 {
         bail!(
-            "{} holds {} PNG frame(s); photon transfer needs at least 2 frames of the same static scene",
+            "{} holds {} PNG frame(s); photon transfer needs at least 2 frames of the same static \
+                scene",
             args.frames.display(),
             files.len()
         );

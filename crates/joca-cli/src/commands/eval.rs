@@ -24,7 +24,8 @@ pub fn run(args: &Args) -> Result<()> {
     let r = evaluate_run(&args.run_dir, scenario, args.frames)
         .with_context(|| format!("cannot evaluate {}", args.run_dir.display()))?;
     println!(
-        "{} / {}: {} behind {:.2} mm at x {:.2} m, z {:.2} m -> mAP {:.3}, AP50 {:.3}, TP ratio {:.3} over {} frames",
+        "{} / {}: {} behind {:.2} mm at x {:.2} m, z {:.2} m -> mAP {:.3}, AP50 {:.3}, TP ratio \
+            {:.3} over {} frames",
         r.method.name(),
         r.scenario.name(),
         r.design.sensor,

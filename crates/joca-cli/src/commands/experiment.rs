@@ -2,33 +2,17 @@
 //! each cell a normal run directory, run locally in parallel processes or as a Slurm array; and
 //! the hidden `joca cell DIR` that runs or resumes one cell.
 //!
-//! An experiment file has a `title`, a `label_header`, a list of `scenarios`, an optional `[run]`
-//! table shared by all cells, and `[[variant]]`s (`id`, `label`, `run = { … }`). Cell
-//! `<variant>-<scenario>`'s configuration is the preset's `[run]`, then the user's `--config`,
-//! then the file's `[run]`, then the variant's `run`, then the scenario. It is written to
-//! `cells/<id>/cell.toml` once; re-invoking skips finished cells (`results.json` present) and
-//! resumes half-written ones from their checkpoint.
+//! The grid and its cells are resolved by `crate::grid`. Re-invoking skips finished cells
+//! (`results.json` present) and resumes half-written ones from their checkpoint.
 
 use crate::commands::run::execute;
 use crate::commands::slurm;
-use crate::config;
-use anyhow::{Context, Result, anyhow, bail};
-use joca_report::{CellSpec, Manifest};
-use joca_train::{Method, RunConfig, Scenario, differing_fields};
-use serde::{Deserialize, Serialize};
+use crate::grid::{Cell, CellFile, Experiment, prepare, resolve};
+use anyhow::{Context, Result, bail};
+use joca_report::Manifest;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Instant;
-
-/// The experiments shipped with joca, by name.
-pub const EXPERIMENTS: [(&str, &str); 6] = [
-    ("table1", include_str!("../../../../experiments/table1.toml")),
-    ("ablation", include_str!("../../../../experiments/ablation.toml")),
-    ("sweep-weight", include_str!("../../../../experiments/sweep-weight.toml")),
-    ("sweep-population", include_str!("../../../../experiments/sweep-population.toml")),
-    ("sweep-frequency", include_str!("../../../../experiments/sweep-frequency.toml")),
-    ("real", include_str!("../../../../experiments/real.toml")),
-];
 
 /// Arguments of `joca experiment`.
 #[derive(Debug, clap::Args)]
@@ -75,195 +59,6 @@ pub struct CellArgs {
     dir: PathBuf,
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ExperimentFile {
-    title: String,
-    label_header: String,
-    scenarios: Vec<String>,
-    #[serde(default)]
-    run: toml::Table,
-    /// The grid only makes sense on recorded frames (the real-image mode).
-    #[serde(default)]
-    needs_recording: bool,
-    variant: Vec<Variant>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Variant {
-    id: String,
-    label: String,
-    #[serde(default)]
-    run: toml::Table,
-}
-
-/// The `[run]` table a cell runs with (`cells/<id>/cell.toml`).
-#[derive(Debug, Serialize, Deserialize)]
-struct CellFile {
-    run: RunConfig,
-}
-
-/// A resolved cell.
-#[derive(Debug)]
-pub struct Cell {
-    /// How reports show it.
-    pub spec: CellSpec,
-    /// Its full configuration.
-    pub config: RunConfig,
-}
-
-/// A resolved experiment: its name, title and cells.
-#[derive(Debug)]
-pub struct Experiment {
-    /// The manifest reports read.
-    pub manifest: Manifest,
-    /// Cells in order.
-    pub cells: Vec<Cell>,
-}
-
-fn name_list(items: &[(&str, &str)]) -> String {
-    items.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
-}
-
-/// Reads a built-in experiment or a file, and resolves every cell's configuration.
-pub fn resolve(name: &str, preset: &str, user_config: Option<&Path>) -> Result<Experiment> {
-    let (text, source, short) = match EXPERIMENTS.iter().find(|(n, _)| *n == name) {
-        Some((n, t)) => ((*t).to_owned(), format!("experiments/{n}.toml"), (*n).to_owned()),
-        None => {
-            let path = Path::new(name);
-            if !path.is_file() {
-                bail!(
-                    "unknown experiment {name:?}: not a built-in one ({}) and no such file",
-                    name_list(&EXPERIMENTS)
-                );
-            }
-            let t = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read experiment file {name}"))?;
-            let stem =
-                path.file_stem().map_or("experiment".into(), |s| s.to_string_lossy().into_owned());
-            (t, name.to_owned(), stem)
-        }
-    };
-    let file: ExperimentFile =
-        toml::from_str(&text).with_context(|| format!("invalid experiment file {source}"))?;
-    if file.variant.is_empty() || file.scenarios.is_empty() {
-        bail!("{source}: an experiment needs at least one [[variant]] and one scenario");
-    }
-    let (base, base_source) = config::load_table(preset, user_config)?;
-    let base_run = match base.get("run") {
-        Some(toml::Value::Table(t)) => t.clone(),
-        _ => bail!("{base_source} has no [run] table"),
-    };
-    check_method(&file.run, &source, "[run]")?;
-    let mut cells = Vec::new();
-    for scenario in &file.scenarios {
-        Scenario::from_name(scenario).map_err(|e| anyhow!("{source}: scenarios: {e}"))?;
-    }
-    let mut seen = std::collections::HashSet::new();
-    for scenario in &file.scenarios {
-        for v in &file.variant {
-            if !seen.insert((v.id.clone(), scenario.clone())) {
-                bail!("{source}: variant id {:?} appears twice; ids must be unique", v.id);
-            }
-            if v.id.is_empty()
-                || !v.id.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
-            {
-                bail!("{source}: variant id {:?} must be letters, digits, '-' or '_'", v.id);
-            }
-            check_method(&v.run, &source, &format!("variant {:?}", v.id))?;
-            let mut run = base_run.clone();
-            config::merge_tables(&mut run, file.run.clone());
-            config::merge_tables(&mut run, v.run.clone());
-            run.insert("scenario".into(), toml::Value::String(scenario.clone()));
-            let config: RunConfig = toml::Value::Table(run).try_into().with_context(|| {
-                format!("{source}: variant {:?}, scenario {scenario}: invalid [run] (over {base_source})", v.id)
-            })?;
-            config
-                .validate()
-                .with_context(|| format!("{source}: variant {:?}, scenario {scenario}", v.id))?;
-            if file.needs_recording && (config.source.is_empty() || config.source == "sim") {
-                bail!(
-                    "{source} runs on recorded frames: pass --config FILE whose [run] sets source = \"waymo:DIR\" or \"folder:DIR\" (and test_source for held-out frames)"
-                );
-            }
-            let id = format!("{}-{scenario}", v.id);
-            cells.push(Cell {
-                spec: CellSpec {
-                    dir: format!("cells/{id}"),
-                    id,
-                    label: v.label.clone(),
-                    group: scenario_title(scenario),
-                },
-                config,
-            });
-        }
-    }
-    // Rows of a group together: order by scenario as listed, then variant (already so).
-    Ok(Experiment {
-        manifest: Manifest {
-            name: short,
-            title: file.title,
-            preset: preset.to_owned(),
-            label_header: file.label_header,
-            cells: cells.iter().map(|c| c.spec.clone()).collect(),
-        },
-        cells,
-    })
-}
-
-/// A `method` value in `table` must name a method; the error lists the valid ones.
-fn check_method(table: &toml::Table, source: &str, what: &str) -> Result<()> {
-    if let Some(m) = table.get("method") {
-        let name =
-            m.as_str().ok_or_else(|| anyhow!("{source}: {what}: method must be a string"))?;
-        Method::from_name(name).map_err(|e| anyhow!("{source}: {what}: {e}"))?;
-    }
-    Ok(())
-}
-
-/// How tables title a scenario (the paper's names).
-fn scenario_title(s: &str) -> String {
-    match s {
-        "calibrated" => "Calibrated".into(),
-        "noise10" => "Noise×10".into(),
-        "noise20" => "Noise×20".into(),
-        "blur2" => "Motion blur×2".into(),
-        "blur4" => "Motion blur×4".into(),
-        other => other.into(),
-    }
-}
-
-/// Creates the experiment directory: `experiment.json` and each cell's
-/// `cell.toml`. A cell directory that already holds a different configuration is refused.
-pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    for cell in &exp.cells {
-        let cell_dir = Manifest::cell_dir(dir, &cell.spec);
-        let path = cell_dir.join("cell.toml");
-        if path.is_file() {
-            let old: CellFile = toml::from_str(&std::fs::read_to_string(&path)?)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            if old.run != cell.config {
-                bail!(
-                    "{} was made with another configuration (fields differ: {}); use another --out, or delete the cell to run it again",
-                    path.display(),
-                    differing_fields(&old.run, &cell.config).join(", ")
-                );
-            }
-            continue;
-        }
-        std::fs::create_dir_all(&cell_dir)?;
-        let text = toml::to_string(&CellFile { run: cell.config.clone() })?;
-        joca_train::write_atomic(&path, &text)?;
-    }
-    joca_train::write_atomic(
-        &dir.join(Manifest::FILE),
-        &serde_json::to_string_pretty(&exp.manifest)?,
-    )?;
-    Ok(())
-}
-
 /// Runs `joca experiment`.
 pub fn run(args: &Args) -> Result<()> {
     let exp = resolve(&args.name, &args.preset, args.config.as_deref())?;
@@ -304,7 +99,8 @@ pub fn run(args: &Args) -> Result<()> {
                 println!("submitted Slurm job {id} ({} array tasks)", todo.len());
                 if !args.wait {
                     println!(
-                        "follow it with `joca experiment {} --preset {} --out {} --status`; `joca report {}` works at any time",
+                        "follow it with `joca experiment {} --preset {} --out {} --status`; `joca \
+                            report {}` works at any time",
                         args.name,
                         args.preset,
                         dir.display(),
@@ -340,7 +136,8 @@ pub fn run(args: &Args) -> Result<()> {
     );
     if !failed.is_empty() {
         bail!(
-            "{} cell(s) did not finish: {} (their logs: <cell>/cell.log; run the same command again to resume them)",
+            "{} cell(s) did not finish: {} (their logs: <cell>/cell.log; run the same command \
+                again to resume them)",
             failed.len(),
             failed.join(", ")
         );
@@ -418,7 +215,7 @@ fn print_status(exp: &Experiment, dir: &Path) -> Result<()> {
                 counts[0] += 1;
                 let extra = std::fs::read_to_string(cell_dir.join("results.json"))
                     .ok()
-                    .and_then(|t| serde_json::from_str::<joca_report::Results>(&t).ok())
+                    .and_then(|t| serde_json::from_str::<joca_train::RunResults>(&t).ok())
                     .map(|r| {
                         format!(
                             "mAP {:.3}  TP ratio {:.3}  {}",
@@ -467,32 +264,4 @@ pub fn run_cell(args: &CellArgs) -> Result<()> {
         return Ok(());
     }
     execute(cell.run, dir, true)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_built_in_experiment_resolves_with_every_preset() {
-        for (name, _) in EXPERIMENTS {
-            for (preset, _) in config::PRESETS {
-                let result = resolve(name, preset, None);
-                if name == "real" {
-                    // Needs a recording; without one it is refused.
-                    assert!(result.unwrap_err().to_string().contains("runs on recorded frames"));
-                    continue;
-                }
-                let exp = result.unwrap_or_else(|e| panic!("{name} / {preset}: {e:#}"));
-                assert!(!exp.cells.is_empty());
-                let ids: std::collections::HashSet<_> =
-                    exp.cells.iter().map(|c| &c.spec.id).collect();
-                assert_eq!(ids.len(), exp.cells.len(), "{name}: duplicate cell ids");
-            }
-        }
-        let table1 = resolve("table1", "quick", None).unwrap();
-        assert_eq!(table1.cells.len(), 20);
-        assert_eq!(table1.cells[0].spec.id, "flir-calibrated");
-        assert_eq!(table1.cells[0].config.method, Method::FixedNeural);
-    }
 }

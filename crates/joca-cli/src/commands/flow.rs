@@ -112,7 +112,8 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
         ms
     );
     println!(
-        "mean |I0 − I1| = {:.2} DN without motion compensation, {:.2} DN with I1 warped by the flow",
+        "mean |I0 − I1| = {:.2} DN without motion compensation, {:.2} DN with I1 warped by the \
+         flow",
         mean_abs_diff(&a, &b),
         mean_abs_diff(&a, &warped)
     );
@@ -177,7 +178,8 @@ pub fn run_blur(args: &BlurArgs) -> Result<()> {
         write_png(&out, &Rgb8Image::from_vec(frame.width(), frame.height(), stored)?)?;
         let longest = flow.data().iter().map(|v| v[0].hypot(v[1])).fold(0.0f32, f32::max) * travel;
         println!(
-            "{}: mean flow {:.2} px/frame → mean smear {:.2} px (longest {:.1} px, {} sub-samples there)",
+            "{}: mean flow {:.2} px/frame → mean smear {:.2} px (longest {:.1} px, {} sub-samples \
+                there)",
             pair[0].display(),
             flow.mean_magnitude(),
             flow.mean_magnitude() * f64::from(travel),

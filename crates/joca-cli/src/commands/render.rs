@@ -209,8 +209,10 @@ pub fn run(args: &Args) -> Result<()> {
             sub
         );
         images.push(json!({
-            "id": k + 1, "file_name": format!("frames/{name}"), "width": image.width(), "height": image.height(),
-            "episode": args.episode, "time_s": t, "timestamp_s": t, "exposure_s": settings.exposure_s, "gain_db": settings.gain_db,
+            "id": k + 1, "file_name": format!("frames/{name}"),
+            "width": image.width(), "height": image.height(),
+            "episode": args.episode, "time_s": t, "timestamp_s": t,
+            "exposure_s": settings.exposure_s, "gain_db": settings.gain_db,
             "visible_180": frame.visible_180,
         }));
         // Ignore regions go out as COCO crowd regions, so that pycocotools, `joca metrics` and a

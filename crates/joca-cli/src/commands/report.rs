@@ -21,8 +21,9 @@ pub fn run(args: &Args) -> Result<()> {
             .with_context(|| format!("cannot write the report of {}", dir.display()))?;
     } else {
         bail!(
-            "{} is neither a finished run directory (no results.json) nor an experiment directory (no {}); \
-             a run that has not finished its test has nothing to report yet (`joca run --resume` continues it)",
+            "{} is neither a finished run directory (no results.json) nor an experiment \
+             directory (no {}); a run that has not finished its test has nothing to report yet \
+             (`joca run --resume` continues it)",
             dir.display(),
             joca_report::Manifest::FILE
         );

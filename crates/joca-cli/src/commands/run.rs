@@ -2,7 +2,7 @@
 
 use crate::config;
 use anyhow::{Context, Result, anyhow};
-use joca_train::{Method, RunConfig, RunEvent, RunResults, Scenario, run as run_loop};
+use joca_train::{Method, RunConfig, RunEvent, RunResults, Scenario, Source, run as run_loop};
 use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -31,11 +31,11 @@ pub struct Args {
     resume: bool,
     /// Frames to train on: `sim` (the built-in simulator), or for the real-image mode
     /// `folder:DIR` (the folder format) or `waymo:DIR` (Waymo Open Dataset v2 parquet).
-    #[arg(long)]
-    source: Option<String>,
+    #[arg(long, value_parser = Source::parse)]
+    source: Option<Source>,
     /// Frames to test on in real-image mode [default: the training folder].
-    #[arg(long)]
-    test_source: Option<String>,
+    #[arg(long, value_parser = Source::parse)]
+    test_source: Option<Source>,
 }
 
 /// Runs `joca run`.
@@ -53,7 +53,7 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(s) = &args.test_source {
         cfg.test_source.clone_from(s);
     }
-    let real = !(cfg.source.is_empty() || cfg.source == "sim");
+    let real = cfg.source.is_recording();
     let out = args.out.clone().unwrap_or_else(|| {
         let mode = if real { "-real" } else { "" };
         PathBuf::from(format!(
@@ -71,7 +71,8 @@ pub fn run(args: &Args) -> Result<()> {
 pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
     resolve_weights(&mut cfg);
     println!(
-        "joca run: method {}, scenario {}, {} generations x {} candidates x {} steps, render scale {}, run directory {}",
+        "joca run: method {}, scenario {}, {} generations x {} candidates x {} steps, render \
+            scale {}, run directory {}",
         cfg.method.name(),
         cfg.scenario.name(),
         cfg.generations,
@@ -96,7 +97,8 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
                 let best = best.map_or("   -  ".to_owned(), |b| format!("{b:.3}"));
                 let filled = (24 * done / total.max(1)).min(24);
                 eprint!(
-                    "\r  [{}{}] generation {:>2}/{generations}  candidate {:>2}/{candidates}  step {step:>3}/{of}  best fitness {best}  ETA {}   ",
+                    "\r  [{}{}] generation {:>2}/{generations}  candidate {:>2}/{candidates}  \
+                        step {step:>3}/{of}  best fitness {best}  ETA {}   ",
                     "#".repeat(filled),
                     ".".repeat(24 - filled),
                     generation + 1,
@@ -108,7 +110,8 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
             RunEvent::Candidate { fitness, best, done, of, .. } => {
                 // One line per finished candidate stays on screen above the bar.
                 eprintln!(
-                    "\r  candidate {done:>4}/{of} done: fitness {fitness:.3}, best so far {best:.3}{:60}",
+                    "\r  candidate {done:>4}/{of} done: fitness {fitness:.3}, best so far \
+                        {best:.3}{:60}",
                     ""
                 );
             }

@@ -8,7 +8,7 @@
 //! executable by its absolute path: on a cluster it must live on a file system the nodes share,
 //! like the experiment directory.
 
-use crate::commands::experiment::{Cell, Experiment};
+use crate::grid::{Cell, Experiment};
 use anyhow::{Context, Result, bail};
 use std::path::Path;
 use std::process::Command;
@@ -89,14 +89,16 @@ pub fn submit(
     let output = match output {
         Ok(o) => o,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(
-            "Slurm is not reachable: `sbatch` is not on PATH. Install Slurm's client (Debian: slurm-client) \
-             and set SLURM_CONF to your cluster's slurm.conf, or run without --slurm to run the cells here"
+            "Slurm is not reachable: `sbatch` is not on PATH. Install Slurm's client (Debian: \
+             slurm-client) and set SLURM_CONF to your cluster's slurm.conf, or run without \
+             --slurm to run the cells here"
         ),
         Err(e) => return Err(e).context("cannot run sbatch"),
     };
     if !output.status.success() {
         bail!(
-            "Slurm refused the job: sbatch exited with {} and said: {}(is slurmctld running and SLURM_CONF pointing at it?)",
+            "Slurm refused the job: sbatch exited with {} and said: {}(is slurmctld running and \
+                SLURM_CONF pointing at it?)",
             output.status,
             String::from_utf8_lossy(&output.stderr)
         );

@@ -43,11 +43,12 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let run_dir = args.out.with_extension("run");
     println!(
-        "pre-training the detector: {} frames ({} per step, {}), {} frames per random camera, render scale {} (test {}), {} threads; run directory {}",
+        "pre-training the detector: {} frames ({} per step, {}), {} frames per random camera, \
+            render scale {} (test {}), {} threads; run directory {}",
         cfg.steps,
         cfg.batch,
         format!("{:?}", cfg.precision).to_lowercase(),
-        cfg.frames_per_design,
+        cfg.data.frames_per_design,
         cfg.train_scale(),
         cfg.render_scale,
         cfg.threads,
@@ -95,13 +96,14 @@ pub struct EvalArgs {
 pub fn run_eval(args: &EvalArgs) -> Result<()> {
     let mut cfg: PretrainConfig = config::load(&args.preset, args.config.as_deref(), "pretrain")?;
     if let Some(e) = args.episodes {
-        cfg.final_eval_episodes = Some(e);
+        cfg.eval.final_episodes = Some(e);
     }
     if let Some(t) = args.threads {
         cfg.threads = t;
     }
     println!(
-        "scoring {} on the test town: reference camera, AverageAE, {} episodes × 10 frames per light",
+        "scoring {} on the test town: reference camera, AverageAE, {} episodes × 10 frames per \
+            light",
         args.weights.display(),
         cfg.final_episodes()
     );
@@ -115,7 +117,8 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
 /// they rest on.
 fn print_table(report: &EvalReport) {
     println!(
-        "| light | mAP@[.5:.95] | AP50 | TP ratio | vehicles: AP / AP50 (boxes) | walkers: AP / AP50 (boxes) | signs: AP / AP50 (boxes) | frames |"
+        "| light | mAP@[.5:.95] | AP50 | TP ratio | vehicles: AP / AP50 (boxes) | walkers: AP / \
+            AP50 (boxes) | signs: AP / AP50 (boxes) | frames |"
     );
     println!("|---|---|---|---|---|---|---|---|");
     for (name, s) in [("day", report.day), ("night", report.night)] {
@@ -154,7 +157,8 @@ fn report_progress(event: &PretrainEvent, started: &Instant, smoothed: &mut Opti
                 s.class_ap(joca_core::Class::Walker).unwrap_or(f64::NAN)
             };
             println!(
-                "  test town at step {}: day mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3}) | night mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3})",
+                "  test town at step {}: day mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3}) \
+                    | night mAP {:.3} AP50 {:.3} TP ratio {:.3} (walkers {:.3})",
                 r.step,
                 r.day.map,
                 r.day.ap50,

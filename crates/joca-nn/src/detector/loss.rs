@@ -107,7 +107,8 @@ impl Targets {
     }
 
     /// Targets as [`Targets::new`], with the size and offset samples chosen by `regression`
-    /// and every heatmap Gaussian at least `min_radius` cells in radius. CenterNet's radius (the corner shift that keeps IoU ≥ 0.7)
+    /// and every heatmap Gaussian at least `min_radius` cells in radius. CenterNet's radius (the
+    /// corner shift that keeps IoU ≥ 0.7)
     /// is 0 for objects under about 3 cells (12 px at stride 4): the target is then a single
     /// positive cell between full-weight negatives, although the centre of a 10-px sign can fall
     /// on either side of a cell border. With radius 1 the 4 neighbours are penalty-reduced

@@ -357,7 +357,8 @@ impl Detector {
             None => self.lateral3.forward(&c4),
         };
         let p3 = self.smooth2.forward(&(up(&p4, &c3) + self.lateral2.forward(&c3))).relu();
-        let p2 = self.smooth1.forward(&(up(&p3, &c2) + self.lateral1.forward(&c2))).relu(); // [4c, H/4, W/4]
+        // [4c, H/4, W/4]
+        let p2 = self.smooth1.forward(&(up(&p3, &c2) + self.lateral1.forward(&c2))).relu();
         let (heatmap, size, offset) = self.heads.forward(&p2);
         DetectorOutput { heatmap, size, offset, features: c2.to_kind(Kind::Float) }
     }

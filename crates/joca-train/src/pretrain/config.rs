@@ -6,7 +6,9 @@ use joca_nn::detector::{DetectorConfig, Precision, Regression};
 use joca_sim::VisibilityRules;
 use serde::{Deserialize, Serialize};
 
-/// Settings of a pre-training run (the `[pretrain]` presets in `presets/`).
+/// Settings of a pre-training run (the `[pretrain]` presets in `presets/`): the run itself at
+/// the top, then one table each for the optimiser, the training data, the evaluations, and the
+/// options that were measured and are not used by any preset.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PretrainConfig {
@@ -14,64 +16,76 @@ pub struct PretrainConfig {
     pub seed: u64,
     /// libtorch and rayon threads.
     pub threads: usize,
-    /// Training frames (`steps / batch` gradient steps). `warmup_steps` and `eval_every`
-    /// count frames too.
+    /// Training frames (`steps / batch` gradient steps). `optimizer.warmup_steps` and
+    /// `eval.every` count frames too.
     pub steps: usize,
     /// Frames per gradient step (default 1, as the paper): frames of one design, each from
     /// its own episode (a "lane" of the design's frames), so that they have one size and
-    /// are not near-copies of one scene. Must divide `frames_per_design` and `steps`.
+    /// are not near-copies of one scene. Must divide `data.frames_per_design` and `steps`.
     #[serde(default = "one_frame")]
     pub batch: usize,
     /// Floating-point type of the training steps: `"fp32"` (default) or `"bf16"` (bfloat16
     /// convolutions with float32 weights, optimiser and loss; evaluation stays float32).
     #[serde(default)]
     pub precision: Precision,
-    /// Frames per random camera design (45 in the paper).
-    pub frames_per_design: usize,
-    /// Consecutive frames per episode: a design's frames come from several episodes (each in a
-    /// random training town, with its own drive, time and light), because 45 consecutive frames
-    /// at 10 frames/s are nearly the same scene.
-    pub frames_per_episode: usize,
     /// Output resolution = sensor grid × this: the scale of every evaluation (the test
-    /// camera's 320×240 at 0.08), and of the training frames unless `train_render_scale`
+    /// camera's 320×240 at 0.08), and of the training frames unless `data.train_render_scale`
     /// says otherwise.
     pub render_scale: f64,
-    /// Render scale of the training frames (default: `render_scale`). The random designs'
-    /// frames at 0.08 are 100–330 px wide (median 164) where the test camera's are 320, so
-    /// that most walkers and nearly all traffic signs in view are under the 8-px annotation
-    /// rule; a finer scale shows the detector more annotated objects per frame, at a higher
-    /// cost per frame. The joint runs and every evaluation stay at `render_scale`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub train_render_scale: Option<f64>,
-    /// Number of training towns to draw episodes from.
-    pub train_maps: u64,
+    /// Detector size.
+    pub detector: DetectorConfig,
+    /// Write a checkpoint every this many designs; the designs between two checkpoints have
+    /// their frames interleaved.
+    pub checkpoint_every_designs: usize,
+    /// Learning rate, its schedule, weight decay, weight average.
+    pub optimizer: OptimizerConfig,
+    /// Which frames the detector trains on.
+    pub data: DataConfig,
+    /// The evaluations on the test town.
+    pub eval: EvalConfig,
+    /// Options measured and not used by any preset (docs/results, the pre-training log).
+    #[serde(default)]
+    pub experimental: ExperimentalConfig,
+}
+
+/// `[pretrain.optimizer]`: AdamW with linear warm-up and cosine decay, and the running weight
+/// average that is evaluated and written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OptimizerConfig {
     /// Peak learning rate (AdamW).
     pub lr: f64,
     /// Learning rate at the end of the cosine decay.
     pub lr_final: f64,
-    /// Linear warm-up steps.
+    /// Linear warm-up, frames.
     pub warmup_steps: usize,
     /// AdamW weight decay.
     pub weight_decay: f64,
     /// Decay of the running weight average that is evaluated and written as the result
     /// (0: none, the last weights are the result). 0.999 averages over about the last 1000
     /// steps.
-    #[serde(default)]
     pub ema_decay: f64,
-    /// Detector size.
-    pub detector: DetectorConfig,
-    /// Evaluate on the test town every this many steps (0: only at the end).
-    pub eval_every: usize,
-    /// Test episodes per illumination in each evaluation (10 scored frames each).
-    pub eval_episodes: u64,
-    /// Test episodes per illumination of the final evaluation, the one in `results.json`
-    /// (default: `eval_episodes`). The test town's rarer classes need many: in 100 day frames
-    /// there may be no traffic sign at all and a dozen walkers.
+}
+
+/// `[pretrain.data]`: the random designs' drives through the training towns.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataConfig {
+    /// Frames per random camera design (45 in the paper).
+    pub frames_per_design: usize,
+    /// Consecutive frames per episode: a design's frames come from several episodes (each in a
+    /// random training town, with its own drive, time and light), because 45 consecutive frames
+    /// at 10 frames/s are nearly the same scene.
+    pub frames_per_episode: usize,
+    /// Render scale of the training frames (default: `render_scale`). The random designs'
+    /// frames at 0.08 are 100–330 px wide (median 164) where the test camera's are 320, so
+    /// that most walkers and nearly all traffic signs in view are under the 8-px annotation
+    /// rule; a finer scale shows the detector more annotated objects per frame, at a higher
+    /// cost per frame. The joint runs and every evaluation stay at `render_scale`.
     #[serde(default)]
-    pub final_eval_episodes: Option<u64>,
-    /// Write a checkpoint every this many designs; the designs between two checkpoints have
-    /// their frames interleaved.
-    pub checkpoint_every_designs: usize,
+    pub train_render_scale: Option<f64>,
+    /// Number of training towns to draw episodes from.
+    pub train_maps: u64,
     /// Ego top speed, m/s.
     pub max_speed_mps: f64,
     /// Walkers in the training towns, as a multiple of the simulator's density (the test town
@@ -83,70 +97,91 @@ pub struct PretrainConfig {
     /// town keeps 1): up to ≈ 2.2 at more intersection approaches, beyond that along the blocks.
     #[serde(default = "one")]
     pub sign_density: f64,
+}
+
+/// `[pretrain.eval]`: evaluations on the test town (reference camera, AverageAE, by day and by
+/// night, 10 scored frames per episode).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvalConfig {
+    /// Evaluate every this many frames (0: only at the end).
+    pub every: usize,
+    /// Test episodes per illumination in each periodic evaluation.
+    pub episodes: u64,
+    /// Test episodes per illumination of the final evaluation, the one in `results.json`
+    /// (default: `episodes`). The test town's rarer classes need many: in 100 day frames
+    /// there may be no traffic sign at all and a dozen walkers.
+    #[serde(default)]
+    pub final_episodes: Option<u64>,
+}
+
+/// `[pretrain.experimental]`: options that were measured and are not used by any preset; each
+/// default leaves pre-training as the paper's (docs/results, the pre-training log).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExperimentalConfig {
     /// Loss weight of each class's objects (vehicle, walker, traffic sign): a class-balanced
     /// loss for the rarer classes. The background term is not weighted.
-    #[serde(default = "ones")]
     pub class_weights: [f64; 3],
     /// Where the size and offset heads learn: `"centre"` (CenterNet: each object's centre cell)
     /// or `"gaussian"` (every cell of its heatmap Gaussian, weighted by it).
-    #[serde(default)]
     pub regression: Regression,
     /// Smallest radius of an object's heatmap Gaussian, cells (0: CenterNet's radius, which is
     /// 0 for objects under ~12 px such as most traffic signs).
-    #[serde(default)]
     pub min_radius: u32,
     /// Smallest box width and height, pixels, that is a training object in the training towns
     /// (the simulator's rule, and the test's, is 8); smaller objects in view stay ignore
-    /// regions. With the small images of random designs at `render_scale` 0.08 (100–330 px
-    /// wide) nearly every traffic sign and most walkers in view are under 8 px.
-    #[serde(default = "eight")]
+    /// regions.
     pub min_box_px: f64,
     /// Extra times a training frame is trained on when it holds an object of each class
     /// (vehicle, walker, traffic sign; the largest applies), in its design's next batches:
     /// repeat-factor sampling (Gupta et al., LVIS 2019) for the rare classes, within a block so
     /// that a resumed run repeats the same frames. The repeats are extra gradient samples, not
     /// frames of `steps`.
-    #[serde(default)]
     pub repeats: [u32; 3],
     /// Make each batch's frames in a thread of their own while the detector trains on the
     /// previous batch: `threads / 2` threads make frames, the rest train (libtorch); every
     /// evaluation uses all `threads`. The frames are the same as without it; the weights are
     /// those of a run without it on `threads − threads / 2` threads. Needs `threads` ≥ 2.
-    #[serde(default)]
     pub pipeline: bool,
+}
+
+impl Default for ExperimentalConfig {
+    fn default() -> Self {
+        Self {
+            class_weights: [1.0; 3],
+            regression: Regression::default(),
+            min_radius: 0,
+            min_box_px: f64::from(VisibilityRules::default().min_box_px),
+            repeats: [0; 3],
+            pipeline: false,
+        }
+    }
 }
 
 fn one() -> f64 {
     1.0
 }
 
-fn eight() -> f64 {
-    f64::from(VisibilityRules::default().min_box_px)
-}
-
 fn one_frame() -> usize {
     1
-}
-
-fn ones() -> [f64; 3] {
-    [1.0; 3]
 }
 
 impl PretrainConfig {
     /// Test episodes per illumination of the final evaluation.
     pub fn final_episodes(&self) -> u64 {
-        self.final_eval_episodes.unwrap_or(self.eval_episodes)
+        self.eval.final_episodes.unwrap_or(self.eval.episodes)
     }
 
     /// Render scale of the training frames.
     pub fn train_scale(&self) -> f64 {
-        self.train_render_scale.unwrap_or(self.render_scale)
+        self.data.train_render_scale.unwrap_or(self.render_scale)
     }
 
-    /// libtorch threads of the gradient steps (with [`PretrainConfig::pipeline`], the threads
-    /// that do not make frames).
+    /// libtorch threads of the gradient steps (with [`ExperimentalConfig::pipeline`], the
+    /// threads that do not make frames).
     pub fn trainer_threads(&self) -> usize {
-        if self.pipeline { self.threads - self.threads / 2 } else { self.threads }
+        if self.experimental.pipeline { self.threads - self.threads / 2 } else { self.threads }
     }
 
     /// Checks every field; the error names the field and what is allowed.
@@ -164,49 +199,61 @@ impl PretrainConfig {
         if self.steps == 0 {
             return bad("steps", "0".into(), "at least 1");
         }
-        if self.frames_per_design == 0 || self.frames_per_design > 400 {
+        if self.data.frames_per_design == 0 || self.data.frames_per_design > 400 {
             return bad(
-                "frames_per_design",
-                self.frames_per_design.to_string(),
+                "data.frames_per_design",
+                self.data.frames_per_design.to_string(),
                 "1 to 400 (episodes last 60 s at 10 frames/s)",
             );
         }
         if !(1..=64).contains(&self.batch)
-            || self.frames_per_design % self.batch != 0
+            || self.data.frames_per_design % self.batch != 0
             || self.steps % self.batch != 0
         {
             return bad(
                 "batch",
                 self.batch.to_string(),
-                "1 to 64, dividing frames_per_design and steps",
+                "1 to 64, dividing data.frames_per_design and steps",
             );
         }
-        if self.frames_per_episode == 0 || self.frames_per_episode > self.frames_per_design {
+        if self.data.frames_per_episode == 0
+            || self.data.frames_per_episode > self.data.frames_per_design
+        {
             return bad(
-                "frames_per_episode",
-                self.frames_per_episode.to_string(),
-                "1 to frames_per_design",
+                "data.frames_per_episode",
+                self.data.frames_per_episode.to_string(),
+                "1 to data.frames_per_design",
             );
         }
         if !(self.render_scale > 0.0 && self.render_scale <= 1.0) {
             return bad("render_scale", self.render_scale.to_string(), "above 0, at most 1");
         }
-        if let Some(s) = self.train_render_scale.filter(|s| !(*s > 0.0 && *s <= 1.0)) {
-            return bad("train_render_scale", s.to_string(), "above 0, at most 1");
+        if let Some(s) = self.data.train_render_scale.filter(|s| !(*s > 0.0 && *s <= 1.0)) {
+            return bad("data.train_render_scale", s.to_string(), "above 0, at most 1");
         }
-        if self.train_maps == 0 {
-            return bad("train_maps", "0".into(), "at least 1");
+        if self.data.train_maps == 0 {
+            return bad("data.train_maps", "0".into(), "at least 1");
         }
-        for (name, v) in [("lr", self.lr), ("lr_final", self.lr_final)] {
+        for (name, v) in
+            [("optimizer.lr", self.optimizer.lr), ("optimizer.lr_final", self.optimizer.lr_final)]
+        {
             if !(v > 0.0 && v < 1.0) {
                 return bad(name, v.to_string(), "between 0 and 1");
             }
         }
-        if !(self.ema_decay >= 0.0 && self.ema_decay < 1.0) {
-            return bad("ema_decay", self.ema_decay.to_string(), "0 (off) up to below 1");
+        if !(self.optimizer.ema_decay >= 0.0 && self.optimizer.ema_decay < 1.0) {
+            return bad(
+                "optimizer.ema_decay",
+                self.optimizer.ema_decay.to_string(),
+                "0 (off) up to below 1",
+            );
         }
-        if !(self.weight_decay >= 0.0 && self.weight_decay < 1.0) {
-            return bad("weight_decay", self.weight_decay.to_string(), "0 to 1");
+        if !(self.optimizer.weight_decay >= 0.0 && self.optimizer.weight_decay < 1.0) {
+            return bad(
+                "optimizer.weight_decay",
+                self.optimizer.weight_decay.to_string(),
+                "0 to 1",
+            );
         }
         if !(4..=128).contains(&self.detector.width) {
             return bad("detector.width", self.detector.width.to_string(), "4 to 128");
@@ -218,44 +265,56 @@ impl PretrainConfig {
                 "3 (vehicle, walker, traffic sign)",
             );
         }
-        if !(1..=10_000).contains(&self.eval_episodes) {
-            return bad("eval_episodes", self.eval_episodes.to_string(), "1 to 10000");
+        if !(1..=10_000).contains(&self.eval.episodes) {
+            return bad("eval.episodes", self.eval.episodes.to_string(), "1 to 10000");
         }
-        if let Some(n) = self.final_eval_episodes.filter(|n| !(1..=10_000).contains(n)) {
-            return bad("final_eval_episodes", n.to_string(), "1 to 10000");
+        if let Some(n) = self.eval.final_episodes.filter(|n| !(1..=10_000).contains(n)) {
+            return bad("eval.final_episodes", n.to_string(), "1 to 10000");
         }
         if self.checkpoint_every_designs == 0 {
             return bad("checkpoint_every_designs", "0".into(), "at least 1");
         }
-        if !(self.max_speed_mps >= 0.0 && self.max_speed_mps <= 40.0) {
-            return bad("max_speed_mps", self.max_speed_mps.to_string(), "0 to 40");
+        if !(self.data.max_speed_mps >= 0.0 && self.data.max_speed_mps <= 40.0) {
+            return bad("data.max_speed_mps", self.data.max_speed_mps.to_string(), "0 to 40");
         }
-        if !(self.walker_density >= 0.0 && self.walker_density <= 8.0) {
-            return bad("walker_density", self.walker_density.to_string(), "0 to 8");
+        if !(self.data.walker_density >= 0.0 && self.data.walker_density <= 8.0) {
+            return bad("data.walker_density", self.data.walker_density.to_string(), "0 to 8");
         }
-        if !(self.sign_density >= 0.0 && self.sign_density <= 8.0) {
-            return bad("sign_density", self.sign_density.to_string(), "0 to 8");
+        if !(self.data.sign_density >= 0.0 && self.data.sign_density <= 8.0) {
+            return bad("data.sign_density", self.data.sign_density.to_string(), "0 to 8");
         }
-        if !(self.min_box_px >= 1.0 && self.min_box_px <= 64.0) {
-            return bad("min_box_px", self.min_box_px.to_string(), "1 to 64 pixels");
+        if !(self.experimental.min_box_px >= 1.0 && self.experimental.min_box_px <= 64.0) {
+            return bad(
+                "experimental.min_box_px",
+                self.experimental.min_box_px.to_string(),
+                "1 to 64 pixels",
+            );
         }
-        if self.pipeline && self.threads < 2 {
+        if self.experimental.pipeline && self.threads < 2 {
             return bad(
                 "threads",
                 self.threads.to_string(),
-                "at least 2 with pipeline = true (one makes frames, one trains)",
+                "at least 2 with experimental.pipeline = true (one makes frames, one trains)",
             );
         }
-        if self.repeats.iter().any(|&r| r > 8) {
-            return bad("repeats", format!("{:?}", self.repeats), "each 0 to 8");
-        }
-        if self.min_radius > 4 {
-            return bad("min_radius", self.min_radius.to_string(), "0 to 4 cells");
-        }
-        if !self.class_weights.iter().all(|w| *w > 0.0 && *w <= 100.0) {
+        if self.experimental.repeats.iter().any(|&r| r > 8) {
             return bad(
-                "class_weights",
-                format!("{:?}", self.class_weights),
+                "experimental.repeats",
+                format!("{:?}", self.experimental.repeats),
+                "each 0 to 8",
+            );
+        }
+        if self.experimental.min_radius > 4 {
+            return bad(
+                "experimental.min_radius",
+                self.experimental.min_radius.to_string(),
+                "0 to 4 cells",
+            );
+        }
+        if !self.experimental.class_weights.iter().all(|w| *w > 0.0 && *w <= 100.0) {
+            return bad(
+                "experimental.class_weights",
+                format!("{:?}", self.experimental.class_weights),
                 "each above 0, at most 100",
             );
         }
@@ -264,12 +323,14 @@ impl PretrainConfig {
 
     /// Learning rate at `step`: linear warm-up, then cosine decay to `lr_final`.
     pub fn lr_at(&self, step: usize) -> f64 {
-        if step < self.warmup_steps {
-            return self.lr * (step + 1) as f64 / self.warmup_steps as f64;
+        if step < self.optimizer.warmup_steps {
+            return self.optimizer.lr * (step + 1) as f64 / self.optimizer.warmup_steps as f64;
         }
-        let span = (self.steps - self.warmup_steps.min(self.steps)).max(1) as f64;
-        let progress = ((step - self.warmup_steps) as f64 / span).min(1.0);
-        self.lr_final
-            + 0.5 * (self.lr - self.lr_final) * (1.0 + (std::f64::consts::PI * progress).cos())
+        let span = (self.steps - self.optimizer.warmup_steps.min(self.steps)).max(1) as f64;
+        let progress = ((step - self.optimizer.warmup_steps) as f64 / span).min(1.0);
+        self.optimizer.lr_final
+            + 0.5
+                * (self.optimizer.lr - self.optimizer.lr_final)
+                * (1.0 + (std::f64::consts::PI * progress).cos())
     }
 }

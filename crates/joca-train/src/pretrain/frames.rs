@@ -1,12 +1,12 @@
 //! The training frames of pre-training: random camera designs in blocks, each design's lanes
 //! driving their own episodes of the training towns, exposed by AverageAE, rendered, formed and
 //! annotated batch by batch. Nothing here depends on the detector, which is what lets
-//! [`super::PretrainConfig::pipeline`] make frames while the detector trains.
+//! [`super::config::ExperimentalConfig::pipeline`] make frames while the detector trains.
 
 use super::PretrainConfig;
 use crate::TrainError;
 use joca_camera::{
-    AverageAe, Calibration, CameraDesign, DynamicSettings, GenomeCodec, ImageFormation,
+    AverageAe, Calibration, CameraDesign, Capture, DynamicSettings, GenomeCodec, ImageFormation,
 };
 use joca_core::{Annotation, FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams};
 use joca_nn::detector::TrainFrame;
@@ -80,13 +80,13 @@ impl Block {
     /// The block that `step` falls in. The last block may be cut short by `steps`; it then
     /// interleaves only as many designs as its steps need.
     pub(super) fn containing(config: &PretrainConfig, step: usize) -> Self {
-        let per_block = config.checkpoint_every_designs * config.frames_per_design;
+        let per_block = config.checkpoint_every_designs * config.data.frames_per_design;
         let b = step / per_block;
         let first_step = b * per_block;
         let end_step = (first_step + per_block).min(config.steps);
         Self {
             first_design: b * config.checkpoint_every_designs,
-            designs: (end_step - first_step).div_ceil(config.frames_per_design),
+            designs: (end_step - first_step).div_ceil(config.data.frames_per_design),
             first_step,
             end_step,
         }
@@ -150,8 +150,8 @@ impl<'w> FrameStream<'w> {
         let (d, j) = (tick % block.designs, tick / block.designs);
         let lanes = &mut self.runs[d * b..(d + 1) * b];
         for run in lanes.iter_mut() {
-            if j % config.frames_per_episode == 0 {
-                run.start_episode(j / config.frames_per_episode, world, &mut self.sims)?;
+            if j % config.data.frames_per_episode == 0 {
+                run.start_episode(j / config.data.frames_per_episode, world, &mut self.sims)?;
             }
             run.simulator(world, &mut self.sims); // builds the lane's town if it is new
         }
@@ -167,17 +167,19 @@ impl<'w> FrameStream<'w> {
                 let request = FrameRequest {
                     episode: run.episode,
                     time_s: run.t0
-                        + (j % config.frames_per_episode) as f64 * sim.frame_interval_s(),
+                        + (j % config.data.frames_per_episode) as f64 * sim.frame_interval_s(),
                     exposure_s: run.settings.exposure_s,
                     motion_scale: 1.0,
                 };
-                let frame = sim.render(&run.camera, &request)?;
-                let image = world.formation.form(
-                    &frame.hdr,
+                let mut noise = world.streams.indexed("pretrain-noise", (step + lane) as u64);
+                let Capture { frame, image } = world.formation.capture(
+                    sim,
+                    &run.camera,
+                    &request,
                     run.settings,
                     run.pitch_um,
-                    &mut world.streams.indexed("pretrain-noise", (step + lane) as u64),
-                );
+                    &mut noise,
+                )?;
                 let next = world.ae.step(run.settings, &image);
                 Ok((Shot { image, truth: frame.boxes, ignore: frame.ignore }, next))
             })
@@ -198,12 +200,12 @@ impl<'w> FrameStream<'w> {
     }
 }
 
-/// Batches the frame thread may be ahead of the trainer with [`PretrainConfig::pipeline`]: a
+/// Batches the frame thread may be ahead of the trainer with [`ExperimentalConfig::pipeline`]: a
 /// night frame with a long exposure takes several times a day frame to render, and a buffer
 /// evens that out instead of stalling the trainer.
 pub(super) const FRAMES_AHEAD: usize = 16;
 
-/// The threads that make frames with [`PretrainConfig::pipeline`].
+/// The threads that make frames with [`ExperimentalConfig::pipeline`].
 pub(super) fn frame_pool(config: &PretrainConfig) -> Result<rayon::ThreadPool, TrainError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(config.threads / 2)
@@ -259,11 +261,11 @@ impl DesignRun {
             codec.genes().iter().map(|g| rng.random_range(g.bounds.min..=g.bounds.max)).collect();
         let design = codec.decode(&genes)?;
         let config = world.config;
-        let lane_frames = config.frames_per_design / config.batch;
+        let lane_frames = config.data.frames_per_design / config.batch;
         Ok(Self {
             index,
             lane,
-            episodes_per_lane: lane_frames.div_ceil(config.frames_per_episode),
+            episodes_per_lane: lane_frames.div_ceil(config.data.frames_per_episode),
             camera: design.pinhole(world.config.train_scale()),
             pitch_um: design.sensor().pixel_pitch_um,
             design,
@@ -297,10 +299,10 @@ impl DesignRun {
         let id = (self.index as u64) << 16 | design_episode(self.lane, self.episodes_per_lane, e);
         let mut rng = world.streams.indexed("pretrain-episode", id);
         let config = world.config;
-        self.map_seed = train_map_seed(rng.random_range(0..config.train_maps));
+        self.map_seed = train_map_seed(rng.random_range(0..config.data.train_maps));
         self.episode = rng.random_range(0..1_000_000);
         let sim_config = &world.sim_config;
-        let span = config.frames_per_episode as f64 * sim_config.frame_interval_s;
+        let span = config.data.frames_per_episode as f64 * sim_config.frame_interval_s;
         self.t0 = rng.random_range(1.0..(sim_config.episode_s - 1.0 - span).max(1.0 + 1e-9));
         let probe = self.design.pinhole(config.train_scale() / 4.0);
         let request = FrameRequest {

@@ -8,11 +8,12 @@
 mod config;
 mod frames;
 
-pub use config::PretrainConfig;
+pub use config::{DataConfig, EvalConfig, ExperimentalConfig, OptimizerConfig, PretrainConfig};
 
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
-use crate::eval::{AverageControl, EvalSpec, evaluate};
+use crate::control::AverageControl;
+use crate::eval::{EvalSpec, evaluate};
 use frames::{Batch, Block, FRAMES_AHEAD, FrameStream, Repeats, Shot, World, frame_pool};
 use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, GenomeCodec, ImageFormation,
@@ -87,13 +88,16 @@ pub fn pretrain(
     let engine = Engine::cpu(config.trainer_threads());
     let streams = SeedStreams::new(config.seed);
     engine.seed(streams.stream("detector-init").random());
-    let adam =
-        AdamConfig { lr: config.lr, weight_decay: config.weight_decay, ..AdamConfig::DETECTOR };
+    let adam = AdamConfig {
+        lr: config.optimizer.lr,
+        weight_decay: config.optimizer.weight_decay,
+        ..AdamConfig::DETECTOR
+    };
     let mut model = DetectorModel::new(&engine, config.detector, adam);
-    model.set_class_weights(&config.class_weights);
-    model.set_regression(config.regression);
+    model.set_class_weights(&config.experimental.class_weights);
+    model.set_regression(config.experimental.regression);
     model.set_precision(config.precision);
-    model.set_min_radius(i64::from(config.min_radius));
+    model.set_min_radius(i64::from(config.experimental.min_radius));
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let mut start = 0;
     let mut average = None;
@@ -111,8 +115,8 @@ pub fn pretrain(
             allowed: "a directory without a checkpoint (pass --resume to continue it)".into(),
         });
     }
-    if config.ema_decay > 0.0 {
-        let mut a = WeightAverage::new(&engine, &model, config.ema_decay);
+    if config.optimizer.ema_decay > 0.0 {
+        let mut a = WeightAverage::new(&engine, &model, config.optimizer.ema_decay);
         if let Some(dir) = &resumed_from {
             a.load(&dir.join(AVERAGE_FILE))?;
         }
@@ -132,12 +136,12 @@ pub fn pretrain(
         formation: ImageFormation::new(Calibration::DEFAULT)?,
         ae: AverageAe::new(AccRanges::PAPER),
         sim_config: SimConfig {
-            max_speed_mps: config.max_speed_mps,
+            max_speed_mps: config.data.max_speed_mps,
             city: CityConfig::default()
-                .with_walker_density(config.walker_density as f32)
-                .with_sign_density(config.sign_density as f32),
+                .with_walker_density(config.data.walker_density as f32)
+                .with_sign_density(config.data.sign_density as f32),
             visibility: VisibilityRules {
-                min_box_px: config.min_box_px as f32,
+                min_box_px: config.experimental.min_box_px as f32,
                 ..VisibilityRules::default()
             },
             ..SimConfig::default()
@@ -156,32 +160,34 @@ pub fn pretrain(
     std::thread::scope(|scope| -> Result<(), TrainError> {
         // The frames do not depend on the detector, so with `pipeline` they are made in a
         // thread of their own, up to `FRAMES_AHEAD` batches ahead, while the detector trains.
-        let mut next: Box<dyn FnMut(usize) -> Result<Batch, TrainError> + '_> = if config.pipeline {
-            let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Batch, TrainError>>(FRAMES_AHEAD);
-            let (first, pool) = (start, frame_pool(config)?);
-            scope.spawn(move || {
-                pool.install(|| {
-                    for step in (first..config.steps).step_by(b) {
-                        let made = frames.make(step);
-                        let failed = made.is_err();
-                        // The trainer hung up (it stopped or failed): nothing more is needed.
-                        if tx.send(made).is_err() || failed {
-                            break;
+        let mut next: Box<dyn FnMut(usize) -> Result<Batch, TrainError> + '_> =
+            if config.experimental.pipeline {
+                let (tx, rx) =
+                    std::sync::mpsc::sync_channel::<Result<Batch, TrainError>>(FRAMES_AHEAD);
+                let (first, pool) = (start, frame_pool(config)?);
+                scope.spawn(move || {
+                    pool.install(|| {
+                        for step in (first..config.steps).step_by(b) {
+                            let made = frames.make(step);
+                            let failed = made.is_err();
+                            // The trainer hung up (it stopped or failed): nothing more is needed.
+                            if tx.send(made).is_err() || failed {
+                                break;
+                            }
                         }
-                    }
+                    });
                 });
-            });
-            Box::new(move |step| {
-                let made = rx.recv().map_err(|_| TrainError::Thread {
-                    what: "frame thread".into(),
-                    reason: "it stopped without a frame or an error".into(),
-                })??;
-                debug_assert_eq!(made.step, step, "frames arrive in step order");
-                Ok(made)
-            })
-        } else {
-            Box::new(move |step| frames.make(step))
-        };
+                Box::new(move |step| {
+                    let made = rx.recv().map_err(|_| TrainError::Thread {
+                        what: "frame thread".into(),
+                        reason: "it stopped without a frame or an error".into(),
+                    })??;
+                    debug_assert_eq!(made.step, step, "frames arrive in step order");
+                    Ok(made)
+                })
+            } else {
+                Box::new(move |step| frames.make(step))
+            };
         while step < config.steps {
             let block = Block::containing(config, step);
             let mut replays: Vec<Repeats<Shot>> =
@@ -228,7 +234,7 @@ pub fn pretrain(
                 };
                 train_s += clock.elapsed().as_secs_f64();
                 replays[d].advance(shots.into_iter().map(|shot| {
-                    let n = shot.repeats(&config.repeats);
+                    let n = shot.repeats(&config.experimental.repeats);
                     (shot, n)
                 }));
                 step += b;
@@ -236,16 +242,22 @@ pub fn pretrain(
                     average.update((step / b) as u64);
                 }
                 if crossed(step, 10) || step == config.steps {
-                    let line = serde_json::json!({"step": step, "lr": config.lr_at(step - b), "loss": loss, "design_index": about.index, "design": about.design, "map_seed": about.map_seed, "episode": about.episode, "frame_px": about.frame_px, "simulate_s": simulate_s, "train_s": train_s, "wait_s": wait_s});
+                    let line = serde_json::json!({
+                        "step": step, "lr": config.lr_at(step - b), "loss": loss,
+                        "design_index": about.index, "design": about.design,
+                        "map_seed": about.map_seed, "episode": about.episode,
+                        "frame_px": about.frame_px,
+                        "simulate_s": simulate_s, "train_s": train_s, "wait_s": wait_s,
+                    });
                     writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
                 }
                 if progress(&PretrainEvent::Step { step, of: config.steps, loss }).is_break() {
                     return Err(TrainError::Interrupted { step });
                 }
-                if crossed(step, config.eval_every) && step < config.steps {
+                if crossed(step, config.eval.every) && step < config.steps {
                     let result = average.as_ref().map_or(&model, WeightAverage::model);
                     let report = engine.with_threads(config.threads, || {
-                        evaluate_day_night(result, config, config.eval_episodes, &streams, step)
+                        evaluate_day_night(result, config, config.eval.episodes, &streams, step)
                     })?;
                     writeln!(log, "{}", serde_json::json!({"eval": report}))
                         .map_err(|e| TrainError::io(&log_path, e))?;
@@ -274,7 +286,7 @@ pub fn pretrain(
     let result = average.as_ref().map_or(&model, WeightAverage::model);
     let final_episodes = config.final_episodes();
     let report = match last_eval {
-        Some(r) if r.step == step && final_episodes == config.eval_episodes => r,
+        Some(r) if r.step == step && final_episodes == config.eval.episodes => r,
         _ => {
             let r = engine.with_threads(config.threads, || {
                 evaluate_day_night(result, config, final_episodes, &streams, step)
@@ -326,7 +338,7 @@ fn evaluate_day_night(
         noise_scale: 1.0,
         motion_scale: 1.0,
     };
-    let mut control = AverageControl(AverageAe::new(AccRanges::PAPER));
+    let mut control = AverageControl::new(AccRanges::PAPER);
     let day = evaluate(model, &design, &mut control, &spec(Illumination::Day), streams)?;
     let night = evaluate(model, &design, &mut control, &spec(Illumination::Night), streams)?;
     Ok(EvalReport { step, day, night })
@@ -334,22 +346,33 @@ fn evaluate_day_night(
 
 /// Top-level field names whose values differ between two configurations.
 pub fn differing_fields<T: Serialize>(a: &T, b: &T) -> Vec<String> {
-    let (Ok(serde_json::Value::Object(a)), Ok(serde_json::Value::Object(b))) =
-        (serde_json::to_value(a), serde_json::to_value(b))
-    else {
+    let (Ok(a), Ok(b)) = (serde_json::to_value(a), serde_json::to_value(b)) else {
         return vec!["(unreadable)".into()];
     };
-    let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
-    keys.sort();
-    keys.dedup();
-    keys.into_iter()
-        .filter(|k| a.get(*k) != b.get(*k))
-        .map(|k| {
-            format!(
-                "{k} ({} → {})",
-                a.get(k).map_or("-".into(), |v| v.to_string()),
-                b.get(k).map_or("-".into(), |v| v.to_string())
-            )
-        })
-        .collect()
+    let mut out = Vec::new();
+    differing_at("", &a, &b, &mut out);
+    out
+}
+
+/// The fields below `path` in which `a` and `b` differ, nested tables as dotted paths.
+fn differing_at(path: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+    use serde_json::Value;
+    if let (Value::Object(a), Value::Object(b)) = (a, b) {
+        let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+        keys.sort();
+        keys.dedup();
+        for k in keys {
+            let sub = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+            match (a.get(k), b.get(k)) {
+                (Some(x), Some(y)) => differing_at(&sub, x, y, out),
+                (x, y) => out.push(format!(
+                    "{sub} ({} → {})",
+                    x.map_or("-".into(), Value::to_string),
+                    y.map_or("-".into(), Value::to_string)
+                )),
+            }
+        }
+    } else if a != b {
+        out.push(format!("{path} ({a} → {b})"));
+    }
 }

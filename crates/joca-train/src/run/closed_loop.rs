@@ -14,16 +14,14 @@
 use super::{Context, SettingsByLight, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
-use joca_camera::{
-    AverageAe, Calibration, CameraDesign, DynamicSettings, compensate_for_pixel_size,
-};
-use joca_core::{
-    Annotation, Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image,
-};
+use crate::control::{ExposureControl, controller};
+use joca_camera::{CameraDesign, Capture, DynamicSettings};
+use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
+use joca_record::TraceRecord;
+pub use joca_record::{Showcase, ShowcaseFrame};
 use joca_sim::{Illumination, SimConfig, Simulator, TUNNEL_PHASE_S, test_map_seed};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -35,47 +33,13 @@ const TUNNEL_FRAMES: usize = 50;
 /// Frames of the day and night showcases; the last one is saved.
 const STEADY_FRAMES: usize = 20;
 
-/// One frame of a showcase sequence, as `showcase.json` stores it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ShowcaseFrame {
-    /// Frame index in the sequence.
-    pub frame: usize,
-    /// Simulation time, s.
-    pub time_s: f64,
-    /// Ambient light relative to full daylight.
-    pub ambient: f32,
-    /// Exposure the sensor used, ms.
-    pub exposure_ms: f64,
-    /// Gain the sensor used, dB.
-    pub gain_db: f64,
-    /// Ground truth at the shutter midpoint.
-    pub boxes: Vec<Annotation>,
-    /// Detections on the formed frame.
-    pub detections: Vec<Detection>,
-    /// The saved 8-bit frame, relative to `test/`, if saved.
-    pub image: Option<String>,
-}
-
-/// A showcase sequence.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Showcase {
-    /// Name (`tunnel`, `day`, `night`).
-    pub name: String,
-    /// Illumination schedule.
-    pub illumination: Illumination,
-    /// Output frame size, pixels.
-    pub size_px: (usize, usize),
-    /// Frames in order.
-    pub frames: Vec<ShowcaseFrame>,
-}
-
 /// The controller state of one closed-loop sequence.
 struct Driver {
+    control: Box<dyn ExposureControl>,
     /// Settings the sensor uses for the next frame.
     applied: DynamicSettings,
-    /// The controller's last prediction (before pixel-size compensation).
-    predicted: DynamicSettings,
     previous: Option<Rgb8Image>,
+    pixel_pitch_um: f64,
 }
 
 /// What one closed-loop frame produced.
@@ -86,14 +50,15 @@ struct Step {
 }
 
 impl Driver {
-    fn new(model: &mut JointModel) -> Self {
+    fn new(cx: &Context, model: &mut JointModel, design: &CameraDesign) -> Self {
         model.reset_sequence();
-        let cal = Calibration::DEFAULT;
-        let start = DynamicSettings::new(cal.exposure_s, cal.gain_db);
-        Self { applied: start, predicted: start, previous: None }
+        let pixel_pitch_um = design.sensor().pixel_pitch_um;
+        let mut control = controller(cx.config.method.neural(), pixel_pitch_um, cx.ranges);
+        let applied = control.start();
+        Self { control, applied, previous: None, pixel_pitch_um }
     }
 
-    /// Sets this frame's exposure and gain from the previous frame, renders, forms and detects.
+    /// Sets this frame's exposure and gain from the previous frame, captures and detects.
     #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
@@ -101,27 +66,12 @@ impl Driver {
         model: &mut JointModel,
         sim: &dyn FrameSource,
         camera: &PinholeCamera,
-        design: &CameraDesign,
         episode: u64,
         time_s: f64,
         noise: &mut impl rand::Rng,
     ) -> Result<Step, TrainError> {
-        let pitch = design.sensor().pixel_pitch_um;
         if let Some(prev) = &self.previous {
-            if cx.config.method.neural() {
-                if let Some(p) =
-                    model.predict(prev, self.predicted.exposure_s, self.predicted.gain_db)
-                {
-                    self.predicted = DynamicSettings::new(p.exposure_s, p.gain_db);
-                    self.applied = compensate_for_pixel_size(
-                        self.predicted,
-                        pitch,
-                        Calibration::DEFAULT.pixel_pitch_um,
-                    );
-                }
-            } else {
-                self.applied = AverageAe::new(cx.ranges).step(self.applied, prev);
-            }
+            self.applied = self.control.next(model, prev).applied;
         }
         let request = FrameRequest {
             episode,
@@ -129,8 +79,14 @@ impl Driver {
             exposure_s: self.applied.exposure_s,
             motion_scale: cx.config.scenario.motion_scale(),
         };
-        let frame = sim.render(camera, &request)?;
-        let image = cx.formation.form(&frame.hdr, self.applied, pitch, noise);
+        let Capture { frame, image } = cx.formation.capture(
+            sim,
+            camera,
+            &request,
+            self.applied,
+            self.pixel_pitch_um,
+            noise,
+        )?;
         let detections = model.observe(&image);
         self.previous = Some(image);
         Ok(Step { frame, detections, settings: self.applied })
@@ -157,32 +113,28 @@ pub(super) fn test(
     let mut trace = String::new();
     let map_seed = test_map_seed(0);
     let real = cx.real.clone();
-    // Build the test town once (not at all for recorded frames); the borrow of `cx.sims` ends
-    // before the loop needs `cx`.
-    if real.is_none() {
-        simulator(&mut cx.sims, map_seed, c.max_speed_mps, None);
-    }
+    // The test town (not built at all for recorded frames).
+    let town = real.is_none().then(|| simulator(&mut cx.sims, map_seed, c.max_speed_mps, None));
     // Recorded sequences are played from their start; the test town from t = 1 s.
     let start_s = if real.is_some() { 0.0 } else { 1.0 };
     for episode in 0..c.test_episodes {
-        let mut driver = Driver::new(model);
+        let mut driver = Driver::new(cx, model, design);
         for k in 0..WARMUP_FRAMES + c.test_frames_per_episode {
-            let town = cx.sims.get(&map_seed);
-            let source: &dyn FrameSource = match (&real, town) {
+            let source: &dyn FrameSource = match (&real, &town) {
                 (Some(r), _) => r.test(),
-                (None, Some(town)) => town,
+                (None, Some(town)) => &**town,
                 (None, None) => {
                     unreachable!("the test town is built above when no recording is used")
                 }
             };
             let time_s = start_s + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed("test-noise", episode * 10_000 + k as u64);
-            let s = driver.step(cx, model, source, &camera, design, episode, time_s, &mut noise)?;
+            let s = driver.step(cx, model, source, &camera, episode, time_s, &mut noise)?;
             if k < WARMUP_FRAMES {
                 continue;
             }
             metrics.update(&s.frame.boxes, &s.frame.ignore, &s.detections, s.frame.visible_180);
-            let (illumination, ambient) = match (&real, town) {
+            let (illumination, ambient) = match (&real, &town) {
                 (None, Some(town)) => (
                     town.episode(episode).illumination.name(),
                     Some(ambient(town, episode, time_s)),
@@ -193,19 +145,21 @@ pub(super) fn test(
             e.0 += s.settings.exposure_s * 1e3;
             e.1 += s.settings.gain_db;
             e.2 += 1.0;
-            let line = serde_json::json!({
-                "episode": episode,
-                "frame": k - WARMUP_FRAMES,
-                "time_s": time_s,
-                "illumination": illumination,
-                "ambient": ambient,
-                "exposure_ms": s.settings.exposure_s * 1e3,
-                "gain_db": s.settings.gain_db,
-                "objects": s.frame.boxes.len(),
-                "visible_180": s.frame.visible_180,
-                "detections": s.detections.len(),
-            });
-            let _ = writeln!(trace, "{line}");
+            let record = TraceRecord {
+                episode,
+                frame: k - WARMUP_FRAMES,
+                time_s,
+                illumination: illumination.to_owned(),
+                ambient,
+                exposure_ms: s.settings.exposure_s * 1e3,
+                gain_db: s.settings.gain_db,
+                objects: s.frame.boxes.len(),
+                visible_180: s.frame.visible_180,
+                detections: s.detections.len(),
+            };
+            if let Ok(line) = serde_json::to_string(&record) {
+                let _ = writeln!(trace, "{line}");
+            }
         }
     }
     let settings = sums.into_iter().map(|(k, (e, g, n))| (k, (e / n, g / n))).collect();
@@ -261,17 +215,17 @@ fn showcases(
         };
         let frame_dir = dir.join(name);
         std::fs::create_dir_all(&frame_dir).map_err(|e| TrainError::io(&frame_dir, e))?;
-        let mut driver = Driver::new(model);
+        let mut driver = Driver::new(cx, model, design);
         let mut sequence = Showcase {
             name: name.to_owned(),
-            illumination,
+            illumination: illumination.name().to_owned(),
             size_px: (camera.width_px, camera.height_px),
             frames: Vec::with_capacity(frames),
         };
         for k in 0..frames {
             let time_s = start_s + k as f64 * dt;
             let mut noise = cx.streams.indexed("showcase-noise", index as u64 * 10_000 + k as u64);
-            let s = driver.step(cx, model, &sim, camera, design, episode, time_s, &mut noise)?;
+            let s = driver.step(cx, model, &sim, camera, episode, time_s, &mut noise)?;
             let save = illumination == Illumination::Tunnel || k + 1 == frames;
             let image = if save {
                 let rel = format!("{name}/{k:03}.png");

@@ -1,0 +1,99 @@
+//! The lines of a run's `events.jsonl` and `test/trace.jsonl`: one JSON object per line.
+
+use crate::DesignSummary;
+use joca_metrics::TaskScores;
+use serde::{Deserialize, Serialize};
+
+/// One line of `events.jsonl`. A resumed run repeats the candidate it was killed in, so a
+/// reader keeps the last record of a repeated step or generation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Event {
+    /// A logged training step (every 5th).
+    Step(StepRecord),
+    /// A finished hardware candidate.
+    Candidate(CandidateRecord),
+    /// A finished generation.
+    Generation(GenerationRecord),
+}
+
+/// A training step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepRecord {
+    /// Global step index (candidate index × k + step).
+    pub step: u64,
+    /// The detector's task loss.
+    pub loss: LossRecord,
+    /// DF-Grad's GA supervision loss, on the steps it applies.
+    #[serde(default)]
+    pub ga_loss: Option<f64>,
+    /// Exposure applied, ms.
+    pub exposure_ms: f64,
+    /// Gain applied, dB.
+    pub gain_db: f64,
+    /// The episode's illumination schedule (`recorded` for real frames).
+    #[serde(default)]
+    pub illumination: String,
+}
+
+/// The parts of the detector's task loss.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LossRecord {
+    /// Weighted total.
+    pub total: f64,
+    /// Focal heatmap loss.
+    pub heatmap: f64,
+    /// Log-size L1 loss.
+    pub size: f64,
+    /// Offset L1 loss.
+    pub offset: f64,
+}
+
+/// A hardware candidate's training result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateRecord {
+    /// Generation, from 0.
+    pub generation: usize,
+    /// Candidate in the generation, from 0.
+    pub candidate: usize,
+    /// Its design.
+    pub design: DesignSummary,
+    /// Its k frames scored together.
+    pub scores: TaskScores,
+    /// The hardware GA's fitness, mAP + 1.1 · TP ratio.
+    pub fitness: f64,
+}
+
+/// A finished generation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GenerationRecord {
+    /// Generation, from 0.
+    pub generation_done: usize,
+    /// Every member's fitness, in order.
+    pub fitness: Vec<f64>,
+}
+
+/// One scored test frame (`test/trace.jsonl`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TraceRecord {
+    /// Test episode.
+    pub episode: u64,
+    /// Scored frame in the episode, from 0 (after the warm-up frames).
+    pub frame: usize,
+    /// Time in the episode, s.
+    pub time_s: f64,
+    /// Illumination schedule (`recorded` for real frames).
+    pub illumination: String,
+    /// Ambient light relative to full daylight (none for real frames).
+    pub ambient: Option<f32>,
+    /// Exposure applied, ms.
+    pub exposure_ms: f64,
+    /// Gain applied, dB.
+    pub gain_db: f64,
+    /// Annotated objects.
+    pub objects: usize,
+    /// Objects visible in the 180° field.
+    pub visible_180: u32,
+    /// Detections above the decoding threshold.
+    pub detections: usize,
+}

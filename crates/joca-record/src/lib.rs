@@ -1,0 +1,31 @@
+//! The run directory's record formats (DESIGN.md, "Run directory"): `joca-train` writes them,
+//! `joca-report` reads them, so the two cannot disagree about a field.
+//!
+//! - [`RunResults`], [`DesignSummary`] — `results.json`, `best_design.json`;
+//! - [`Event`] — the lines of `events.jsonl` ([`StepRecord`], [`CandidateRecord`],
+//!   [`GenerationRecord`]); [`TraceRecord`] — the lines of `test/trace.jsonl`;
+//! - [`Showcase`] — `test/showcase.json`;
+//! - [`Method`], [`Scenario`] — the vocabulary the records use.
+//!
+//! ```
+//! use joca_record::{Event, Method};
+//! let line = r#"{"generation_done": 0, "fitness": [0.2, 0.4]}"#;
+//! let event: Event = serde_json::from_str(line).unwrap();
+//! assert!(matches!(event, Event::Generation(g) if g.fitness == [0.2, 0.4]));
+//! assert_eq!(Method::from_name("joca"), Ok(Method::Joca));
+//! ```
+#![deny(missing_docs)]
+
+mod events;
+mod method;
+mod results;
+mod showcase;
+
+/// The record types that come from the crates below: boxes, and the task scores.
+pub use joca_core::{Annotation, BBox, Detection};
+pub use joca_metrics::TaskScores;
+
+pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
+pub use method::{Method, Scenario};
+pub use results::{DesignSummary, RunResults};
+pub use showcase::{Showcase, ShowcaseFrame};

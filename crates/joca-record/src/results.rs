@@ -1,0 +1,62 @@
+//! `results.json` and `best_design.json`: what a run's test found.
+
+use crate::{Method, Scenario};
+use joca_metrics::TaskScores;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Test results of a run (`results.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunResults {
+    /// Method.
+    pub method: Method,
+    /// Scenario.
+    pub scenario: Scenario,
+    /// The evaluated design.
+    pub design: DesignSummary,
+    /// Test scores.
+    pub test: TaskScores,
+    /// Mean exposure (ms) and gain (dB) by illumination during the test.
+    pub settings_by_illumination: BTreeMap<String, (f64, f64)>,
+    /// Best hardware fitness seen in training.
+    #[serde(default)]
+    pub best_fitness: f64,
+    /// Output resolution factor.
+    pub render_scale: f64,
+    /// The test frames' source: `sim` (or empty, in older runs), `folder:DIR` or `waymo:DIR`.
+    #[serde(default)]
+    pub source: String,
+}
+
+impl RunResults {
+    /// Whether the run was tested on recorded frames (the real-image mode).
+    pub fn real_images(&self) -> bool {
+        self.source.starts_with("folder:") || self.source.starts_with("waymo:")
+    }
+}
+
+/// A design as the result tables show it (`best_design.json`, and in `results.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DesignSummary {
+    /// Forward position in the vehicle frame, m.
+    pub x_m: f64,
+    /// Height, m.
+    pub z_m: f64,
+    /// Focal length, mm.
+    pub focal_length_mm: f64,
+    /// Sensor name.
+    pub sensor: String,
+    /// Sensor width × height, mm.
+    pub sensor_mm: (f64, f64),
+    /// Pixel pitch, µm.
+    pub pixel_pitch_um: f64,
+    /// Whether the hardware GA optimised the design (else it was fixed).
+    pub optimised: bool,
+}
+
+impl DesignSummary {
+    /// Horizontal field of view, radians.
+    pub fn hfov_rad(&self) -> f64 {
+        2.0 * (self.sensor_mm.0 / (2.0 * self.focal_length_mm)).atan()
+    }
+}

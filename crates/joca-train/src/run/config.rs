@@ -1,0 +1,265 @@
+//! The `[run]` table: every field of a joint run, checked once by [`RunConfig::validate`].
+
+use super::method::FixedCamera;
+use crate::TrainError;
+use joca_camera::Calibration;
+use joca_data::blur::Linearize;
+use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
+use joca_nn::detector::DetectorConfig;
+use joca_record::{Method, Scenario};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// Settings of a run (the `[run]` table of a preset).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Run seed.
+    pub seed: u64,
+    /// libtorch and rayon threads.
+    pub threads: usize,
+    /// Method.
+    pub method: Method,
+    /// Scenario.
+    pub scenario: Scenario,
+    /// Camera of `fixed-neural`.
+    pub camera: FixedCamera,
+    /// Hardware GA generations.
+    pub generations: usize,
+    /// Hardware GA population.
+    pub population: usize,
+    /// Steps (frames) per hardware candidate, k.
+    pub steps_per_candidate: usize,
+    /// Perturbation GA population, n.
+    pub perturbation_population: usize,
+    /// GA loss applied every i steps.
+    pub ga_every: usize,
+    /// Task-loss weight of the ACC loss (GA loss weight 1).
+    pub task_weight: f64,
+    /// Output resolution = sensor grid × this.
+    pub render_scale: f64,
+    /// Training towns.
+    pub train_maps: u64,
+    /// Ego top speed, m/s.
+    pub max_speed_mps: f64,
+    /// Detector size.
+    pub detector: DetectorConfig,
+    /// Detector weights to start from (relative paths are relative to the working directory);
+    /// empty: train from scratch. `frozen-detector` requires them.
+    pub detector_weights: String,
+    /// Test episodes (illumination drawn per episode) on the test town.
+    pub test_episodes: u64,
+    /// Scored frames per test episode.
+    pub test_frames_per_episode: usize,
+    /// Frame source for training: the built-in simulator (`sim`, or empty), or a recording for
+    /// the real-image mode (`folder:DIR`, `waymo:DIR`).
+    #[serde(default)]
+    pub source: Source,
+    /// Frame source for testing; `sim` (or empty): the test town, or in real-image mode the
+    /// training recording itself (say so when you report it).
+    #[serde(default)]
+    pub test_source: Source,
+    /// How recorded frames are read (real-image mode only).
+    #[serde(default)]
+    pub real: RealConfig,
+}
+
+/// How the real-image mode reads recorded frames (`[run.real]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RealConfig {
+    /// `srgb` (undo the sRGB curve of 8-bit frames) or `none` (frames are linear).
+    pub linearize: String,
+    /// Exposure of frames without `exposure_s`, ms; 0 refuses such frames.
+    pub default_exposure_ms: f64,
+    /// A frame that cannot be read: `stop` the run naming it, or `skip` it with a warning.
+    pub on_bad_frame: String,
+    /// Waymo camera to use (`key.camera_name`; FRONT_LEFT = 2, the paper's).
+    pub waymo_camera: i64,
+}
+
+impl Default for RealConfig {
+    fn default() -> Self {
+        Self {
+            linearize: "srgb".into(),
+            default_exposure_ms: 0.0,
+            on_bad_frame: "stop".into(),
+            waymo_camera: joca_data::waymo::FRONT_LEFT,
+        }
+    }
+}
+
+impl RealConfig {
+    fn folder_config(&self) -> Result<FolderConfig, TrainError> {
+        let bad = |field: &str, value: String, allowed: &str| TrainError::Config {
+            field: format!("run.real.{field}"),
+            value,
+            allowed: allowed.into(),
+        };
+        let cal = Calibration::DEFAULT;
+        Ok(FolderConfig {
+            linearize: Linearize::from_name(&self.linearize).map_err(|_| {
+                bad("linearize", format!("{:?}", self.linearize), "\"srgb\" or \"none\"")
+            })?,
+            default_exposure_s: if self.default_exposure_ms > 0.0 {
+                Some(self.default_exposure_ms * 1e-3)
+            } else if self.default_exposure_ms == 0.0 {
+                None
+            } else {
+                return Err(bad(
+                    "default_exposure_ms",
+                    self.default_exposure_ms.to_string(),
+                    "0 (none) or above",
+                ));
+            },
+            on_bad_frame: match self.on_bad_frame.as_str() {
+                "stop" => OnBadFrame::Stop,
+                "skip" => OnBadFrame::Skip,
+                other => {
+                    return Err(bad("on_bad_frame", format!("{other:?}"), "\"stop\" or \"skip\""));
+                }
+            },
+            calibration_exposure_s: cal.exposure_s,
+            calibration_gain_db: cal.gain_db,
+            ..FolderConfig::default()
+        })
+    }
+}
+
+/// Where frames come from (`source`, `test_source`): written `sim` (or empty), `folder:DIR` or
+/// `waymo:DIR` in configuration files, parsed once when the file is read.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum Source {
+    /// The built-in simulator (as `test_source`: the default test frames).
+    #[default]
+    Sim,
+    /// A recording in the folder format (frames and a COCO `annotations.json`).
+    Folder(PathBuf),
+    /// Waymo Open Dataset v2 parquet files (`DIR/camera_image`, `DIR/camera_box`).
+    Waymo(PathBuf),
+}
+
+impl Source {
+    /// What a configuration file may say.
+    pub const ALLOWED: &str = "\"sim\" (the built-in simulator), \"folder:DIR\" (a recording in \
+        the folder format) or \"waymo:DIR\" (Waymo Open Dataset v2 parquet: DIR/camera_image, \
+        DIR/camera_box)";
+
+    /// Parses a configuration value.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        match text {
+            "" | "sim" => Ok(Source::Sim),
+            s if s.len() > 7 && s.starts_with("folder:") => {
+                Ok(Source::Folder(PathBuf::from(&s[7..])))
+            }
+            s if s.len() > 6 && s.starts_with("waymo:") => {
+                Ok(Source::Waymo(PathBuf::from(&s[6..])))
+            }
+            s => Err(format!("unknown frame source {s:?}; allowed: {}", Self::ALLOWED)),
+        }
+    }
+
+    /// Whether frames come from a recording (the real-image mode).
+    pub fn is_recording(&self) -> bool {
+        *self != Source::Sim
+    }
+
+    /// Opens a recording; `None` for the simulator.
+    pub(super) fn open(&self, real: &RealConfig) -> Result<Option<Recording>, TrainError> {
+        let folder = real.folder_config()?;
+        Ok(match self {
+            Source::Sim => None,
+            Source::Folder(dir) => Some(Recording::open(dir, folder)?),
+            Source::Waymo(dir) => Some(Recording::open_waymo(dir, real.waymo_camera, folder)?),
+        })
+    }
+}
+
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Source::Sim => f.write_str("sim"),
+            Source::Folder(dir) => write!(f, "folder:{}", dir.display()),
+            Source::Waymo(dir) => write!(f, "waymo:{}", dir.display()),
+        }
+    }
+}
+
+impl Serialize for Source {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for Source {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(deserializer)?;
+        Source::parse(&text).map_err(serde::de::Error::custom)
+    }
+}
+
+impl RunConfig {
+    /// Checks every field; the error names the field and what is allowed.
+    pub fn validate(&self) -> Result<(), TrainError> {
+        let bad = |field: &str, value: String, allowed: &str| {
+            Err(TrainError::Config {
+                field: format!("run.{field}"),
+                value,
+                allowed: allowed.into(),
+            })
+        };
+        if !(1..=64).contains(&self.threads) {
+            return bad("threads", self.threads.to_string(), "1 to 64");
+        }
+        if self.generations == 0 {
+            return bad("generations", "0".into(), "at least 1");
+        }
+        if self.population < 2 {
+            return bad("population", self.population.to_string(), "at least 2");
+        }
+        if self.steps_per_candidate < 2 || self.steps_per_candidate > 400 {
+            return bad("steps_per_candidate", self.steps_per_candidate.to_string(), "2 to 400");
+        }
+        if self.perturbation_population < 2 {
+            return bad(
+                "perturbation_population",
+                self.perturbation_population.to_string(),
+                "at least 2",
+            );
+        }
+        if self.ga_every == 0 {
+            return bad("ga_every", "0".into(), "at least 1");
+        }
+        if self.task_weight.is_nan() || self.task_weight <= 0.0 {
+            return bad("task_weight", self.task_weight.to_string(), "above 0");
+        }
+        if !(self.render_scale > 0.0 && self.render_scale <= 1.0) {
+            return bad("render_scale", self.render_scale.to_string(), "above 0, at most 1");
+        }
+        if self.train_maps == 0 {
+            return bad("train_maps", "0".into(), "at least 1");
+        }
+        if self.method == Method::FrozenDetector && self.detector_weights.is_empty() {
+            return bad(
+                "detector_weights",
+                "\"\"".into(),
+                "a weights file from `joca train-detector` (frozen-detector freezes it)",
+            );
+        }
+        self.real.folder_config()?;
+        if self.test_episodes == 0 || self.test_frames_per_episode == 0 {
+            return bad(
+                "test_episodes",
+                self.test_episodes.to_string(),
+                "at least 1 episode of at least 1 frame",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// `config.toml` of a run directory: the resolved `[run]` table.
+#[derive(Serialize, Deserialize)]
+pub(super) struct ConfigFile {
+    pub(super) run: RunConfig,
+}

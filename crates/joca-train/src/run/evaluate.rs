@@ -1,0 +1,94 @@
+//! Testing a design: the best design of a run after training, and `joca eval`, which tests it
+//! again from the checkpoint, optionally under another scenario or with more frames.
+
+use super::closed_loop;
+use super::config::ConfigFile;
+use super::results::summary;
+use super::{Context, RunResults, RunState, Scenario, setup};
+use crate::TrainError;
+use crate::checkpoint::{CheckpointDir, read_json, write_atomic};
+use joca_camera::CameraDesign;
+use joca_nn::joint::JointModel;
+use std::path::{Path, PathBuf};
+
+/// Tests the best design of a finished (or interrupted) run again, from its checkpoint: the
+/// trained detector and NeuralAE in closed loop on the test town, optionally under another
+/// scenario or with another number of frames. Writes `results.json` (or, for another scenario,
+/// `results-<scenario>.json`) and returns the results.
+pub fn evaluate_run(
+    run_dir: &Path,
+    scenario: Option<Scenario>,
+    frames_per_episode: Option<usize>,
+) -> Result<RunResults, TrainError> {
+    let config_path = run_dir.join("config.toml");
+    let text =
+        std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
+    let file: ConfigFile = toml::from_str(&text).map_err(|e| TrainError::Corrupt {
+        path: config_path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let mut config = file.run;
+    if let Some(s) = scenario {
+        config.scenario = s;
+    }
+    if let Some(f) = frames_per_episode {
+        config.test_frames_per_episode = f;
+    }
+    config.validate()?;
+    let dir = CheckpointDir::new(run_dir.join("checkpoint")).existing().ok_or_else(|| {
+        TrainError::Corrupt {
+            path: run_dir.join("checkpoint").display().to_string(),
+            reason: "no checkpoint: the run has not finished a single candidate".into(),
+        }
+    })?;
+    let state: RunState = read_json(&dir.join("state.json"))?;
+    let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
+    model.load(&dir)?;
+    let design = best_design(&cx, &state)?;
+    let other = scenario.is_some_and(|s| s != state.config.scenario);
+    let (name, test_dir) = if other {
+        (
+            format!("results-{}.json", config.scenario.name()),
+            format!("test-{}", config.scenario.name()),
+        )
+    } else {
+        ("results.json".to_owned(), "test".to_owned())
+    };
+    let results = test_design(&mut cx, &mut model, &state, &design, Some(&run_dir.join(test_dir)))?;
+    write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
+    Ok(results)
+}
+
+/// The best design of `state`: best fitness seen, or the first member if none was scored.
+pub(super) fn best_design(cx: &Context, state: &RunState) -> Result<CameraDesign, TrainError> {
+    let genes =
+        state.best.as_ref().map_or_else(|| state.hardware.ask()[0].clone(), |b| b.0.clone());
+    Ok(cx.codec.decode(&genes)?)
+}
+
+/// `design` tested in closed loop with the current model, as the run's results.
+pub(super) fn test_design(
+    cx: &mut Context,
+    model: &mut JointModel,
+    state: &RunState,
+    design: &CameraDesign,
+    out: Option<&Path>,
+) -> Result<RunResults, TrainError> {
+    let (test, settings) = closed_loop::test(cx, model, design, out)?;
+    let config = &cx.config;
+    Ok(RunResults {
+        method: config.method,
+        scenario: config.scenario,
+        design: summary(design, config.method.hardware_ga()),
+        test,
+        settings_by_illumination: settings,
+        best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
+        render_scale: config.render_scale,
+        // Without a recording the test town is used, whatever `test_source` says.
+        source: if config.source.is_recording() && config.test_source.is_recording() {
+            config.test_source.to_string()
+        } else {
+            config.source.to_string()
+        },
+    })
+}

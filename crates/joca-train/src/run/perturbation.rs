@@ -1,0 +1,83 @@
+//! DF-Grad's perturbation mode (paper Sec. 5): each member `(p_e, p_g)` of a small GA offsets
+//! NeuralAE's prediction by a fraction of each range; the frame is rendered again with the
+//! perturbed exposure (so with its own motion blur, which no gradient can see), formed, detected
+//! and scored by AP50. The best member's settings become the target of the GA loss l_GA.
+
+use super::{Context, Method, RunConfig, ga_err};
+use crate::TrainError;
+use joca_camera::{DynamicSettings, compensate_for_pixel_size};
+use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
+use joca_evolve::{Ga, GaConfig};
+use joca_metrics::TaskMetrics;
+use joca_nn::joint::JointModel;
+
+/// The perturbations of the `fixed-perturbation` ablation: ±2.5 % of each range, four signs.
+const FIXED: [[f64; 2]; 4] = [[0.025, 0.025], [0.025, -0.025], [-0.025, 0.025], [-0.025, -0.025]];
+
+/// The perturbation GA of DF-Grad: `(p_e, p_g)` in normalised units within ±5 % of each range,
+/// mutation ×U(0.9, 1.1).
+pub(super) fn ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainError> {
+    let ga_config =
+        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
+            .map_err(ga_err)?;
+    Ok(Ga::new(ga_config, &mut streams.stream("perturbation-init")))
+}
+
+/// The frame being perturbed: its source, camera, request and the sensor's pixel pitch.
+pub(super) struct Probe<'a> {
+    pub(super) source: &'a dyn FrameSource,
+    pub(super) camera: &'a PinholeCamera,
+    pub(super) request: FrameRequest,
+    pub(super) pixel_pitch_um: f64,
+    /// Global step index: seeds the members' noise and the GA's update.
+    pub(super) global_step: u64,
+}
+
+/// One perturbation search around `predicted` (NeuralAE's settings for the calibration pitch):
+/// scores every member and, unless the perturbations are fixed, tells the GA their fitness.
+/// Returns the best member's settings (ties go to the first member), for the calibration pitch.
+pub(super) fn search(
+    cx: &mut Context,
+    model: &JointModel,
+    ga: &mut Ga,
+    probe: &Probe<'_>,
+    predicted: DynamicSettings,
+) -> Result<DynamicSettings, TrainError> {
+    let fixed = cx.config.method == Method::FixedPerturbation;
+    let members: Vec<Vec<f64>> =
+        if fixed { FIXED.iter().map(|p| p.to_vec()).collect() } else { ga.ask().to_vec() };
+    let calibration_pitch_um = cx.formation.calibration().pixel_pitch_um;
+    let mut fitness = Vec::with_capacity(members.len());
+    let mut settings = Vec::with_capacity(members.len());
+    for (m, p) in members.iter().enumerate() {
+        let perturbed = cx.ranges.clamp(DynamicSettings::new(
+            predicted.exposure_s + p[0] * cx.ranges.exposure_s.span(),
+            predicted.gain_db + p[1] * cx.ranges.gain_db.span(),
+        ));
+        let applied =
+            compensate_for_pixel_size(perturbed, probe.pixel_pitch_um, calibration_pitch_um);
+        let mut noise = cx.streams.indexed("perturbation-noise", probe.global_step * 16 + m as u64);
+        let joca_camera::Capture { frame, image } = cx.formation.capture(
+            probe.source,
+            probe.camera,
+            &probe.request,
+            applied,
+            probe.pixel_pitch_um,
+            &mut noise,
+        )?;
+        cx.watch.lap(|t| &mut t.perturbation_render_ms);
+        let mut one = TaskMetrics::default();
+        one.update(&frame.boxes, &frame.ignore, &model.detect(&image), frame.visible_180);
+        fitness.push(one.compute().ap50);
+        settings.push(perturbed);
+        cx.watch.lap(|t| &mut t.perturbation_detect_ms);
+    }
+    let best = (0..fitness.len())
+        .max_by(|&a, &b| fitness[a].total_cmp(&fitness[b]).then(b.cmp(&a)))
+        .unwrap_or(0);
+    if !fixed {
+        ga.tell(&fitness, &mut cx.streams.indexed("perturbation-ga", probe.global_step), |_| {})
+            .map_err(ga_err)?;
+    }
+    Ok(settings[best])
+}

@@ -1,0 +1,139 @@
+//! Where a training step's time goes (`joca bench step`).
+
+use super::{RunConfig, TrainError, candidate, perturbation, setup};
+use joca_camera::CameraDesign;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Mean wall time per training step by part, milliseconds (`joca bench step`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct StepBreakdown {
+    /// NeuralAE forward (histograms, features, prediction).
+    pub acc_predict_ms: f64,
+    /// Rendering the forward-mode frame (all its sub-frames).
+    pub render_ms: f64,
+    /// Perturbation mode: capturing (rendering and forming) the perturbed frames.
+    pub perturbation_render_ms: f64,
+    /// Perturbation mode: detecting and scoring (AP50) the perturbed frames.
+    pub perturbation_detect_ms: f64,
+    /// Perturbation GA update.
+    pub perturbation_ga_ms: f64,
+    /// Drawing the noise sample.
+    pub noise_ms: f64,
+    /// Differentiable formation.
+    pub formation_ms: f64,
+    /// Detector forward and loss.
+    pub detector_forward_ms: f64,
+    /// Backward pass.
+    pub backward_ms: f64,
+    /// Optimiser updates.
+    pub update_ms: f64,
+    /// Decoding and metric bookkeeping.
+    pub decode_ms: f64,
+    /// Steps measured.
+    pub steps: usize,
+}
+
+impl StepBreakdown {
+    /// Sum of the parts, milliseconds.
+    pub fn total_ms(&self) -> f64 {
+        self.acc_predict_ms
+            + self.render_ms
+            + self.perturbation_render_ms
+            + self.perturbation_detect_ms
+            + self.perturbation_ga_ms
+            + self.noise_ms
+            + self.formation_ms
+            + self.detector_forward_ms
+            + self.backward_ms
+            + self.update_ms
+            + self.decode_ms
+    }
+
+    fn scaled(mut self, k: f64) -> Self {
+        for v in [
+            &mut self.acc_predict_ms,
+            &mut self.render_ms,
+            &mut self.perturbation_render_ms,
+            &mut self.perturbation_detect_ms,
+            &mut self.perturbation_ga_ms,
+            &mut self.noise_ms,
+            &mut self.formation_ms,
+            &mut self.detector_forward_ms,
+            &mut self.backward_ms,
+            &mut self.update_ms,
+            &mut self.decode_ms,
+        ] {
+            *v *= k;
+        }
+        self
+    }
+}
+
+/// A clock that attributes the time since its last lap to a part of [`StepBreakdown`], when
+/// measuring (`joca bench step`); otherwise it only restarts.
+#[derive(Debug)]
+pub(super) struct Stopwatch {
+    clock: Instant,
+    /// The sums so far; `None` when not measuring.
+    pub(super) breakdown: Option<StepBreakdown>,
+}
+
+impl Default for Stopwatch {
+    fn default() -> Self {
+        Self { clock: Instant::now(), breakdown: None }
+    }
+}
+
+impl Stopwatch {
+    /// A stopwatch that records.
+    pub(super) fn measuring() -> Self {
+        Self { clock: Instant::now(), breakdown: Some(StepBreakdown::default()) }
+    }
+
+    /// Adds the time since the last lap to `part`, and restarts.
+    pub(super) fn lap(&mut self, part: fn(&mut StepBreakdown) -> &mut f64) {
+        let ms = self.clock.elapsed().as_secs_f64() * 1e3;
+        self.clock = Instant::now();
+        if let Some(t) = self.breakdown.as_mut() {
+            *part(t) += ms;
+        }
+    }
+
+    /// Restarts without attributing the time since the last lap.
+    pub(super) fn restart(&mut self) {
+        self.clock = Instant::now();
+    }
+
+    /// Adds the parts the joint model timed itself, and counts the step.
+    pub(super) fn add_model_step(&mut self, r: &joca_nn::joint::StepTimings) {
+        if let Some(t) = self.breakdown.as_mut() {
+            t.formation_ms += r.formation_ms;
+            t.detector_forward_ms += r.detector_forward_ms;
+            t.backward_ms += r.backward_ms;
+            t.update_ms += r.update_ms;
+            t.decode_ms += r.decode_ms;
+            t.steps += 1;
+        }
+    }
+}
+
+/// Times `steps` training steps of `config`'s method on `design` (one candidate after a warm-up
+/// candidate), returning the mean time per step by part.
+pub fn bench_step(
+    config: &RunConfig,
+    design: &CameraDesign,
+    steps: usize,
+) -> Result<StepBreakdown, TrainError> {
+    let mut config = config.clone();
+    config.steps_per_candidate = steps.max(2);
+    config.validate()?;
+    let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
+    let mut perturbation = perturbation::ga(&config, &cx.streams)?;
+    candidate::train(&mut cx, &mut model, &mut perturbation, design, 0, &mut |_, _| {})?; // warm-up
+    cx.watch = Stopwatch::measuring();
+    candidate::train(&mut cx, &mut model, &mut perturbation, design, 1, &mut |_, _| {})?;
+    let t = cx.watch.breakdown.unwrap_or_default();
+    Ok(t.scaled(1.0 / t.steps.max(1) as f64))
+}
