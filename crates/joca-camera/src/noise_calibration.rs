@@ -53,6 +53,17 @@ pub fn calibrate_noise(
             f.height()
         )));
     }
+    for (field, value) in [("gain_db", gain_db), ("calibration_gain_db", calibration_gain_db)] {
+        if !(-20.0..=60.0).contains(&value) {
+            return Err(CameraError::OutOfRange {
+                field: field.into(),
+                value,
+                min: -20.0,
+                max: 60.0,
+                unit: " dB",
+            });
+        }
+    }
     let g = linear_from_db(gain_db) / linear_from_db(calibration_gain_db);
     let n = frames.len() as f64;
     let values = w * h * 3;
@@ -70,6 +81,12 @@ pub fn calibrate_noise(
         }
     }
     vars.iter_mut().for_each(|s| *s /= n - 1.0);
+    if vars.iter().all(|&v| v == 0.0) {
+        return Err(bad(
+            "the frames are identical: there is no temporal noise to measure (photon transfer \
+             needs several raw frames of a static scene, not copies of one frame)",
+        ));
+    }
 
     let mut fits =
         [ChannelFit { slope: 0.0, intercept: 0.0, sigma_p2: 0.0, sigma_r2: 0.0, samples: 0 }; 3];
@@ -78,8 +95,8 @@ pub fn calibrate_noise(
         // First pass on a conservative range, second with the clipping margin from that fit.
         let (a0, b0, _) =
             fit_line(&pairs, None, |mu| (10.0..=245.0).contains(&mu)).ok_or_else(|| {
-                bad("the frames hold too little intensity variation between 10 and 245 \
-                DN to fit a noise curve; use a scene with a range of grey levels")
+                bad("the frames hold too little intensity variation between 10 and 245 DN to \
+                     fit a noise curve; use a scene with a range of grey levels")
             })?;
         let (a, b, used) = fit_line(&pairs, Some((a0, b0)), |mu| {
             let sigma = (a0 * mu + b0).max(0.25).sqrt();

@@ -26,6 +26,9 @@ pub fn preset(name: &str) -> Result<&'static str> {
     }
 }
 
+/// The top-level tables a configuration file may hold.
+const TABLES: [&str; 2] = ["run", "pretrain"];
+
 fn merge(base: &mut toml::Table, over: toml::Table) {
     for (k, v) in over {
         match (base.get_mut(&k), v) {
@@ -47,6 +50,15 @@ pub fn load_table(name: &str, user_file: Option<&Path>) -> Result<(toml::Table, 
             .with_context(|| format!("cannot read config file {}", path.display()))?;
         let user: toml::Table = toml::from_str(&text)
             .with_context(|| format!("invalid config file {}", path.display()))?;
+        // Within a table serde refuses unknown fields; a misspelt table would go unread.
+        if let Some(unknown) = user.keys().find(|k| !TABLES.contains(&k.as_str())) {
+            bail!(
+                "config file {}: unknown table or field `{unknown}` at the top level; allowed: \
+                 [{}]",
+                path.display(),
+                TABLES.join("], [")
+            );
+        }
         merge(&mut table, user);
         source = format!("{} over preset {name}", path.display());
     }

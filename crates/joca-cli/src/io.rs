@@ -42,15 +42,89 @@ pub fn read_rgb8(path: &Path) -> Result<Rgb8Image> {
     Ok(Rgb8Image::from_vec(w, h, rgb.into_raw())?)
 }
 
-/// Writes an 8-bit RGB frame as PNG, creating the parent directory.
-pub fn write_png(path: &Path, frame: &Rgb8Image) -> Result<()> {
+/// Writes `bytes` to `path` through a temporary sibling and a rename, creating the parent
+/// directory: a failure (a full disk, a kill) leaves no file, or a truncated one, under `path`.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)
             .with_context(|| format!("cannot create directory {}", parent.display()))?;
     }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.partial"));
+    let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Writes an 8-bit RGB frame as PNG (atomically, see [`write_atomic`]).
+pub fn write_png(path: &Path, frame: &Rgb8Image) -> Result<()> {
     let (w, h) = (u32::try_from(frame.width())?, u32::try_from(frame.height())?);
-    image::save_buffer(path, frame.data(), w, h, image::ExtendedColorType::Rgb8)
-        .with_context(|| format!("cannot write {}", path.display()))
+    let mut bytes = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut bytes),
+        frame.data(),
+        w,
+        h,
+        image::ExtendedColorType::Rgb8,
+    )
+    .with_context(|| format!("cannot encode {}", path.display()))?;
+    write_atomic(path, &bytes)
+}
+
+/// An output folder written in full or not at all: everything goes into a temporary sibling,
+/// which replaces the folder on [`StagedDir::finish`]. The folder must be new, empty, or an
+/// earlier output of the same command (recognised by `marker`), so neither unrelated files
+/// nor stale ones from a larger earlier output survive next to the new ones.
+#[derive(Debug)]
+pub struct StagedDir {
+    target: PathBuf,
+    staging: PathBuf,
+}
+
+impl StagedDir {
+    /// Starts writing `target`; `marker` is a file every earlier output of the command holds.
+    pub fn create(target: &Path, marker: &str) -> Result<Self> {
+        if let Ok(mut entries) = std::fs::read_dir(target)
+            && entries.next().is_some()
+            && !target.join(marker).is_file()
+        {
+            anyhow::bail!(
+                "{} is not empty and holds no {marker}: it is not an earlier output of this \
+                 command; choose a new --out, or empty it",
+                target.display()
+            );
+        }
+        let name = target.file_name().map(|n| n.to_string_lossy().into_owned());
+        let name = name.filter(|n| !n.is_empty() && n != "." && n != "..").with_context(|| {
+            format!("--out {} must name a folder (not `.` or `..`)", target.display())
+        })?;
+        let staging = target.with_file_name(format!(".{name}.partial"));
+        let _ = std::fs::remove_dir_all(&staging);
+        std::fs::create_dir_all(&staging)
+            .with_context(|| format!("cannot create {}", staging.display()))?;
+        Ok(Self { target: target.to_owned(), staging })
+    }
+
+    /// Where to write the output's files.
+    pub fn path(&self) -> &Path {
+        &self.staging
+    }
+
+    /// Puts the written folder in place of the target (and of any earlier output there).
+    pub fn finish(self) -> Result<()> {
+        let old = self.staging.with_extension("old");
+        let _ = std::fs::remove_dir_all(&old);
+        if self.target.exists() {
+            std::fs::rename(&self.target, &old)
+                .with_context(|| format!("cannot replace {}", self.target.display()))?;
+        }
+        std::fs::rename(&self.staging, &self.target)
+            .with_context(|| format!("cannot write {}", self.target.display()))?;
+        let _ = std::fs::remove_dir_all(&old);
+        Ok(())
+    }
 }
 
 /// The PNG files of a directory, sorted by name.
@@ -86,9 +160,8 @@ pub fn read_calibration(path: &Path) -> Result<Calibration> {
 /// Writes an animated GIF of `frames`, `delay_cs` hundredths of a second apart, looping.
 pub fn write_gif(path: &Path, frames: &[Rgb8Image], delay_cs: u16) -> Result<()> {
     use image::codecs::gif::{GifEncoder, Repeat};
-    let file =
-        std::fs::File::create(path).with_context(|| format!("cannot write {}", path.display()))?;
-    let mut encoder = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+    let mut bytes = Vec::new();
+    let mut encoder = GifEncoder::new_with_speed(&mut bytes, 10);
     encoder.set_repeat(Repeat::Infinite)?;
     for f in frames {
         let rgba: Vec<u8> =
@@ -101,5 +174,6 @@ pub fn write_gif(path: &Path, frames: &[Rgb8Image], delay_cs: u16) -> Result<()>
             .encode_frame(image::Frame::from_parts(buffer, 0, 0, delay))
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    Ok(())
+    drop(encoder);
+    write_atomic(path, &bytes)
 }

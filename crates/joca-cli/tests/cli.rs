@@ -152,6 +152,23 @@ fn form_applies_exposure_and_reports_unreadable_files() {
 
 #[test]
 fn a_bad_calibration_file_names_the_file_and_the_field() {
+    let form_with = |cal: &Path| {
+        joca(&[
+            "form",
+            "--input",
+            "x.png",
+            "--exposure-ms",
+            "5",
+            "--gain-db",
+            "10",
+            "--sensor",
+            "AR0134",
+            "--calibration",
+            cal.to_str().unwrap(),
+            "--out",
+            "y.png",
+        ])
+    };
     let dir = tempfile::tempdir().unwrap();
     let cal = dir.path().join("cal.toml");
     std::fs::write(
@@ -160,40 +177,25 @@ fn a_bad_calibration_file_names_the_file_and_the_field() {
          sigma_p2 = [0.2, 0.1, 0.3]\nsigma_r2 = [1.0, -1.0, 3.0]\n",
     )
     .unwrap();
-    let o = joca(&[
-        "form",
-        "--input",
-        "x.png",
-        "--exposure-ms",
-        "5",
-        "--gain-db",
-        "10",
-        "--sensor",
-        "AR0134",
-        "--calibration",
-        cal.to_str().unwrap(),
-        "--out",
-        "y.png",
-    ]);
+    let o = form_with(&cal);
     let e = stderr(&o);
     assert!(e.contains("cal.toml") && e.contains("calibration.sigma_r2"), "{e}");
+    // A negative pitch names its physical range, not a 300-digit bound.
+    std::fs::write(
+        &cal,
+        "[calibration]\npixel_pitch_um = -3\nexposure_s = 0.005\ngain_db = 10\n\
+         sigma_p2 = [0.2, 0.1, 0.3]\nsigma_r2 = [1.0, 1.0, 3.0]\n",
+    )
+    .unwrap();
+    let o = form_with(&cal);
+    let e = stderr(&o);
+    assert!(
+        e.contains("calibration.pixel_pitch_um = -3 is out of range: allowed 0.5 to 50 µm"),
+        "{e}"
+    );
 
     std::fs::write(&cal, "[calibration]\npixel_pitch = 3.75\n").unwrap();
-    let o = joca(&[
-        "form",
-        "--input",
-        "x.png",
-        "--exposure-ms",
-        "5",
-        "--gain-db",
-        "10",
-        "--sensor",
-        "AR0134",
-        "--calibration",
-        cal.to_str().unwrap(),
-        "--out",
-        "y.png",
-    ]);
+    let o = form_with(&cal);
     let e = stderr(&o);
     assert!(e.contains("cal.toml") && e.contains("unknown field `pixel_pitch`"), "{e}");
 }
@@ -249,6 +251,22 @@ fn calibrate_noise_recovers_known_parameters_from_png_frames() {
 
     let o = joca(&["calibrate-noise", "--frames", "/nonexistent-dir"]);
     assert!(stderr(&o).contains("/nonexistent-dir"), "{}", stderr(&o));
+    // A gain that is not a number is refused with its range, not printed into the TOML.
+    let frames = dir.path().to_str().unwrap();
+    let o = joca(&["calibrate-noise", "--frames", frames, "--gain-db", "NaN"]);
+    assert!(
+        !o.status.success()
+            && stderr(&o).contains("gain_db = NaN is out of range: allowed -20 to 60 dB"),
+        "{}",
+        stderr(&o)
+    );
+    // Copies of one frame hold no temporal noise: refused, not fitted to a negative variance.
+    let copies = tempfile::tempdir().unwrap();
+    for k in 0..3 {
+        std::fs::copy(dir.path().join("f0.png"), copies.path().join(format!("c{k}.png"))).unwrap();
+    }
+    let o = joca(&["calibrate-noise", "--frames", copies.path().to_str().unwrap()]);
+    assert!(stderr(&o).contains("the frames are identical"), "{}", stderr(&o));
 }
 
 #[test]
@@ -277,6 +295,34 @@ fn render_writes_frames_ground_truth_and_a_contact_sheet() {
     assert_eq!(coco["categories"].as_array().unwrap().len(), 3);
     // IMX172 (4000x3000) at 0.05: 200x150.
     assert_eq!(coco["images"][0]["width"], 200);
+
+    // Rendering fewer frames into the same folder replaces the earlier output as a whole: no
+    // stale frame is left beside the new annotations, and no staging folder either.
+    let again = |frames: &str, out: &Path| {
+        joca(&[
+            "render",
+            "--frames",
+            frames,
+            "--render-scale",
+            "0.03",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    assert!(again("2", &out).status.success());
+    assert_eq!(std::fs::read_dir(out.join("frames")).unwrap().count(), 2);
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["r"]);
+    // A folder of other files is refused and left as it was.
+    let other = dir.path().join("mine");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("notes.txt"), "keep").unwrap();
+    let o = again("1", &other);
+    assert!(stderr(&o).contains("not an earlier output"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_dir(&other).unwrap().count(), 1);
 }
 
 #[test]
@@ -340,6 +386,35 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
         "{}",
         stderr(&o)
     );
+    // A fractional image id is refused, as pycocotools refuses it.
+    std::fs::write(
+        &dt,
+        r#"[{"image_id": 1.5, "category_id": 1, "bbox": [1, 2, 3, 4], "score": 1}]"#,
+    )
+    .unwrap();
+    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    assert!(stderr(&o).contains("`image_id` of detection 0 is 1.5"), "{}", stderr(&o));
+    // Ground truth only on an undeclared image and an undeclared category: pycocotools has
+    // nothing to evaluate and prints -1.000 (pycocotools 2.0.11 on this pair:
+    // crates/joca-metrics/tests/fixtures/edge_cases.py).
+    let lone = r#"{"images": [{"id": 1, "width": 100, "height": 100}],
+        "categories": [{"id": 1, "name": "vehicle"}],
+        "annotations": [
+            {"id": 1, "image_id": 5, "category_id": 1, "bbox": [10, 10, 20, 20], "area": 400,
+             "iscrowd": 0},
+            {"id": 2, "image_id": 1, "category_id": 9, "bbox": [10, 10, 20, 20], "area": 400,
+             "iscrowd": 0}]}"#;
+    std::fs::write(&gt, lone).unwrap();
+    std::fs::write(
+        &dt,
+        r#"[{"image_id": 1, "category_id": 1, "bbox": [10, 10, 20, 20], "score": 0.9}]"#,
+    )
+    .unwrap();
+    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = stdout(&o).lines().next().unwrap().to_owned();
+    assert!(first.ends_with("= -1.000"), "{first}");
+    assert!(stderr(&o).contains("2 annotation(s)"), "{}", stderr(&o));
 }
 
 #[test]
@@ -381,11 +456,34 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         "--out",
         dir.path().join("r").to_str().unwrap(),
     ]);
+    assert!(stderr(&o).contains("run.render_scale = 2 is invalid: 0.02 to 1"), "{}", stderr(&o));
+    // A misspelt table is refused, not ignored.
+    std::fs::write(&cfg, "[runn]\ngenerations = 2\n").unwrap();
+    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
     assert!(
-        stderr(&o).contains("run.render_scale = 2 is invalid: above 0, at most 1"),
+        !o.status.success()
+            && stderr(&o).contains("mine.toml")
+            && stderr(&o).contains("`runn`")
+            && stderr(&o).contains("[run], [pretrain]"),
         "{}",
         stderr(&o)
     );
+    // `--resume` where nothing ran is refused, and so is `--out` at a folder of other files,
+    // which is left untouched.
+    let empty = dir.path().join("empty");
+    let o = joca(&["run", "--resume", "--out", empty.to_str().unwrap()]);
+    assert!(stderr(&o).contains("nothing to resume"), "{}", stderr(&o));
+    let other = dir.path().join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("notes.txt"), "mine").unwrap();
+    let o = joca(&["run", "--out", other.to_str().unwrap()]);
+    assert!(stderr(&o).contains("not a joca run directory"), "{}", stderr(&o));
+    let left: Vec<_> = std::fs::read_dir(&other).unwrap().collect();
+    assert_eq!(left.len(), 1);
+    // A speed that is not a number is refused before anything runs.
+    let o =
+        joca(&["render", "--max-speed-mps", "NaN", "--frames", "1", "--out", "/tmp/joca-never"]);
+    assert!(stderr(&o).contains("--max-speed-mps = NaN is out of range"), "{}", stderr(&o));
 }
 
 /// A grid small enough for a test: 2 variants × 2 scenarios of a 1-generation run.

@@ -27,7 +27,7 @@ use joca_core::{
 };
 use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap};
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 /// What to do with a frame that cannot be read or decoded.
@@ -242,6 +242,43 @@ pub(crate) fn check_header(
     }
 }
 
+/// A COCO box `[x, y, w, h]` must have a positive size and lie inside its `w × h` image (up to
+/// one pixel of rounding at the border).
+fn check_box([x, y, w, h]: [f32; 4], (width, height): (u32, u32)) -> Result<(), String> {
+    if ![x, y, w, h].iter().all(|v| v.is_finite()) || w <= 0.0 || h <= 0.0 {
+        return Err("needs finite coordinates and a width and height above 0".into());
+    }
+    let slack = 1.0;
+    if x < -slack || y < -slack || x + w > width as f32 + slack || y + h > height as f32 + slack {
+        return Err(format!("reaches outside the {width}×{height} image"));
+    }
+    Ok(())
+}
+
+/// `dir/name`, where `name` (an annotation's `file_name`) must stay inside `dir`: relative, with
+/// no `..`, and not leading out through a symbolic link. A recording's annotation file is input
+/// like any other, and nothing outside the dataset folder is opened on its word.
+fn inside(dir: &Path, name: &str) -> Result<PathBuf, String> {
+    let rel = Path::new(name);
+    let plain = rel.components().all(|c| matches!(c, Component::Normal(_) | Component::CurDir));
+    if name.is_empty() || rel.is_absolute() || !plain {
+        return Err(format!(
+            "file_name {name:?} is not a path inside the dataset folder (relative, without `..`)"
+        ));
+    }
+    let path = dir.join(rel);
+    // A missing file is reported by the header check; an existing one must resolve inside.
+    if let (Ok(root), Ok(real)) = (dir.canonicalize(), path.canonicalize())
+        && !real.starts_with(&root)
+    {
+        return Err(format!(
+            "file_name {name:?} leads outside the dataset folder, to {} (a symbolic link)",
+            real.display()
+        ));
+    }
+    Ok(path)
+}
+
 pub(crate) fn read_err(path: &Path, reason: impl std::fmt::Display) -> SourceError {
     SourceError::Read { path: path.display().to_string(), reason: reason.to_string() }
 }
@@ -258,7 +295,21 @@ impl Recording {
         }
         let mut boxes: HashMap<u64, Vec<Annotation>> = HashMap::new();
         let mut crowds: HashMap<u64, Vec<Annotation>> = HashMap::new();
+        let sizes: HashMap<u64, (u32, u32)> =
+            coco.images.iter().map(|i| (i.id, (i.width, i.height))).collect();
         for a in &coco.annotations {
+            let size = sizes.get(&a.image_id).copied().ok_or_else(|| {
+                read_err(
+                    &json_path,
+                    format!("an annotation has image_id {} that no image declares", a.image_id),
+                )
+            })?;
+            check_box(a.bbox, size).map_err(|why| {
+                read_err(
+                    &json_path,
+                    format!("an annotation of image {}: bbox {:?} {why}", a.image_id, a.bbox),
+                )
+            })?;
             let class = *classes.get(&a.category_id).ok_or_else(|| {
                 read_err(
                     &json_path,
@@ -279,7 +330,7 @@ impl Recording {
         let mut sequences: BTreeMap<String, Vec<RecordedFrame>> = BTreeMap::new();
         let mut skipped = Vec::new();
         for img in &coco.images {
-            let path = dir.join(&img.file_name);
+            let path = inside(dir, &img.file_name).map_err(|e| read_err(&json_path, e))?;
             let timestamp_s = img.timestamp_s.ok_or_else(|| {
                 read_err(
                     &json_path,

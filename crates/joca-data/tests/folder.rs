@@ -161,3 +161,62 @@ fn missing_exposure_bad_frames_and_unknown_categories_are_named() {
         "{e}"
     );
 }
+
+/// A `file_name` that points outside the dataset folder — `..`, an absolute path, or a symbolic
+/// link inside the folder leading out — stops the opening with the annotation file and the
+/// name, whatever `on_bad_frame` says, and nothing outside is read.
+#[test]
+fn file_names_leading_outside_the_dataset_folder_are_refused() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("rec");
+    write_sequence(&dir, 3, true);
+    let outside = root.path().join("outside");
+    std::fs::create_dir_all(&outside).unwrap();
+    std::fs::copy(dir.join("frames/000.png"), outside.join("x.png")).unwrap();
+    std::os::unix::fs::symlink(&outside, dir.join("link")).unwrap();
+    let json = dir.join("annotations.json");
+    let original = std::fs::read_to_string(&json).unwrap();
+    let absolute = outside.join("x.png").display().to_string();
+    for name in ["../outside/x.png", absolute.as_str(), "frames/../../outside/x.png", "link/x.png"]
+    {
+        let text = original.replace("frames/001.png", name);
+        std::fs::write(&json, text).unwrap();
+        for on_bad_frame in [OnBadFrame::Stop, OnBadFrame::Skip] {
+            let e = Recording::open(&dir, FolderConfig { on_bad_frame, ..FolderConfig::default() })
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("annotations.json") && e.contains(name), "{name}: {e}");
+            assert!(e.contains("dataset folder"), "{name}: {e}");
+        }
+    }
+    // A name inside the folder still opens.
+    std::fs::write(&json, original.replace("frames/001.png", "./frames/001.png")).unwrap();
+    assert!(Recording::open(&dir, FolderConfig::default()).is_ok());
+}
+
+/// A box with no area, a negative size, a NaN, or one that reaches outside its image, and a box
+/// of an image the file does not declare, stop the opening naming the file and the box.
+#[test]
+fn boxes_outside_the_image_or_without_area_are_refused() {
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("rec");
+    write_sequence(&dir, 3, true);
+    let json = dir.join("annotations.json");
+    let original = std::fs::read_to_string(&json).unwrap();
+    // The first frame's vehicle is at [40, 40, 40, 20] in a 200×100 image.
+    for (bbox, why) in [
+        ("[40,40,0,20]", "above 0"),
+        ("[40,40,-40,20]", "above 0"),
+        ("[180,40,40,20]", "outside the 200×100 image"),
+        ("[40,-30,40,20]", "outside the 200×100 image"),
+    ] {
+        std::fs::write(&json, original.replacen("[40,40,40,20]", bbox, 1)).unwrap();
+        let e = Recording::open(&dir, FolderConfig::default()).unwrap_err().to_string();
+        assert!(e.contains("annotations.json") && e.contains(why), "{bbox}: {e}");
+    }
+    std::fs::write(&json, original.replacen("\"image_id\":1,", "\"image_id\":99,", 1)).unwrap();
+    let e = Recording::open(&dir, FolderConfig::default()).unwrap_err().to_string();
+    assert!(e.contains("image_id 99"), "{e}");
+    std::fs::write(&json, &original).unwrap();
+    assert!(Recording::open(&dir, FolderConfig::default()).is_ok());
+}

@@ -53,10 +53,22 @@ pub struct Adam {
 
 impl Adam {
     /// An optimiser for every trainable variable of `vs`, in name order.
+    ///
+    /// Every variable gets a zero gradient here, so that a step treats a variable the loss did
+    /// not reach as having gradient zero (its moments decay and it still moves), from the first
+    /// step on. Otherwise the rule would depend on history: a variable whose gradient was never
+    /// allocated is skipped, one whose gradient was allocated and zeroed is not — and a run
+    /// resumed from a checkpoint (fresh, unallocated gradients) would train differently from
+    /// the run it continues.
     pub fn new(vs: &VarStore, config: AdamConfig) -> Self {
         let mut vars: Vec<(String, Tensor)> =
             vs.variables().into_iter().filter(|(_, t)| t.requires_grad()).collect();
         vars.sort_by(|a, b| a.0.cmp(&b.0));
+        for (_, t) in &vars {
+            if !t.grad().defined() {
+                (t * 0.0).sum(Kind::Float).backward();
+            }
+        }
         let m = vars.iter().map(|(_, t)| t.zeros_like()).collect();
         let v = vars.iter().map(|(_, t)| t.zeros_like()).collect();
         let (names, params) = vars.into_iter().unzip();
@@ -126,6 +138,10 @@ impl Adam {
     /// Restores a state written by [`Adam::save`] for the same variables.
     pub fn load(&mut self, path: &Path) -> Result<(), NnError> {
         let err = |reason: String| NnError::Weights { path: path.display().to_string(), reason };
+        let size = std::fs::metadata(path).map_err(|e| err(e.to_string()))?.len();
+        if size > crate::weights::MAX_WEIGHTS_BYTES {
+            return Err(err(format!("{size} bytes: larger than any joca optimiser state")));
+        }
         let file: std::collections::HashMap<String, Tensor> =
             Tensor::read_safetensors(path)?.into_iter().collect();
         let step = file.get("step").ok_or_else(|| err("no tensor `step`".into()))?;
@@ -136,6 +152,7 @@ impl Adam {
                 let t = file
                     .get(&key)
                     .ok_or_else(|| err(format!("optimiser state has no tensor `{key}`")))?;
+                crate::weights::check_tensor(&key, t, slot).map_err(err)?;
                 if t.size() != slot.size() {
                     return Err(err(format!(
                         "`{key}` has shape {:?}, the model needs {:?}",

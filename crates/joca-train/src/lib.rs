@@ -24,6 +24,7 @@ pub use pretrain::{
     PretrainEvent, differing_fields, evaluate_weights, pretrain, reference_design,
 };
 pub use run::{
-    DesignSummary, FixedCamera, Method, RealConfig, RunConfig, RunEvent, RunResults, Scenario,
-    Showcase, ShowcaseFrame, Source, StepBreakdown, bench_step, evaluate_run, run,
+    DesignSummary, FixedCamera, MAX_SPEED_MPS, MIN_RENDER_SCALE, Method, RealConfig, RunConfig,
+    RunEvent, RunResults, Scenario, Showcase, ShowcaseFrame, Source, StepBreakdown, bench_step,
+    evaluate_run, run,
 };

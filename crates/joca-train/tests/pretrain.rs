@@ -273,7 +273,7 @@ fn invalid_configuration_names_the_field_and_the_range() {
     let e = pretrain(&cfg, dir.path(), &dir.path().join("w.safetensors"), false, &mut go)
         .unwrap_err()
         .to_string();
-    assert_eq!(e, "pretrain.render_scale = 3 is invalid: above 0, at most 1");
+    assert_eq!(e, "pretrain.render_scale = 3 is invalid: 0.02 to 1");
     let mut cfg = tiny();
     cfg.experimental.class_weights = [1.0, 0.0, 1.0];
     let e = cfg.validate().unwrap_err().to_string();
@@ -302,7 +302,7 @@ fn invalid_configuration_names_the_field_and_the_range() {
     let cfg = tiny_with(|c| c.data.train_render_scale = Some(0.0));
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.data.train_render_scale = 0 is invalid: above 0, at most 1"
+        "pretrain.data.train_render_scale = 0 is invalid: 0.02 to 1"
     );
     let cfg = tiny_with(|c| c.experimental.min_box_px = 0.5);
     assert_eq!(

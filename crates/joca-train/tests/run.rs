@@ -179,3 +179,89 @@ fn a_nan_loss_mid_run_stops_cleanly_and_leaves_the_last_checkpoint_intact() {
         serde_json::from_str(&std::fs::read_to_string(ckpt.join("state.json")).unwrap()).unwrap();
     assert_eq!(state["candidate"], 1);
 }
+
+/// Every file of a run's checkpoint, by name (the weights and optimiser states, `state.json`).
+fn checkpoint_files(run_dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(run_dir.join("checkpoint"))
+        .unwrap()
+        .map(|e| {
+            let path = e.unwrap().path();
+            (
+                path.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&path).unwrap(),
+            )
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// A run stopped right after each of its checkpoints in turn — mid-generation, at the end of a
+/// generation, and after the last candidate, before the test — and resumed, ends with the
+/// `results.json` and checkpoint of a run never stopped, byte for byte.
+#[test]
+fn a_run_stopped_at_every_checkpoint_resumes_to_the_uninterrupted_run_byte_for_byte() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = RunConfig { steps_per_candidate: 3, render_scale: 0.08, ..tiny(Method::Joca) };
+    let whole = dir.path().join("whole");
+    run(&cfg, &whole, false, &mut go).unwrap();
+    let results = std::fs::read(whole.join("results.json")).unwrap();
+    let checkpoint = checkpoint_files(&whole);
+    let candidates = cfg.generations * cfg.population;
+    for stop_after in 1..=candidates {
+        let d = dir.path().join(format!("stopped-{stop_after}"));
+        let mut stop = |e: &RunEvent| match e {
+            RunEvent::Candidate { done, .. } if *done == stop_after => ControlFlow::Break(()),
+            _ => ControlFlow::Continue(()),
+        };
+        assert!(matches!(run(&cfg, &d, false, &mut stop), Err(TrainError::Interrupted { .. })));
+        run(&cfg, &d, true, &mut go).unwrap();
+        assert!(
+            std::fs::read(d.join("results.json")).unwrap() == results,
+            "stopped after candidate {stop_after}: results.json differs"
+        );
+        assert!(
+            checkpoint_files(&d) == checkpoint,
+            "stopped after candidate {stop_after}: the checkpoint differs"
+        );
+    }
+}
+
+/// Every numeric field of `[run]` has a finite range; a value outside it, NaN or infinite, is
+/// refused before anything runs, naming the field and the range.
+#[test]
+fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
+    type Edit = fn(&mut RunConfig);
+    let cases: [(Edit, &str); 14] = [
+        (|c| c.max_speed_mps = f64::NAN, "run.max_speed_mps = NaN is invalid: 0 to 40"),
+        (|c| c.max_speed_mps = -5.0, "run.max_speed_mps = -5 is invalid: 0 to 40"),
+        (|c| c.detector.width = 0, "run.detector.width = 0 is invalid: 4 to 128"),
+        (|c| c.detector.width = 100_000, "run.detector.width = 100000 is invalid: 4 to 128"),
+        (
+            |c| c.detector.classes = 0,
+            "run.detector.classes = 0 is invalid: 3 (vehicle, walker, traffic sign)",
+        ),
+        (|c| c.population = 1_000_000_000, "run.population = 1000000000 is invalid: 2 to 1000"),
+        (
+            |c| c.perturbation_population = 100_000_000,
+            "run.perturbation_population = 100000000 is invalid: 2 to 64",
+        ),
+        (
+            |c| c.task_weight = f64::INFINITY,
+            "run.task_weight = inf is invalid: above 0, at most 1000",
+        ),
+        (|c| c.task_weight = f64::NAN, "run.task_weight = NaN is invalid: above 0, at most 1000"),
+        (|c| c.render_scale = 1e-9, "run.render_scale = 0.000000001 is invalid: 0.02 to 1"),
+        (|c| c.test_frames_per_episode = 0, "run.test_frames_per_episode = 0 is invalid: 1 to 500"),
+        (|c| c.test_episodes = 0, "run.test_episodes = 0 is invalid: 1 to 10000"),
+        (|c| c.generations = 0, "run.generations = 0 is invalid: 1 to 10000"),
+        (|c| c.ga_every = 0, "run.ga_every = 0 is invalid: 1 to 400"),
+    ];
+    for (edit, message) in cases {
+        let mut c = tiny(Method::Joca);
+        edit(&mut c);
+        assert_eq!(c.validate().unwrap_err().to_string(), message);
+    }
+    assert!(tiny(Method::Joca).validate().is_ok());
+}

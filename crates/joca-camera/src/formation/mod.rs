@@ -57,40 +57,22 @@ impl Calibration {
         sigma_r2: [1.82, 0.91, 3.2],
     };
 
-    /// Checks that every parameter is physically meaningful.
+    /// Checks that every parameter lies in a physically meaningful range: pixel pitch
+    /// 0.5–50 µm, exposure 1 µs–10 s, gain −20–60 dB, noise variances 0–10⁴ DN².
     pub fn validate(&self) -> Result<(), CameraError> {
-        let positive = |field: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
+        let within = |field: &str, v: f64, min: f64, max: f64, unit: &'static str| {
+            if (min..=max).contains(&v) {
                 Ok(())
             } else {
-                Err(CameraError::OutOfRange {
-                    field: field.to_owned(),
-                    value: v,
-                    min: f64::MIN_POSITIVE,
-                    max: f64::INFINITY,
-                    unit: "",
-                })
+                Err(CameraError::OutOfRange { field: field.to_owned(), value: v, min, max, unit })
             }
         };
-        positive("calibration.pixel_pitch_um", self.pixel_pitch_um)?;
-        positive("calibration.exposure_s", self.exposure_s)?;
-        if !self.gain_db.is_finite() {
-            return Err(CameraError::NotFinite {
-                field: "calibration.gain_db".into(),
-                value: self.gain_db,
-            });
-        }
+        within("calibration.pixel_pitch_um", self.pixel_pitch_um, 0.5, 50.0, " µm")?;
+        within("calibration.exposure_s", self.exposure_s, 1e-6, 10.0, " s")?;
+        within("calibration.gain_db", self.gain_db, -20.0, 60.0, " dB")?;
         for (name, values) in [("sigma_p2", self.sigma_p2), ("sigma_r2", self.sigma_r2)] {
             for v in values {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(CameraError::OutOfRange {
-                        field: format!("calibration.{name}"),
-                        value: v,
-                        min: 0.0,
-                        max: f64::INFINITY,
-                        unit: "",
-                    });
-                }
+                within(&format!("calibration.{name}"), v, 0.0, 1e4, " DN²")?;
             }
         }
         Ok(())

@@ -53,19 +53,32 @@ pub fn run(args: &Args) -> Result<()> {
             name, f.slope, f.intercept, f.sigma_p2, f.sigma_r2, f.samples
         );
     }
+    // A variance estimated below zero (noise under what these frames resolve) is written as 0,
+    // so that the table is one `--calibration` accepts; the raw estimate is in the table above.
+    let mut notes = Vec::new();
+    let mut clamp = |name: &str, channel: &str, v: f64| {
+        if v < 0.0 {
+            notes.push(format!(
+                "# {name} of the {channel} channel was estimated at {v:.4}; written as 0"
+            ));
+        }
+        v.max(0.0)
+    };
+    let channels = ["red", "green", "blue"];
+    let p2: Vec<f64> =
+        fits.iter().zip(channels).map(|(f, c)| clamp("σp²", c, f.sigma_p2)).collect();
+    let r2: Vec<f64> =
+        fits.iter().zip(channels).map(|(f, c)| clamp("σr²", c, f.sigma_r2)).collect();
     let c = Calibration::DEFAULT;
     println!("\n# TOML for --calibration (brightness reference as in DESIGN.md):");
+    for note in &notes {
+        println!("{note}");
+    }
     println!("[calibration]");
     println!("pixel_pitch_um = {}", c.pixel_pitch_um);
     println!("exposure_s = {}", c.exposure_s);
     println!("gain_db = {}", args.calibration_gain_db);
-    println!(
-        "sigma_p2 = [{:.4}, {:.4}, {:.4}]",
-        fits[0].sigma_p2, fits[1].sigma_p2, fits[2].sigma_p2
-    );
-    println!(
-        "sigma_r2 = [{:.4}, {:.4}, {:.4}]",
-        fits[0].sigma_r2, fits[1].sigma_r2, fits[2].sigma_r2
-    );
+    println!("sigma_p2 = [{:.4}, {:.4}, {:.4}]", p2[0], p2[1], p2[2]);
+    println!("sigma_r2 = [{:.4}, {:.4}, {:.4}]", r2[0], r2[1], r2[2]);
     Ok(())
 }

@@ -74,8 +74,7 @@ pub fn run(args: &Args) -> Result<()> {
             }));
         }
     }
-    std::fs::write(&args.out, serde_json::to_string(&out)?)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    crate::io::write_atomic(&args.out, serde_json::to_string(&out)?.as_bytes())?;
     println!("{} detections on {} frames: {}", out.len(), list.images.len(), args.out.display());
     Ok(())
 }

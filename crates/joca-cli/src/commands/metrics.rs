@@ -34,6 +34,15 @@ fn number(v: &Value, name: &str, what: &str, path: &Path) -> Result<f64> {
         .ok_or_else(|| anyhow!("{}: `{name}` of {what} is not a number", path.display()))
 }
 
+/// An id: a whole, non-negative number (pycocotools refuses `1.5`; `1.0` is the id 1).
+fn id(v: &Value, name: &str, what: &str, path: &Path) -> Result<u64> {
+    let x = number(v, name, what, path)?;
+    if !(x >= 0.0 && x.fract() == 0.0 && x <= u32::MAX as f64) {
+        bail!("{}: `{name}` of {what} is {x}, not a whole non-negative id", path.display());
+    }
+    Ok(x as u64)
+}
+
 fn bbox(v: &Value, what: &str, path: &Path) -> Result<[f64; 4]> {
     let b = field(v, "bbox", what, path)?.as_array().filter(|a| a.len() == 4).ok_or_else(|| {
         anyhow!("{}: `bbox` of {what} must be [x, y, width, height]", path.display())
@@ -60,7 +69,7 @@ pub fn run(args: &Args) -> Result<()> {
         .ok_or_else(|| anyhow!("{}: `images` is not a list", args.gt.display()))?;
     let mut image_ids = BTreeSet::new();
     for (i, img) in images.iter().enumerate() {
-        let id = number(img, "id", &format!("images[{i}]"), &args.gt)? as u64;
+        let id = id(img, "id", &format!("images[{i}]"), &args.gt)?;
         image_ids.insert(id);
         eval.add_image(id, vec![], vec![]);
     }
@@ -69,29 +78,44 @@ pub fn run(args: &Args) -> Result<()> {
         .ok_or_else(|| anyhow!("{}: `categories` is not a list", args.gt.display()))?
         .iter()
         .enumerate()
-        .map(|(i, c)| number(c, "id", &format!("categories[{i}]"), &args.gt).map(|v| v as u32))
+        .map(|(i, c)| id(c, "id", &format!("categories[{i}]"), &args.gt).map(|v| v as u32))
         .collect::<Result<_>>()?;
     let annotations = field(&gt, "annotations", "the file", &args.gt)?
         .as_array()
         .ok_or_else(|| anyhow!("{}: `annotations` is not a list", args.gt.display()))?;
+    // pycocotools evaluates the declared images and categories only: ground truth elsewhere
+    // is left out (with a warning here), so a file with nothing else scores -1.
+    let mut undeclared = 0;
     for (i, a) in annotations.iter().enumerate() {
         let what = format!("annotations[{i}]");
-        let image = number(a, "image_id", &what, &args.gt)? as u64;
+        let image = id(a, "image_id", &what, &args.gt)?;
+        let category = id(a, "category_id", &what, &args.gt)? as u32;
         let b = bbox(a, &what, &args.gt)?;
+        if !image_ids.contains(&image) || !categories.contains(&category) {
+            undeclared += 1;
+            continue;
+        }
         let g = GroundTruth {
             bbox: b,
-            category: number(a, "category_id", &what, &args.gt)? as u32,
+            category,
             area: a.get("area").and_then(Value::as_f64).unwrap_or(b[2] * b[3]),
             crowd: a.get("iscrowd").and_then(Value::as_u64).unwrap_or(0) == 1,
         };
         eval.add_image(image, vec![g], vec![]);
+    }
+    if undeclared > 0 {
+        eprintln!(
+            "warning: {}: {undeclared} annotation(s) on an image or category the file does not \
+             declare are left out, as pycocotools does",
+            args.gt.display()
+        );
     }
     let results = dt.as_array().ok_or_else(|| {
         anyhow!("{}: a results file is a JSON list of detections", args.dt.display())
     })?;
     for (i, d) in results.iter().enumerate() {
         let what = format!("detection {i}");
-        let image = number(d, "image_id", &what, &args.dt)? as u64;
+        let image = id(d, "image_id", &what, &args.dt)?;
         if !image_ids.contains(&image) {
             bail!(
                 "{}: {what} refers to image {image}, which {} does not have",
@@ -99,7 +123,7 @@ pub fn run(args: &Args) -> Result<()> {
                 args.gt.display()
             );
         }
-        let category = number(d, "category_id", &what, &args.dt)? as u32;
+        let category = id(d, "category_id", &what, &args.dt)? as u32;
         if !categories.contains(&category) {
             continue; // pycocotools evaluates the ground truth's categories only
         }

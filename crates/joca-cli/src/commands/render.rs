@@ -104,8 +104,19 @@ pub fn run(args: &Args) -> Result<()> {
     space.x_m.check("--x", args.x, " m")?;
     space.z_m.check("--z", args.z, " m")?;
     space.focal_length_mm.check("--focal-mm", args.focal_mm, " mm")?;
-    if !(args.render_scale > 0.0 && args.render_scale <= 1.0) {
-        bail!("--render-scale = {} is out of range: allowed above 0 up to 1", args.render_scale);
+    if !(joca_train::MIN_RENDER_SCALE..=1.0).contains(&args.render_scale) {
+        bail!(
+            "--render-scale = {} is out of range: allowed {} to 1",
+            args.render_scale,
+            joca_train::MIN_RENDER_SCALE
+        );
+    }
+    if !(0.0..=joca_train::MAX_SPEED_MPS).contains(&args.max_speed_mps) {
+        bail!(
+            "--max-speed-mps = {} is out of range: allowed 0 to {}",
+            args.max_speed_mps,
+            joca_train::MAX_SPEED_MPS
+        );
     }
     if !(args.blur_scale >= 0.0 && args.blur_scale.is_finite()) {
         bail!("--blur-scale = {} is out of range: allowed 0 or more", args.blur_scale);
@@ -149,9 +160,10 @@ pub fn run(args: &Args) -> Result<()> {
         .context("invalid --noise-scale")?;
     let ae = AverageAe::new(ranges);
     let streams = SeedStreams::new(args.seed);
-    let frames_dir = args.out.join("frames");
-    std::fs::create_dir_all(&frames_dir)
-        .with_context(|| format!("cannot create {}", frames_dir.display()))?;
+    // Written in full or not at all: a full disk or a kill leaves the earlier output (or none).
+    let staged = io::StagedDir::create(&args.out, "annotations.json")?;
+    let out = staged.path().to_owned();
+    let frames_dir = out.join("frames");
 
     let episode = sim.episode(args.episode);
     println!(
@@ -237,18 +249,20 @@ pub fn run(args: &Args) -> Result<()> {
         .map(|c| json!({"id": c.coco_id(), "name": c.name()}))
         .collect();
     let coco = json!({"images": images, "annotations": annotations, "categories": categories});
-    let gt_path = args.out.join("annotations.json");
-    std::fs::write(&gt_path, serde_json::to_string_pretty(&coco)?)
-        .with_context(|| format!("cannot write {}", gt_path.display()))?;
+    io::write_atomic(
+        &out.join("annotations.json"),
+        serde_json::to_string_pretty(&coco)?.as_bytes(),
+    )?;
     let sheet_frames: Vec<Rgb8Image> =
         shown.iter().step_by(shown.len().div_ceil(16).max(1)).cloned().collect();
     let sheet = draw::tile(&sheet_frames, 4);
-    io::write_png(&args.out.join("contact_sheet.png"), &sheet)?;
+    io::write_png(&out.join("contact_sheet.png"), &sheet)?;
     io::write_gif(
-        &args.out.join("sequence.gif"),
+        &out.join("sequence.gif"),
         &shown,
         (sim.frame_interval_s() * 100.0).round() as u16,
     )?;
+    staged.finish()?;
     println!(
         "wrote {} frames, annotations.json, contact_sheet.png and sequence.gif to {}",
         args.frames,

@@ -1,7 +1,7 @@
 //! `joca run`: the joint optimisation of camera hardware, NeuralAE and detector.
 
 use crate::config;
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result, anyhow, bail};
 use joca_train::{Method, RunConfig, RunEvent, RunResults, Scenario, Source, run as run_loop};
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -63,7 +63,35 @@ pub fn run(args: &Args) -> Result<()> {
             cfg.scenario.name()
         ))
     });
+    check_run_dir(&out, args.resume)?;
     execute(cfg, &out, args.resume)
+}
+
+/// `--out` must be a new or empty folder, or a run directory of joca's (`config.toml`); with
+/// `--resume` it must hold a checkpoint. So a mistyped path neither overwrites a folder of
+/// other files nor silently starts a fresh run.
+fn check_run_dir(out: &Path, resume: bool) -> Result<()> {
+    let entries: Vec<String> = match std::fs::read_dir(out) {
+        Ok(entries) => entries
+            .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+            .collect(),
+        Err(_) => Vec::new(),
+    };
+    if !entries.is_empty() && !entries.iter().any(|e| e == "config.toml") {
+        bail!(
+            "{} is not empty and is not a joca run directory (no config.toml): choose a new \
+             --out, or empty it",
+            out.display()
+        );
+    }
+    if resume && joca_train::CheckpointDir::new(out.join("checkpoint")).existing().is_none() {
+        bail!(
+            "nothing to resume in {}: it holds no checkpoint (no candidate has finished there); \
+             run without --resume to start",
+            out.display()
+        );
+    }
+    Ok(())
 }
 
 /// Runs (or resumes) `cfg` into `out` with a progress line, prints the result table and writes

@@ -196,8 +196,8 @@ impl PretrainConfig {
         if !(1..=64).contains(&self.threads) {
             return bad("threads", self.threads.to_string(), "1 to 64");
         }
-        if self.steps == 0 {
-            return bad("steps", "0".into(), "at least 1");
+        if !(1..=10_000_000).contains(&self.steps) {
+            return bad("steps", self.steps.to_string(), "1 to 10000000");
         }
         if self.data.frames_per_design == 0 || self.data.frames_per_design > 400 {
             return bad(
@@ -225,11 +225,12 @@ impl PretrainConfig {
                 "1 to data.frames_per_design",
             );
         }
-        if !(self.render_scale > 0.0 && self.render_scale <= 1.0) {
-            return bad("render_scale", self.render_scale.to_string(), "above 0, at most 1");
+        let scales = (crate::MIN_RENDER_SCALE..=1.0, format!("{} to 1", crate::MIN_RENDER_SCALE));
+        if !scales.0.contains(&self.render_scale) {
+            return bad("render_scale", self.render_scale.to_string(), &scales.1);
         }
-        if let Some(s) = self.data.train_render_scale.filter(|s| !(*s > 0.0 && *s <= 1.0)) {
-            return bad("data.train_render_scale", s.to_string(), "above 0, at most 1");
+        if let Some(s) = self.data.train_render_scale.filter(|s| !scales.0.contains(s)) {
+            return bad("data.train_render_scale", s.to_string(), &scales.1);
         }
         if self.data.train_maps == 0 {
             return bad("data.train_maps", "0".into(), "at least 1");
@@ -255,27 +256,29 @@ impl PretrainConfig {
                 "0 to 1",
             );
         }
-        if !(4..=128).contains(&self.detector.width) {
-            return bad("detector.width", self.detector.width.to_string(), "4 to 128");
-        }
-        if self.detector.classes != 3 {
-            return bad(
-                "detector.classes",
-                self.detector.classes.to_string(),
-                "3 (vehicle, walker, traffic sign)",
-            );
-        }
+        crate::run::check_detector(&self.detector, "pretrain")?;
         if !(1..=10_000).contains(&self.eval.episodes) {
             return bad("eval.episodes", self.eval.episodes.to_string(), "1 to 10000");
         }
         if let Some(n) = self.eval.final_episodes.filter(|n| !(1..=10_000).contains(n)) {
             return bad("eval.final_episodes", n.to_string(), "1 to 10000");
         }
-        if self.checkpoint_every_designs == 0 {
-            return bad("checkpoint_every_designs", "0".into(), "at least 1");
+        let frames = [
+            ("optimizer.warmup_steps", self.optimizer.warmup_steps),
+            ("eval.every", self.eval.every),
+        ];
+        for (name, v) in frames {
+            if v > 10_000_000 {
+                return bad(name, v.to_string(), "0 to 10000000");
+            }
         }
-        if !(self.data.max_speed_mps >= 0.0 && self.data.max_speed_mps <= 40.0) {
-            return bad("data.max_speed_mps", self.data.max_speed_mps.to_string(), "0 to 40");
+        if !(1..=100).contains(&self.checkpoint_every_designs) {
+            let value = self.checkpoint_every_designs.to_string();
+            return bad("checkpoint_every_designs", value, "1 to 100");
+        }
+        if !(0.0..=crate::MAX_SPEED_MPS).contains(&self.data.max_speed_mps) {
+            let allowed = format!("0 to {}", crate::MAX_SPEED_MPS);
+            return bad("data.max_speed_mps", self.data.max_speed_mps.to_string(), &allowed);
         }
         if !(self.data.walker_density >= 0.0 && self.data.walker_density <= 8.0) {
             return bad("data.walker_density", self.data.walker_density.to_string(), "0 to 8");

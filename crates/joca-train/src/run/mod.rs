@@ -23,7 +23,8 @@ use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
-pub use config::{RealConfig, RunConfig, Source};
+pub(crate) use config::check_detector;
+pub use config::{MAX_SPEED_MPS, MIN_RENDER_SCALE, RealConfig, RunConfig, Source};
 pub use evaluate::evaluate_run;
 use evaluate::{best_design, test_design};
 use joca_camera::{

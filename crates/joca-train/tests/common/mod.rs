@@ -1,8 +1,10 @@
 //! Helpers shared by the integration tests.
 #![allow(clippy::unwrap_used)]
 
-/// Overwrites every value of the first F32 tensor of a safetensors file with NaN (the format: an
-/// 8-byte little-endian header length, a JSON header with each tensor's byte range, the data).
+/// Overwrites every value of the first F32 tensor of a safetensors file with the largest finite
+/// f32 (the format: an 8-byte little-endian header length, a JSON header with each tensor's
+/// byte range, the data). The file still loads — a NaN would be refused when it is read — and
+/// the first forward pass overflows, so the loss is NaN: a divergence as training meets one.
 pub fn poison_first_tensor(path: &std::path::Path) {
     let mut bytes = std::fs::read(path).unwrap();
     let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
@@ -18,7 +20,7 @@ pub fn poison_first_tensor(path: &std::path::Path) {
         info["data_offsets"][1].as_u64().unwrap() as usize,
     );
     for chunk in bytes[8 + n + a..8 + n + b].chunks_exact_mut(4) {
-        chunk.copy_from_slice(&f32::NAN.to_le_bytes());
+        chunk.copy_from_slice(&f32::MAX.to_le_bytes());
     }
     std::fs::write(path, bytes).unwrap();
 }
