@@ -11,9 +11,13 @@
 //! ```
 //!
 //! exactly as printed. Gains here are linear factors (Eq. 2 multiplies by G/G0), so the floor
-//! `1` is unity gain, 0 dB — slightly below the ACC's 1 dB range minimum; the paper applies no
-//! further clamping, and neither do we: with small pixels the exposure may exceed 50 ms, which
-//! is the physical price of small pixels (and longer motion blur).
+//! `1` is unity gain, 0 dB — slightly below the ACC's 1 dB range minimum.
+//!
+//! With small pixels Eq. 4 alone may ask for more exposure than a frame can have (a 1.55 µm
+//! pixel needs 5.85× the calibration camera's: 292 ms for a 50 ms prediction, beyond the
+//! 100 ms frame interval). [`limit_exposure`] caps the exposure at the longest the camera can
+//! use (the ACC range's maximum, or the frame interval if shorter) and lets gain make up the
+//! rest, up to the gain range's maximum; beyond that the frame is darker than predicted.
 
 use crate::settings::DynamicSettings;
 use joca_core::units::{db_from_linear, linear_from_db};
@@ -36,9 +40,43 @@ pub fn compensate_for_pixel_size(
     }
 }
 
+/// `settings` with the exposure capped at `max_exposure_s` and the gain raised by the same
+/// factor (brightness `E·G` kept), the gain capped at `max_gain_db`.
+pub fn limit_exposure(
+    settings: DynamicSettings,
+    max_exposure_s: f64,
+    max_gain_db: f64,
+) -> DynamicSettings {
+    if settings.exposure_s <= max_exposure_s {
+        return settings;
+    }
+    let excess = settings.exposure_s / max_exposure_s;
+    DynamicSettings::new(
+        max_exposure_s,
+        (settings.gain_db + db_from_linear(excess)).min(max_gain_db),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_exposure_beyond_the_cap_is_traded_for_gain_up_to_its_maximum() {
+        // A 1.55 µm pixel: Eq. 4 turns 50 ms into 50·(3.75/1.55)² = 292.7 ms.
+        let applied = compensate_for_pixel_size(DynamicSettings::new(0.05, 5.0), 1.55, 3.75);
+        assert!((applied.exposure_s - 0.05 * (3.75f64 / 1.55).powi(2)).abs() < 1e-12);
+        let capped = limit_exposure(applied, 0.05, 30.0);
+        assert_eq!(capped.exposure_s, 0.05);
+        // E·G kept: 5.854× less exposure is 15.35 dB more gain.
+        assert!((capped.gain_db - (5.0 + 20.0 * (3.75f64 / 1.55).powi(2).log10())).abs() < 1e-9);
+        // At 20 dB the gain range's 30 dB maximum cuts it: the frame comes out darker.
+        let dark = limit_exposure(DynamicSettings::new(applied.exposure_s, 20.0), 0.05, 30.0);
+        assert_eq!((dark.exposure_s, dark.gain_db), (0.05, 30.0));
+        // Within the cap nothing changes.
+        let ok = DynamicSettings::new(0.02, 12.0);
+        assert_eq!(limit_exposure(ok, 0.05, 30.0), ok);
+    }
 
     fn brightness(s: DynamicSettings, p: f64) -> f64 {
         s.exposure_s * linear_from_db(s.gain_db) * (p / 3.75).powi(2)

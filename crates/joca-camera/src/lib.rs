@@ -39,7 +39,7 @@ mod settings;
 pub use average_ae::{AverageAe, MIN_MEAN_DN};
 pub use capture::Capture;
 pub use catalogue::{Sensor, Shutter, sensor_by_name};
-pub use compensation::compensate_for_pixel_size;
+pub use compensation::{compensate_for_pixel_size, limit_exposure};
 pub use design::{CameraDesign, DesignSpace};
 pub use error::CameraError;
 pub use formation::{Calibration, FormationParams, ImageFormation, TILE_ROWS, WHITE_LEVEL};

@@ -457,6 +457,14 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         dir.path().join("r").to_str().unwrap(),
     ]);
     assert!(stderr(&o).contains("run.render_scale = 2 is invalid: 0.02 to 1"), "{}", stderr(&o));
+    // An unknown perturbation mutation names the field and the values it may take.
+    std::fs::write(&cfg, "[run]\nperturbation_mutation = \"gaussian\"\n").unwrap();
+    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let e = stderr(&o);
+    assert!(
+        e.contains("perturbation_mutation") && e.contains("`paper`") && e.contains("`additive`"),
+        "{e}"
+    );
     // A misspelt table is refused, not ignored.
     std::fs::write(&cfg, "[runn]\ngenerations = 2\n").unwrap();
     let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);

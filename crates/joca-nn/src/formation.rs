@@ -28,7 +28,8 @@ pub struct Scene<'a> {
 }
 
 /// `[1, 3, H, W]` frame in DN (0–255, integer-valued in the forward pass) of `scene` under
-/// `formation`'s calibration and noise scale (the very formation the 8-bit path uses),
+/// `formation`'s calibration, noise scale and render scale (the very formation the 8-bit path
+/// uses),
 /// differentiable in `exposure_s` and `gain_db` (`[1]` tensors).
 pub fn form(
     scene: &Scene<'_>,
@@ -52,7 +53,7 @@ pub fn form(
     let i0 = to_chw(i0);
     let z = to_chw(normals);
     let c = formation.calibration();
-    let n = formation.noise_scale();
+    let n = formation.variance_scale();
     let g0 = 10f64.powf(c.gain_db / 20.0);
     let gain_ratio = (gain_db / 20.0 * std::f64::consts::LN_10).exp() / g0; // 10^(dB/20) / G0
     let area = (pixel_pitch_um / c.pixel_pitch_um).powi(2);

@@ -104,6 +104,10 @@ pub struct JointModel {
     bounds: AccBounds,
     formation: ImageFormation,
     device: Device,
+    /// The longest exposure and the highest gain the sensor can apply (Eq. 4's result is capped
+    /// there, gain making up the exposure's excess), as `joca_camera::limit_exposure`.
+    max_exposure_s: f64,
+    max_gain_db: f64,
     /// Detector features of the sequence's last frame: NeuralAE's input for the next one.
     features: Option<Tensor>,
     train_detector: bool,
@@ -138,9 +142,17 @@ impl JointModel {
             bounds,
             formation,
             device: engine.device(),
+            max_exposure_s: ranges.exposure_s.max,
+            max_gain_db: ranges.gain_db.max,
             features: None,
             train_detector: true,
         }
+    }
+
+    /// The longest exposure a frame can have (the ACC range's maximum by default; a shorter
+    /// frame interval lowers it).
+    pub fn set_max_exposure(&mut self, max_exposure_s: f64) {
+        self.max_exposure_s = max_exposure_s;
     }
 
     /// Freezes the detector (the "frozen detector" ablation) or lets it train.
@@ -218,6 +230,7 @@ impl JointModel {
                     scene.pixel_pitch_um,
                     self.formation.calibration().pixel_pitch_um,
                 );
+                let (e, g) = limit_exposure(&e, &g, self.max_exposure_s, self.max_gain_db);
                 (e, g, Some((&p.exposure_s, &p.gain_db)))
             }
             Exposure::Fixed(applied) => (
@@ -350,6 +363,18 @@ fn eq4(
     }
 }
 
+/// `joca_camera::limit_exposure` on tensors: an exposure beyond `max_exposure_s` is capped and
+/// the gain raised by the same factor, up to `max_gain_db`.
+fn limit_exposure(
+    e: &Tensor,
+    g_db: &Tensor,
+    max_exposure_s: f64,
+    max_gain_db: f64,
+) -> (Tensor, Tensor) {
+    let excess = (e / max_exposure_s).clamp_min(1.0);
+    (e / &excess, (g_db + excess.log10() * 20.0).clamp_max(max_gain_db))
+}
+
 fn tensor_to_rgb8(frame_dn: &Tensor) -> Rgb8Image {
     let s = frame_dn.size();
     let (h, w) = (s[2] as usize, s[3] as usize);
@@ -390,6 +415,24 @@ mod tests {
     /// with, `joca_camera::compensate_for_pixel_size`, for larger and smaller pixels.
     #[test]
     fn eq4_on_tensors_matches_the_camera_crate() {
+        // Eq. 4 and then the cap, for a tiny pixel whose exposure would exceed 50 ms.
+        for (pitch, e, g) in [(1.55, 0.04, 10.0), (1.55, 0.04, 25.0), (5.86, 0.04, 10.0)] {
+            let want = joca_camera::limit_exposure(
+                joca_camera::compensate_for_pixel_size(DynamicSettings::new(e, g), pitch, 3.75),
+                0.05,
+                30.0,
+            );
+            let (et, gt) = eq4(
+                &Tensor::from_slice(&[e as f32]),
+                &Tensor::from_slice(&[g as f32]),
+                pitch,
+                3.75,
+            );
+            let (et, gt) = limit_exposure(&et, &gt, 0.05, 30.0);
+            let (et, gt) = (et.double_value(&[0]), gt.double_value(&[0]));
+            assert!((et / want.exposure_s - 1.0).abs() < 1e-5, "{pitch}: E {et} vs {want:?}");
+            assert!((gt - want.gain_db).abs() < 1e-4, "{pitch}: G {gt} vs {want:?}");
+        }
         for (pitch, e, g) in [(5.86, 0.02, 12.0), (5.86, 0.02, 1.0), (1.55, 0.004, 20.0)] {
             let want =
                 joca_camera::compensate_for_pixel_size(DynamicSettings::new(e, g), pitch, 3.75);

@@ -3,12 +3,15 @@
 //! baseline) implement one interface, [`ExposureControl`], which the joint loop and the
 //! closed-loop test drive alike.
 //!
-//! NeuralAE predicts settings for the calibration pixel pitch p0; [`NeuralControl`] applies
-//! paper Eq. 4 (`joca_camera::compensate_for_pixel_size`) to turn them into what the sensor
-//! uses — the one place Eq. 4 is applied to plain numbers (the joint model differentiates a
-//! tensor twin of it, tested equal). AverageAE works on the sensor's own settings.
+//! NeuralAE predicts settings for the calibration pixel pitch p0; [`for_sensor`] applies paper
+//! Eq. 4 (`joca_camera::compensate_for_pixel_size`) and caps the exposure at what a frame can
+//! have (`joca_camera::limit_exposure`) to turn them into what the sensor uses — the one place
+//! this is done to plain numbers (the joint model differentiates a tensor twin of it, tested
+//! equal). AverageAE works on the sensor's own settings.
 
-use joca_camera::{AccRanges, AverageAe, Calibration, DynamicSettings, compensate_for_pixel_size};
+use joca_camera::{
+    AccRanges, AverageAe, Calibration, DynamicSettings, compensate_for_pixel_size, limit_exposure,
+};
 use joca_core::Rgb8Image;
 use joca_nn::joint::{Exposure, JointModel, Prediction};
 
@@ -42,16 +45,48 @@ pub trait ExposureControl {
     fn next(&mut self, model: &JointModel, last: &Rgb8Image) -> Decision;
 }
 
+/// The sensor a controller drives: its pixel pitch and the longest exposure and highest gain it
+/// can apply.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorLimits {
+    /// Pixel pitch, µm.
+    pub pixel_pitch_um: f64,
+    /// The ACC range's maximum, or the frame interval if shorter, s.
+    pub max_exposure_s: f64,
+    /// The ACC range's maximum gain, dB.
+    pub max_gain_db: f64,
+}
+
+impl SensorLimits {
+    /// A sensor of pitch `pixel_pitch_um` within `ranges`, taking a frame every
+    /// `frame_interval_s`.
+    pub fn new(pixel_pitch_um: f64, ranges: AccRanges, frame_interval_s: f64) -> Self {
+        Self {
+            pixel_pitch_um,
+            max_exposure_s: ranges.exposure_s.max.min(frame_interval_s),
+            max_gain_db: ranges.gain_db.max,
+        }
+    }
+}
+
+/// Settings NeuralAE predicted for the calibration pitch, as `sensor` applies them: Eq. 4, then
+/// the exposure capped with gain making up the rest.
+pub fn for_sensor(predicted: DynamicSettings, sensor: &SensorLimits) -> DynamicSettings {
+    let p0 = Calibration::DEFAULT.pixel_pitch_um;
+    let applied = compensate_for_pixel_size(predicted, sensor.pixel_pitch_um, p0);
+    limit_exposure(applied, sensor.max_exposure_s, sensor.max_gain_db)
+}
+
 /// The calibration camera's settings, where every sequence starts.
 fn calibration_settings() -> DynamicSettings {
     let cal = Calibration::DEFAULT;
     DynamicSettings::new(cal.exposure_s, cal.gain_db)
 }
 
-/// NeuralAE for a sensor of pitch `pixel_pitch_um`.
+/// NeuralAE driving one sensor.
 #[derive(Debug, Clone, Copy)]
 pub struct NeuralControl {
-    pixel_pitch_um: f64,
+    sensor: SensorLimits,
     /// NeuralAE's last prediction (its input for the next frame).
     predicted: DynamicSettings,
     /// The settings the sensor last used.
@@ -59,16 +94,16 @@ pub struct NeuralControl {
 }
 
 impl NeuralControl {
-    /// NeuralAE driving a sensor of pitch `pixel_pitch_um`.
-    pub fn new(pixel_pitch_um: f64) -> Self {
+    /// NeuralAE driving `sensor`.
+    pub fn new(sensor: SensorLimits) -> Self {
         let start = calibration_settings();
-        Self { pixel_pitch_um, predicted: start, applied: start }
+        Self { sensor, predicted: start, applied: start }
     }
 }
 
 impl ExposureControl for NeuralControl {
     fn start(&mut self) -> DynamicSettings {
-        *self = Self::new(self.pixel_pitch_um);
+        *self = Self::new(self.sensor);
         self.applied
     }
 
@@ -76,11 +111,7 @@ impl ExposureControl for NeuralControl {
         match model.predict(last, self.predicted) {
             Some(p) => {
                 self.predicted = p.settings();
-                self.applied = compensate_for_pixel_size(
-                    self.predicted,
-                    self.pixel_pitch_um,
-                    Calibration::DEFAULT.pixel_pitch_um,
-                );
+                self.applied = for_sensor(self.predicted, &self.sensor);
                 Decision { applied: self.applied, prediction: Some(p) }
             }
             // No features of a previous frame yet: keep the settings.
@@ -123,11 +154,11 @@ impl ExposureControl for AverageControl {
 /// The controller of a method: NeuralAE, or AverageAE for `tacos-average`.
 pub(crate) fn controller(
     neural: bool,
-    pixel_pitch_um: f64,
+    sensor: SensorLimits,
     ranges: AccRanges,
 ) -> Box<dyn ExposureControl> {
     if neural {
-        Box::new(NeuralControl::new(pixel_pitch_um))
+        Box::new(NeuralControl::new(sensor))
     } else {
         Box::new(AverageControl::new(ranges))
     }

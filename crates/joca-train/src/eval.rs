@@ -41,8 +41,9 @@ pub fn evaluate(
         illumination: Some(spec.illumination),
         ..SimConfig::default()
     });
-    let formation =
-        ImageFormation::new(Calibration::DEFAULT)?.with_noise_scale(spec.noise_scale)?;
+    let formation = ImageFormation::new(Calibration::DEFAULT)?
+        .with_noise_scale(spec.noise_scale)?
+        .with_render_scale(spec.render_scale)?;
     let camera = design.pinhole(spec.render_scale);
     let pitch = design.sensor().pixel_pitch_um;
     let mut metrics = TaskMetrics::default();

@@ -16,7 +16,9 @@ mod pretrain;
 mod run;
 
 pub use checkpoint::{CheckpointDir, write_atomic};
-pub use control::{AverageControl, Decision, ExposureControl, NeuralControl};
+pub use control::{
+    AverageControl, Decision, ExposureControl, NeuralControl, SensorLimits, for_sensor,
+};
 pub use error::TrainError;
 pub use eval::{EvalSpec, evaluate};
 pub use pretrain::{
@@ -24,7 +26,7 @@ pub use pretrain::{
     PretrainEvent, differing_fields, evaluate_weights, pretrain, reference_design,
 };
 pub use run::{
-    DesignSummary, FixedCamera, MAX_SPEED_MPS, MIN_RENDER_SCALE, Method, RealConfig, RunConfig,
-    RunEvent, RunResults, Scenario, Showcase, ShowcaseFrame, Source, StepBreakdown, bench_step,
-    evaluate_run, run,
+    DesignSummary, FixedCamera, MAX_SPEED_MPS, MIN_RENDER_SCALE, Method, PerturbationMutation,
+    RealConfig, RunConfig, RunEvent, RunResults, Scenario, Showcase, ShowcaseFrame, Source,
+    StepBreakdown, bench_step, evaluate_run, run,
 };

@@ -6,7 +6,8 @@ mod common;
 use common::{poison_first_tensor, snapshot};
 use joca_nn::detector::DetectorConfig;
 use joca_train::{
-    FixedCamera, Method, RealConfig, RunConfig, RunEvent, Scenario, Source, TrainError, run,
+    FixedCamera, Method, PerturbationMutation, RealConfig, RunConfig, RunEvent, Scenario, Source,
+    TrainError, run,
 };
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -26,6 +27,7 @@ fn tiny(method: Method) -> RunConfig {
         population: 2,
         steps_per_candidate: 5,
         perturbation_population: 4,
+        perturbation_mutation: PerturbationMutation::Additive,
         ga_every: 2,
         task_weight: 7.0,
         render_scale: 0.03,
@@ -120,6 +122,12 @@ fn every_method_runs() {
         assert_eq!(r.method, method);
         assert_eq!(r.design.optimised, method != Method::FixedNeural);
         assert!(r.test.frames == 3);
+        // The same training budget for every method, the fixed camera included: population
+        // candidates of k frames per generation.
+        let events =
+            std::fs::read_to_string(dir.path().join(method.name()).join("events.jsonl")).unwrap();
+        let candidates = events.lines().filter(|l| l.contains("\"candidate\":")).count();
+        assert_eq!(candidates, cfg.generations * cfg.population, "{}", method.name());
     }
     // The frozen detector needs weights to freeze.
     let e = run(&tiny(Method::FrozenDetector), &dir.path().join("f"), false, &mut go)
@@ -264,4 +272,27 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
         assert_eq!(c.validate().unwrap_err().to_string(), message);
     }
     assert!(tiny(Method::Joca).validate().is_ok());
+}
+
+/// The test is stratified by illumination: four episodes are one day, one night, one tunnel and
+/// one cycle episode, in that order, and the settings table has a row for each.
+#[test]
+fn the_test_gives_every_illumination_its_share_of_episodes() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = RunConfig {
+        generations: 1,
+        steps_per_candidate: 2,
+        test_episodes: 4,
+        test_frames_per_episode: 1,
+        ..tiny(Method::TacosAverage)
+    };
+    let r = run(&cfg, dir.path(), false, &mut go).unwrap();
+    let trace = std::fs::read_to_string(dir.path().join("test/trace.jsonl")).unwrap();
+    let lights: Vec<String> = trace
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["illumination"].to_string())
+        .collect();
+    assert_eq!(lights, ["\"day\"", "\"night\"", "\"tunnel\"", "\"cycle\""]);
+    assert_eq!(r.settings_by_illumination.len(), 4);
 }

@@ -157,7 +157,8 @@ pub fn run(args: &Args) -> Result<()> {
     let sim = Simulator::new(config);
     let formation = ImageFormation::new(Calibration::DEFAULT)?
         .with_noise_scale(args.noise_scale)
-        .context("invalid --noise-scale")?;
+        .context("invalid --noise-scale")?
+        .with_render_scale(args.render_scale)?;
     let ae = AverageAe::new(ranges);
     let streams = SeedStreams::new(args.seed);
     // Written in full or not at all: a full disk or a kill leaves the earlier output (or none).

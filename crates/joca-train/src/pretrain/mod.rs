@@ -133,7 +133,9 @@ pub fn pretrain(
     let world = World {
         config,
         streams: &streams,
-        formation: ImageFormation::new(Calibration::DEFAULT)?,
+        // Training frames are rendered at the training scale (see `with_render_scale`).
+        formation: ImageFormation::new(Calibration::DEFAULT)?
+            .with_render_scale(config.train_scale())?,
         ae: AverageAe::new(AccRanges::PAPER),
         sim_config: SimConfig {
             max_speed_mps: config.data.max_speed_mps,

@@ -7,7 +7,7 @@
 use super::perturbation::{self, Probe};
 use super::{Context, illumination_name, simulator};
 use crate::TrainError;
-use crate::control::{Decision, controller};
+use crate::control::{Decision, SensorLimits, controller};
 use joca_camera::{CameraDesign, ImageFormation};
 use joca_core::{FrameRequest, FrameSource};
 use joca_evolve::Ga;
@@ -46,7 +46,18 @@ pub(super) fn train(
     };
     let camera = design.pinhole(c.render_scale);
     let pitch = design.sensor().pixel_pitch_um;
-    let mut control = controller(c.method.neural(), pitch, cx.ranges);
+    let town = match &real {
+        Some(_) => None,
+        None => Some(simulator(&mut cx.sims, map_seed, c.max_speed_mps, None)),
+    };
+    let sim: &dyn FrameSource = match (&real, &town) {
+        (Some(r), _) => &r.train,
+        (None, Some(town)) => &**town,
+        (None, None) => unreachable!("a training town is built above when no recording is used"),
+    };
+    let sensor = SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s());
+    model.set_max_exposure(sensor.max_exposure_s);
+    let mut control = controller(c.method.neural(), sensor, cx.ranges);
     let weights = DfGradWeights { task: c.task_weight, ga: 1.0 };
     let mut metrics = TaskMetrics::default();
     model.reset_sequence();
@@ -55,17 +66,6 @@ pub(super) fn train(
     for step in 0..c.steps_per_candidate {
         let global = index * c.steps_per_candidate as u64 + step as u64;
         cx.watch.restart();
-        let town = match &real {
-            Some(_) => None,
-            None => Some(simulator(&mut cx.sims, map_seed, c.max_speed_mps, None)),
-        };
-        let sim: &dyn FrameSource = match (&real, &town) {
-            (Some(r), _) => &r.train,
-            (None, Some(town)) => &**town,
-            (None, None) => {
-                unreachable!("a training town is built above when no recording is used")
-            }
-        };
         // 1. Exposure and gain for this frame, from the previous one.
         let decision = match &previous_frame {
             Some(prev) => control.next(model, prev),
@@ -84,13 +84,8 @@ pub(super) fn train(
         // 2. Perturbation mode: re-render with perturbed settings (new blur), score by AP50.
         let mut ga_target = None;
         if let (Some(predicted), true) = (predicted, c.method.perturbations()) {
-            let probe = Probe {
-                source: sim,
-                camera: &camera,
-                request,
-                pixel_pitch_um: pitch,
-                global_step: global,
-            };
+            let probe =
+                Probe { source: sim, camera: &camera, request, sensor, global_step: global };
             let best = perturbation::search(cx, model, perturbation, &probe, predicted)?;
             if step % c.ga_every == 0 {
                 ga_target = Some(best);

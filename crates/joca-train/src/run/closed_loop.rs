@@ -11,10 +11,10 @@
 //!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
 //! - `<sequence>/NNN.png` — those frames.
 
-use super::{Context, SettingsByLight, simulator};
+use super::{Context, SettingsByLight};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
-use crate::control::{ExposureControl, controller};
+use crate::control::{ExposureControl, SensorLimits, controller};
 use joca_camera::{CameraDesign, Capture, DynamicSettings};
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{TaskMetrics, TaskScores};
@@ -50,10 +50,17 @@ struct Step {
 }
 
 impl Driver {
-    fn new(cx: &Context, model: &mut JointModel, design: &CameraDesign) -> Self {
+    fn new(
+        cx: &Context,
+        model: &mut JointModel,
+        design: &CameraDesign,
+        frame_interval_s: f64,
+    ) -> Self {
         model.reset_sequence();
         let pixel_pitch_um = design.sensor().pixel_pitch_um;
-        let mut control = controller(cx.config.method.neural(), pixel_pitch_um, cx.ranges);
+        let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s);
+        model.set_max_exposure(sensor.max_exposure_s);
+        let mut control = controller(cx.config.method.neural(), sensor, cx.ranges);
         let applied = control.start();
         Self { control, applied, previous: None, pixel_pitch_um }
     }
@@ -111,22 +118,37 @@ pub(super) fn test(
     let mut metrics = TaskMetrics::default();
     let mut sums: BTreeMap<String, (f64, f64, f64)> = BTreeMap::new();
     let mut trace = String::new();
-    let map_seed = test_map_seed(0);
     let real = cx.real.clone();
-    // The test town (not built at all for recorded frames).
-    let town = real.is_none().then(|| simulator(&mut cx.sims, map_seed, c.max_speed_mps, None));
+    // The test is stratified by illumination: episode e drives the test town under
+    // `Illumination::ALL[e % 4]` (day, night, tunnel, cycle), so every light gets the same
+    // number of episodes (within one), whatever the episodes' own draws would have been.
+    // Recordings have their own light, and no towns are built for them.
+    let towns: Vec<Simulator> = if real.is_some() {
+        Vec::new()
+    } else {
+        Illumination::ALL
+            .iter()
+            .map(|&illumination| {
+                Simulator::new(SimConfig {
+                    map_seed: test_map_seed(0),
+                    illumination: Some(illumination),
+                    max_speed_mps: c.max_speed_mps,
+                    ..SimConfig::default()
+                })
+            })
+            .collect()
+    };
     // Recorded sequences are played from their start; the test town from t = 1 s.
     let start_s = if real.is_some() { 0.0 } else { 1.0 };
     for episode in 0..c.test_episodes {
-        let mut driver = Driver::new(cx, model, design);
+        let town = towns.get(episode as usize % Illumination::ALL.len());
+        let source: &dyn FrameSource = match (&real, town) {
+            (Some(r), _) => r.test(),
+            (None, Some(town)) => town,
+            (None, None) => unreachable!("the test towns are built above without a recording"),
+        };
+        let mut driver = Driver::new(cx, model, design, source.frame_interval_s());
         for k in 0..WARMUP_FRAMES + c.test_frames_per_episode {
-            let source: &dyn FrameSource = match (&real, &town) {
-                (Some(r), _) => r.test(),
-                (None, Some(town)) => &**town,
-                (None, None) => {
-                    unreachable!("the test town is built above when no recording is used")
-                }
-            };
             let time_s = start_s + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed("test-noise", episode * 10_000 + k as u64);
             let s = driver.step(cx, model, source, &camera, episode, time_s, &mut noise)?;
@@ -134,7 +156,7 @@ pub(super) fn test(
                 continue;
             }
             metrics.update(&s.frame.boxes, &s.frame.ignore, &s.detections, s.frame.visible_180);
-            let (illumination, ambient) = match (&real, &town) {
+            let (illumination, ambient) = match (&real, town) {
                 (None, Some(town)) => (
                     town.episode(episode).illumination.name(),
                     Some(ambient(town, episode, time_s)),
@@ -215,7 +237,7 @@ fn showcases(
         };
         let frame_dir = dir.join(name);
         std::fs::create_dir_all(&frame_dir).map_err(|e| TrainError::io(&frame_dir, e))?;
-        let mut driver = Driver::new(cx, model, design);
+        let mut driver = Driver::new(cx, model, design, dt);
         let mut sequence = Showcase {
             name: name.to_owned(),
             illumination: illumination.name().to_owned(),

@@ -57,6 +57,9 @@ pub struct RunConfig {
     pub steps_per_candidate: usize,
     /// Perturbation GA population, n.
     pub perturbation_population: usize,
+    /// The perturbation GA's mutation: `additive` (default) or `paper`.
+    #[serde(default)]
+    pub perturbation_mutation: PerturbationMutation,
     /// GA loss applied every i steps.
     pub ga_every: usize,
     /// Task-loss weight of the ACC loss (GA loss weight 1).
@@ -87,6 +90,20 @@ pub struct RunConfig {
     /// How recorded frames are read (real-image mode only).
     #[serde(default)]
     pub real: RealConfig,
+}
+
+/// The perturbation GA's mutation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PerturbationMutation {
+    /// The paper's: each gene × U(0.9, 1.1). Genes are offsets centred on zero, and neither
+    /// this, crossover nor clipping changes a sign: once every member pushes exposure the same
+    /// way, the GA loss pushes it that way in every light.
+    Paper,
+    /// The paper's, then a normal shift of 10 % of each gene's range, so both directions stay
+    /// reachable.
+    #[default]
+    Additive,
 }
 
 /// How the real-image mode reads recorded frames (`[run.real]`).

@@ -24,7 +24,9 @@ use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub(crate) use config::check_detector;
-pub use config::{MAX_SPEED_MPS, MIN_RENDER_SCALE, RealConfig, RunConfig, Source};
+pub use config::{
+    MAX_SPEED_MPS, MIN_RENDER_SCALE, PerturbationMutation, RealConfig, RunConfig, Source,
+};
 pub use evaluate::evaluate_run;
 use evaluate::{best_design, test_design};
 use joca_camera::{
@@ -201,13 +203,14 @@ pub fn run(
         &toml::to_string(&ConfigFile { run: config.clone() }).unwrap_or_default(),
     )?;
 
-    let total =
-        config.generations * if config.method.hardware_ga() { config.population } else { 1 };
+    // Every method trains on the same number of frames: a fixed camera drives as many
+    // candidates per generation (each on its own scenes) as the hardware GA evaluates.
+    let total = config.generations * config.population;
     while state.generation < config.generations {
         let members: Vec<Vec<f64>> = if config.method.hardware_ga() {
             state.hardware.ask().to_vec()
         } else {
-            vec![cx.codec.encode(&config.camera.design())?]
+            vec![cx.codec.encode(&config.camera.design())?; config.population]
         };
         while state.candidate < members.len() {
             let design = cx.codec.decode(&members[state.candidate])?;
@@ -323,7 +326,10 @@ fn setup(
     let cal = Calibration::DEFAULT;
     let ranges = AccRanges::PAPER;
     let n = config.scenario.noise_scale();
-    let formation = ImageFormation::new(cal)?.with_noise_scale(n)?;
+    // Frames are rendered at `render_scale`: each formed pixel carries the noise of the sensor
+    // pixels it stands for, averaged.
+    let formation =
+        ImageFormation::new(cal)?.with_noise_scale(n)?.with_render_scale(config.render_scale)?;
     let mut model = JointModel::new(&engine, config.detector, ranges, formation);
     if !config.detector_weights.is_empty() {
         model.load_detector(Path::new(&config.detector_weights))?;

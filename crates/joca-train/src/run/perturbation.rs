@@ -3,9 +3,11 @@
 //! perturbed exposure (so with its own motion blur, which no gradient can see), formed, detected
 //! and scored by AP50. The best member's settings become the target of the GA loss l_GA.
 
+use super::config::PerturbationMutation;
 use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
-use joca_camera::{DynamicSettings, compensate_for_pixel_size};
+use crate::control::{SensorLimits, for_sensor};
+use joca_camera::DynamicSettings;
 use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
@@ -15,10 +17,16 @@ use joca_nn::joint::JointModel;
 const FIXED: [[f64; 2]; 4] = [[0.025, 0.025], [0.025, -0.025], [-0.025, 0.025], [-0.025, -0.025]];
 
 /// The perturbation GA of DF-Grad: `(p_e, p_g)` in normalised units within ±5 % of each range,
-/// mutation ×U(0.9, 1.1).
+/// mutation ×U(0.9, 1.1) and, unless the paper's operator is chosen, a normal shift of 10 % of
+/// the range.
 pub(super) fn ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainError> {
+    let shift = match config.perturbation_mutation {
+        PerturbationMutation::Paper => 0.0,
+        PerturbationMutation::Additive => 0.1,
+    };
     let ga_config =
         GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
+            .and_then(|c| c.with_shift(shift))
             .map_err(ga_err)?;
     Ok(Ga::new(ga_config, &mut streams.stream("perturbation-init")))
 }
@@ -28,7 +36,7 @@ pub(super) struct Probe<'a> {
     pub(super) source: &'a dyn FrameSource,
     pub(super) camera: &'a PinholeCamera,
     pub(super) request: FrameRequest,
-    pub(super) pixel_pitch_um: f64,
+    pub(super) sensor: SensorLimits,
     /// Global step index: seeds the members' noise and the GA's update.
     pub(super) global_step: u64,
 }
@@ -46,23 +54,22 @@ pub(super) fn search(
     let fixed = cx.config.method == Method::FixedPerturbation;
     let members: Vec<Vec<f64>> =
         if fixed { FIXED.iter().map(|p| p.to_vec()).collect() } else { ga.ask().to_vec() };
-    let calibration_pitch_um = cx.formation.calibration().pixel_pitch_um;
     let mut fitness = Vec::with_capacity(members.len());
     let mut settings = Vec::with_capacity(members.len());
-    for (m, p) in members.iter().enumerate() {
+    for p in &members {
         let perturbed = cx.ranges.clamp(DynamicSettings::new(
             predicted.exposure_s + p[0] * cx.ranges.exposure_s.span(),
             predicted.gain_db + p[1] * cx.ranges.gain_db.span(),
         ));
-        let applied =
-            compensate_for_pixel_size(perturbed, probe.pixel_pitch_um, calibration_pitch_um);
-        let mut noise = cx.streams.indexed("perturbation-noise", probe.global_step * 16 + m as u64);
+        let applied = for_sensor(perturbed, &probe.sensor);
+        // Every member of a step on the same noise sample: they differ by their settings only.
+        let mut noise = cx.streams.indexed("perturbation-noise", probe.global_step);
         let joca_camera::Capture { frame, image } = cx.formation.capture(
             probe.source,
             probe.camera,
             &probe.request,
             applied,
-            probe.pixel_pitch_um,
+            probe.sensor.pixel_pitch_um,
             &mut noise,
         )?;
         cx.watch.lap(|t| &mut t.perturbation_render_ms);
