@@ -36,6 +36,7 @@ pub fn form(
     exposure_s: &Tensor,
     gain_db: &Tensor,
     formation: &ImageFormation,
+    clip: ClipGradient,
     device: Device,
 ) -> Tensor {
     let (i0, normals, pixel_pitch_um) = (scene.i0, scene.normals, scene.pixel_pitch_um);
@@ -68,10 +69,26 @@ pub fn form(
     let g = gain_ratio.view([1, 1, 1, 1]);
     let var = (&g * sp * &i + &g * &g * sr).clamp_min(0.0);
     let noisy = &i + var.sqrt() * z;
-    let clipped = noisy.clamp(0.0, 255.0);
+    let clipped = match clip {
+        ClipGradient::Clamp => noisy.clamp(0.0, 255.0),
+        ClipGradient::StraightThrough => &noisy + (noisy.clamp(0.0, 255.0) - &noisy).detach(),
+    };
     // floor(x + 0.5) as the 8-bit formation rounds, with the gradient of the identity.
     let rounded = (&clipped + 0.5).floor();
     &clipped + (rounded - &clipped).detach()
+}
+
+/// The gradient of clipping at 0 and 255 in the differentiable formation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ClipGradient {
+    /// The clamp's own: 1 inside, 0 where a pixel saturates — a saturated pixel passes no
+    /// gradient, so the task loss cannot ask a white frame for less light.
+    #[default]
+    Clamp,
+    /// The identity's (straight-through): saturated pixels pass their gradient as if unclipped,
+    /// so the loss can ask for less light where the frame is white.
+    StraightThrough,
 }
 
 /// The frame as the detector's input scaling (`DN / 255 − 0.5`).

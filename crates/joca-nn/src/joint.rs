@@ -18,7 +18,7 @@ use crate::detector::{
     DetectionLoss, DetectorConfig, DetectorModel, LossParts, MAX_DETECTIONS, MIN_SCORE, Targets,
     decode, image_tensor,
 };
-use crate::formation::{Scene, form, to_detector_input};
+use crate::formation::{ClipGradient, Scene, form, to_detector_input};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
 use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
 use joca_core::{Annotation, Detection, Rgb8Image};
@@ -108,6 +108,8 @@ pub struct JointModel {
     /// there, gain making up the exposure's excess), as `joca_camera::limit_exposure`.
     max_exposure_s: f64,
     max_gain_db: f64,
+    /// The gradient of clipping in the differentiable formation.
+    clip: ClipGradient,
     /// Detector features of the sequence's last frame: NeuralAE's input for the next one.
     features: Option<Tensor>,
     train_detector: bool,
@@ -144,6 +146,7 @@ impl JointModel {
             device: engine.device(),
             max_exposure_s: ranges.exposure_s.max,
             max_gain_db: ranges.gain_db.max,
+            clip: ClipGradient::default(),
             features: None,
             train_detector: true,
         }
@@ -153,6 +156,11 @@ impl JointModel {
     /// frame interval lowers it).
     pub fn set_max_exposure(&mut self, max_exposure_s: f64) {
         self.max_exposure_s = max_exposure_s;
+    }
+
+    /// How the differentiable formation's clip passes gradients.
+    pub fn set_clip_gradient(&mut self, clip: ClipGradient) {
+        self.clip = clip;
     }
 
     /// Freezes the detector (the "frozen detector" ablation) or lets it train.
@@ -245,7 +253,7 @@ impl JointModel {
             *slot = clock.elapsed().as_secs_f64() * 1e3;
             clock = std::time::Instant::now();
         };
-        let frame_dn = form(scene, &e_t, &g_t, &self.formation, self.device);
+        let frame_dn = form(scene, &e_t, &g_t, &self.formation, self.clip, self.device);
         lap(&mut timings.formation_ms);
         let out = self.det.net.forward(&to_detector_input(&frame_dn));
         let s = out.heatmap.size();

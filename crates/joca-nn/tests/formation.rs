@@ -4,7 +4,7 @@
 
 use joca_camera::{Calibration, DynamicSettings, ImageFormation};
 use joca_core::{HdrImage, SeedStreams};
-use joca_nn::formation::{Scene, form};
+use joca_nn::formation::{ClipGradient, Scene, form};
 use rand::Rng;
 use tch::{Device, Kind, Tensor};
 
@@ -24,7 +24,7 @@ fn same_noise_sample_gives_the_same_frame() {
     let e = Tensor::from_slice(&[7e-3f32]).set_requires_grad(true);
     let g = Tensor::from_slice(&[14.0f32]).set_requires_grad(true);
     let scene = Scene { i0: i0.data(), normals: &z, width: w, height: h, pixel_pitch_um: 2.4 };
-    let frame = form(&scene, &e, &g, &formation, Device::Cpu);
+    let frame = form(&scene, &e, &g, &formation, ClipGradient::Clamp, Device::Cpu);
     let ours: Vec<f32> =
         Vec::try_from(frame.squeeze_dim(0).permute([1, 2, 0]).contiguous().view([-1])).unwrap();
     let mut differ = 0;
@@ -44,4 +44,28 @@ fn same_noise_sample_gives_the_same_frame() {
     let expected = (&frame * &unclipped).sum(Kind::Double).double_value(&[]) / 7e-3;
     assert!((de / expected - 1.0).abs() < 0.05, "{de} vs {expected}");
     assert!(g.grad().double_value(&[0]) > 0.0);
+}
+
+/// Where every pixel saturates, the clamp passes no gradient to the exposure — the loss cannot
+/// ask a white frame for less light — and the straight-through clip passes the unclipped one.
+#[test]
+fn a_saturated_frame_passes_gradient_only_straight_through() {
+    let (w, h) = (8, 6);
+    let i0 = HdrImage::from_vec(w, h, vec![200.0; w * h * 3]).unwrap();
+    let formation = ImageFormation::new(Calibration::DEFAULT).unwrap();
+    let z = vec![0.0f32; w * h * 3];
+    let scene = Scene { i0: i0.data(), normals: &z, width: w, height: h, pixel_pitch_um: 3.75 };
+    let grad = |clip| {
+        // Four times the calibration exposure: 800 DN before clipping.
+        let e = Tensor::from_slice(&[20e-3f32]).set_requires_grad(true);
+        let g = Tensor::from_slice(&[10.0f32]).set_requires_grad(true);
+        let frame = form(&scene, &e, &g, &formation, clip, Device::Cpu);
+        assert_eq!(frame.max().double_value(&[]), 255.0);
+        frame.sum(Kind::Float).backward();
+        e.grad().double_value(&[0])
+    };
+    assert_eq!(grad(ClipGradient::Clamp), 0.0);
+    // d(sum I)/dE = sum(I)/E with I = 800 DN in every value.
+    let expected = (w * h * 3) as f64 * 800.0 / 20e-3;
+    assert!((grad(ClipGradient::StraightThrough) / expected - 1.0).abs() < 1e-3);
 }

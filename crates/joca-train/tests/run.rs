@@ -28,6 +28,7 @@ fn tiny(method: Method) -> RunConfig {
         steps_per_candidate: 5,
         perturbation_population: 4,
         perturbation_mutation: PerturbationMutation::Additive,
+        clip_gradient: Default::default(),
         ga_every: 2,
         task_weight: 7.0,
         render_scale: 0.03,

@@ -6,6 +6,7 @@ use joca_camera::Calibration;
 use joca_data::blur::Linearize;
 use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use joca_nn::detector::DetectorConfig;
+use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -60,6 +61,10 @@ pub struct RunConfig {
     /// The perturbation GA's mutation: `additive` (default) or `paper`.
     #[serde(default)]
     pub perturbation_mutation: PerturbationMutation,
+    /// The gradient of the differentiable formation's clip: `clamp` (none where a pixel
+    /// saturates) or `straight-through`.
+    #[serde(default)]
+    pub clip_gradient: ClipGradient,
     /// GA loss applied every i steps.
     pub ga_every: usize,
     /// Task-loss weight of the ACC loss (GA loss weight 1).

@@ -335,6 +335,7 @@ fn setup(
         model.load_detector(Path::new(&config.detector_weights))?;
     }
     model.set_detector_trainable(config.method != Method::FrozenDetector);
+    model.set_clip_gradient(config.clip_gradient);
     let (real, space) = match config.source.open(&config.real)? {
         None => (None, DesignSpace::synthetic()),
         Some(train) => {
