@@ -147,7 +147,8 @@ pub fn write_figures(
             caption: format!(
                 "Fitness of the hardware GA's candidates per generation (solid: best, dashed: \
                  mean; {what}). Each candidate is trained and scored on its own k frames, so the \
-                 curves are noisy and a fixed-camera method has one candidate per generation."
+                 curves are noisy; a fixed-camera method drives its one camera as many times per \
+                 generation as the GA has candidates, so every method trains on as many frames."
             ),
         });
     }

@@ -80,7 +80,8 @@ pub struct RunConfig {
     /// Detector weights to start from (relative paths are relative to the working directory);
     /// empty: train from scratch. `frozen-detector` requires them.
     pub detector_weights: String,
-    /// Test episodes (illumination drawn per episode) on the test town.
+    /// Test episodes on the test town, stratified by illumination (episode e: day, night,
+    /// tunnel, cycle for e mod 4).
     pub test_episodes: u64,
     /// Scored frames per test episode.
     pub test_frames_per_episode: usize,
