@@ -27,5 +27,5 @@ pub use joca_metrics::TaskScores;
 
 pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
 pub use method::{Method, Scenario};
-pub use results::{DesignSummary, RunResults};
+pub use results::{DesignSummary, RunResults, Validated};
 pub use showcase::{Showcase, ShowcaseFrame};

@@ -26,6 +26,21 @@ pub struct RunResults {
     /// The test frames' source: `sim` (or empty, in older runs), `folder:DIR` or `waymo:DIR`.
     #[serde(default)]
     pub source: String,
+    /// The best designs of training, re-scored on the validation town; the tested design is the
+    /// first (empty when there was only one design to choose, or for recordings).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub validation: Vec<Validated>,
+}
+
+/// A design as the validation scored it, with its training fitness.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Validated {
+    /// The design.
+    pub design: DesignSummary,
+    /// Its best fitness in training (its own scenes, the model of that time).
+    pub training_fitness: f64,
+    /// Its scores on the validation town with the final model.
+    pub validation: TaskScores,
 }
 
 impl RunResults {

@@ -288,6 +288,7 @@ mod tests {
             },
             settings_by_illumination: Default::default(),
             best_fitness: 0.0,
+            validation: Vec::new(),
             render_scale: 0.08,
             source: "sim".into(),
         }

@@ -297,3 +297,31 @@ fn the_test_gives_every_illumination_its_share_of_episodes() {
     assert_eq!(lights, ["\"day\"", "\"night\"", "\"tunnel\"", "\"cycle\""]);
     assert_eq!(r.settings_by_illumination.len(), 4);
 }
+
+/// Common random numbers: every candidate of a generation drives the same scenes, generation g
+/// under `Illumination::ALL[g mod 4]`; the best designs of training are re-scored on the
+/// validation town and the best there is the one tested.
+#[test]
+fn candidates_of_a_generation_share_their_scenes_and_the_validation_picks_the_design() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = RunConfig { steps_per_candidate: 2, ..tiny(Method::Joca) };
+    let r = run(&cfg, dir.path(), false, &mut go).unwrap();
+    let events = std::fs::read_to_string(dir.path().join("events.jsonl")).unwrap();
+    let steps: Vec<serde_json::Value> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v.get("step").is_some())
+        .collect();
+    // Step 0 of each candidate is logged: two candidates per generation, two generations.
+    let lights: Vec<&str> = steps.iter().map(|v| v["illumination"].as_str().unwrap()).collect();
+    assert_eq!(lights, ["day", "day", "night", "night"]);
+    // Step 0 runs at the calibration camera's settings for every candidate.
+    assert!(steps.iter().all(|v| (v["exposure_ms"].as_f64().unwrap() - 5.0).abs() < 1e-3));
+    // Validation: up to three designs re-scored, the tested one first and best there.
+    assert!(!r.validation.is_empty() && r.validation.len() <= 3);
+    assert_eq!(r.validation[0].design, r.design);
+    let best = r.validation[0].validation.fitness();
+    assert!(r.validation.iter().all(|v| v.validation.fitness() <= best));
+    assert!(r.validation.iter().all(|v| v.validation.frames == 40));
+}

@@ -5,7 +5,7 @@
 //! together.
 
 use super::perturbation::{self, Probe};
-use super::{Context, illumination_name, simulator};
+use super::{Context, simulator};
 use crate::TrainError;
 use crate::control::{Decision, SensorLimits, controller};
 use joca_camera::{CameraDesign, ImageFormation};
@@ -15,20 +15,26 @@ use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::formation::Scene;
 use joca_nn::joint::{DfGradWeights, JointModel, Prediction};
 use joca_record::{Event, LossRecord, StepRecord};
-use joca_sim::train_map_seed;
+use joca_sim::{Illumination, train_map_seed};
 use rand::Rng;
 
 /// Trains on candidate `index` (`design`) for `steps_per_candidate` steps and scores its frames.
+///
+/// The scenes come from `scenes` (the generation): every candidate of a generation drives the
+/// same town, episode, start time and sensor noise (common random numbers), so the GA compares
+/// designs, not luck; generation g drives under `Illumination::ALL[g mod 4]`, so the generations
+/// cycle through day, night, tunnel and cycle.
 pub(super) fn train(
     cx: &mut Context,
     model: &mut JointModel,
     perturbation: &mut Ga,
     design: &CameraDesign,
-    index: u64,
+    (index, scenes): (u64, u64),
     on_step: &mut dyn FnMut(usize, usize),
 ) -> Result<TaskScores, TrainError> {
     let c = cx.config.clone();
-    let mut rng = cx.streams.indexed("candidate", index);
+    let mut rng = cx.streams.indexed("scenes", scenes);
+    let illumination = Illumination::ALL[(scenes % Illumination::ALL.len() as u64) as usize];
     let map_seed = train_map_seed(rng.random_range(0..c.train_maps));
     let episode: u64 = rng.random_range(0..1_000_000);
     let real = cx.real.clone();
@@ -48,7 +54,7 @@ pub(super) fn train(
     let pitch = design.sensor().pixel_pitch_um;
     let town = match &real {
         Some(_) => None,
-        None => Some(simulator(&mut cx.sims, map_seed, c.max_speed_mps, None)),
+        None => Some(simulator(&mut cx.sims, map_seed, c.max_speed_mps, Some(illumination))),
     };
     let sim: &dyn FrameSource = match (&real, &town) {
         (Some(r), _) => &r.train,
@@ -65,6 +71,7 @@ pub(super) fn train(
     let mut previous_frame = None;
     for step in 0..c.steps_per_candidate {
         let global = index * c.steps_per_candidate as u64 + step as u64;
+        let common = scenes * c.steps_per_candidate as u64 + step as u64;
         cx.watch.restart();
         // 1. Exposure and gain for this frame, from the previous one.
         let decision = match &previous_frame {
@@ -84,8 +91,14 @@ pub(super) fn train(
         // 2. Perturbation mode: re-render with perturbed settings (new blur), score by AP50.
         let mut ga_target = None;
         if let (Some(predicted), true) = (predicted, c.method.perturbations()) {
-            let probe =
-                Probe { source: sim, camera: &camera, request, sensor, global_step: global };
+            let probe = Probe {
+                source: sim,
+                camera: &camera,
+                request,
+                sensor,
+                global_step: global,
+                scene_step: common,
+            };
             let best = perturbation::search(cx, model, perturbation, &probe, predicted)?;
             if step % c.ga_every == 0 {
                 ga_target = Some(best);
@@ -93,7 +106,7 @@ pub(super) fn train(
             cx.watch.lap(|t| &mut t.perturbation_ga_ms);
         }
         // 3. Forward mode: differentiable formation, detector, DF-Grad update.
-        let noise_seed: u64 = cx.streams.indexed("noise", global).random();
+        let noise_seed: u64 = cx.streams.indexed("noise", common).random();
         let normals =
             ImageFormation::standard_normals(camera.width_px, camera.height_px, noise_seed);
         cx.watch.lap(|t| &mut t.noise_ms);
@@ -111,7 +124,7 @@ pub(super) fn train(
         cx.watch.add_model_step(&report.timings);
         metrics.update(&frame.boxes, &frame.ignore, &report.detections, frame.visible_180);
         if step % 5 == 0 {
-            let illumination = illumination_name(&cx.sims, real.as_deref(), map_seed, episode);
+            let illumination = if real.is_some() { "recorded" } else { illumination.name() };
             let l = report.loss;
             cx.log(&Event::Step(StepRecord {
                 step: global,

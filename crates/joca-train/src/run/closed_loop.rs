@@ -105,12 +105,44 @@ fn ambient(sim: &Simulator, episode: u64, time_s: f64) -> f32 {
     e.illumination.ambient(time_s, e.phase_s)
 }
 
-/// Closed-loop test of `design` with the trained controller on the test town. With `out`, also
-/// writes the per-frame trace and the showcase sequences there.
+/// Which town a closed-loop evaluation drives, for how long, with which noise.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Plan {
+    /// The town's map seed.
+    pub(super) town: u64,
+    /// Episodes, stratified by illumination.
+    pub(super) episodes: u64,
+    /// Scored frames per episode.
+    pub(super) frames_per_episode: usize,
+    /// The noise stream's name.
+    pub(super) noise: &'static str,
+}
+
+impl Plan {
+    /// The test: the test town, `test_episodes` × `test_frames_per_episode`.
+    pub(super) fn test(config: &super::RunConfig) -> Self {
+        Self {
+            town: test_map_seed(0),
+            episodes: config.test_episodes,
+            frames_per_episode: config.test_frames_per_episode,
+            noise: "test-noise",
+        }
+    }
+
+    /// The validation that chooses among the best designs: another town of the test family
+    /// (never trained on, never tested on), one episode of each illumination, 10 frames each.
+    pub(super) fn validation() -> Self {
+        Self { town: test_map_seed(1), episodes: 4, frames_per_episode: 10, noise: "validation" }
+    }
+}
+
+/// Closed-loop evaluation of `design` with the trained controller (`plan`: the test, or the
+/// validation). With `out`, also writes the per-frame trace and the showcase sequences there.
 pub(super) fn test(
     cx: &mut Context,
     model: &mut JointModel,
     design: &CameraDesign,
+    plan: Plan,
     out: Option<&Path>,
 ) -> Result<(TaskScores, SettingsByLight), TrainError> {
     let c = cx.config.clone();
@@ -130,7 +162,7 @@ pub(super) fn test(
             .iter()
             .map(|&illumination| {
                 Simulator::new(SimConfig {
-                    map_seed: test_map_seed(0),
+                    map_seed: plan.town,
                     illumination: Some(illumination),
                     max_speed_mps: c.max_speed_mps,
                     ..SimConfig::default()
@@ -140,7 +172,7 @@ pub(super) fn test(
     };
     // Recorded sequences are played from their start; the test town from t = 1 s.
     let start_s = if real.is_some() { 0.0 } else { 1.0 };
-    for episode in 0..c.test_episodes {
+    for episode in 0..plan.episodes {
         let town = towns.get(episode as usize % Illumination::ALL.len());
         let source: &dyn FrameSource = match (&real, town) {
             (Some(r), _) => r.test(),
@@ -148,9 +180,9 @@ pub(super) fn test(
             (None, None) => unreachable!("the test towns are built above without a recording"),
         };
         let mut driver = Driver::new(cx, model, design, source.frame_interval_s());
-        for k in 0..WARMUP_FRAMES + c.test_frames_per_episode {
+        for k in 0..WARMUP_FRAMES + plan.frames_per_episode {
             let time_s = start_s + k as f64 * source.frame_interval_s();
-            let mut noise = cx.streams.indexed("test-noise", episode * 10_000 + k as u64);
+            let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
             let s = driver.step(cx, model, source, &camera, episode, time_s, &mut noise)?;
             if k < WARMUP_FRAMES {
                 continue;

@@ -1,7 +1,7 @@
 //! Testing a design: the best design of a run after training, and `joca eval`, which tests it
 //! again from the checkpoint, optionally under another scenario or with more frames.
 
-use super::closed_loop;
+use super::closed_loop::{self, Plan};
 use super::config::ConfigFile;
 use super::results::summary;
 use super::{Context, RunResults, RunState, Scenario, setup};
@@ -9,6 +9,7 @@ use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, read_json, write_atomic};
 use joca_camera::CameraDesign;
 use joca_nn::joint::JointModel;
+use joca_record::Validated;
 use std::path::{Path, PathBuf};
 
 /// Tests the best design of a finished (or interrupted) run again, from its checkpoint: the
@@ -44,7 +45,7 @@ pub fn evaluate_run(
     let state: RunState = read_json(&dir.join("state.json"))?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     model.load(&dir)?;
-    let design = best_design(&cx, &state)?;
+    let (design, validation) = best_design(&mut cx, &mut model, &state)?;
     let other = scenario.is_some_and(|s| s != state.config.scenario);
     let (name, test_dir) = if other {
         (
@@ -54,16 +55,48 @@ pub fn evaluate_run(
     } else {
         ("results.json".to_owned(), "test".to_owned())
     };
-    let results = test_design(&mut cx, &mut model, &state, &design, Some(&run_dir.join(test_dir)))?;
+    let out = run_dir.join(test_dir);
+    let results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
     write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
     Ok(results)
 }
 
-/// The best design of `state`: best fitness seen, or the first member if none was scored.
-pub(super) fn best_design(cx: &Context, state: &RunState) -> Result<CameraDesign, TrainError> {
-    let genes =
+/// The design to test, and how the validation scored the candidates for it.
+///
+/// A candidate's training fitness rests on its own generation's scenes (one illumination, one
+/// drive) and on the model of that moment, so the best of training is partly luck. The best
+/// `TOP_DESIGNS` designs of training are therefore re-scored with the final model on the
+/// validation town — another town than training's and the test's, one episode of each light —
+/// and the best there is tested (ties keep the better training fitness). With a single design
+/// (a fixed camera), or on recordings, there is nothing to choose and nothing is re-scored.
+pub(super) fn best_design(
+    cx: &mut Context,
+    model: &mut JointModel,
+    state: &RunState,
+) -> Result<(CameraDesign, Vec<Validated>), TrainError> {
+    let fallback =
         state.best.as_ref().map_or_else(|| state.hardware.ask()[0].clone(), |b| b.0.clone());
-    Ok(cx.codec.decode(&genes)?)
+    if state.top.len() < 2 || cx.real.is_some() {
+        return Ok((cx.codec.decode(&fallback)?, Vec::new()));
+    }
+    let optimised = cx.config.method.hardware_ga();
+    let mut scored = Vec::with_capacity(state.top.len());
+    for (genes, fitness) in &state.top {
+        let design = cx.codec.decode(genes)?;
+        let (validation, _) = closed_loop::test(cx, model, &design, Plan::validation(), None)?;
+        scored.push((
+            design,
+            Validated {
+                design: summary(&design, optimised),
+                training_fitness: *fitness,
+                validation,
+            },
+        ));
+    }
+    // Stable: among equal validation fitness the better training fitness (earlier) wins.
+    scored.sort_by(|a, b| b.1.validation.fitness().total_cmp(&a.1.validation.fitness()));
+    let design = scored[0].0;
+    Ok((design, scored.into_iter().map(|(_, v)| v).collect()))
 }
 
 /// `design` tested in closed loop with the current model, as the run's results.
@@ -71,10 +104,11 @@ pub(super) fn test_design(
     cx: &mut Context,
     model: &mut JointModel,
     state: &RunState,
-    design: &CameraDesign,
+    (design, validation): (&CameraDesign, Vec<Validated>),
     out: Option<&Path>,
 ) -> Result<RunResults, TrainError> {
-    let (test, settings) = closed_loop::test(cx, model, design, out)?;
+    let plan = Plan::test(&cx.config);
+    let (test, settings) = closed_loop::test(cx, model, design, plan, out)?;
     let config = &cx.config;
     Ok(RunResults {
         method: config.method,
@@ -90,5 +124,6 @@ pub(super) fn test_design(
         } else {
             config.source.to_string()
         },
+        validation,
     })
 }

@@ -99,7 +99,29 @@ struct RunState {
     hardware: Ga,
     perturbation: Ga,
     best: Option<(Vec<f64>, f64)>,
+    /// The best distinct designs of training, best first, with their fitness: the candidates
+    /// the validation chooses among.
+    #[serde(default)]
+    top: Vec<(Vec<f64>, f64)>,
 }
+
+/// How many of training's best designs the validation re-scores.
+const TOP_DESIGNS: usize = 3;
+
+impl RunState {
+    /// Records a scored candidate among the top designs.
+    fn rank(&mut self, genes: &[f64], fitness: f64) {
+        match self.top.iter_mut().find(|(g, _)| g.as_slice() == genes) {
+            Some(entry) => entry.1 = entry.1.max(fitness),
+            None => self.top.push((genes.to_vec(), fitness)),
+        }
+        self.top.sort_by(|a, b| b.1.total_cmp(&a.1));
+        self.top.truncate(TOP_DESIGNS);
+    }
+}
+
+/// Simulators by town (map seed) and illumination.
+type Sims = HashMap<(u64, Option<Illumination>), Arc<Simulator>>;
 
 /// Training and test recordings of the real-image mode.
 struct RealSources {
@@ -120,8 +142,8 @@ struct Context {
     streams: SeedStreams,
     codec: GenomeCodec,
     formation: ImageFormation,
-    /// Training and test towns built so far, by map seed.
-    sims: HashMap<u64, Arc<Simulator>>,
+    /// Training towns built so far.
+    sims: Sims,
     /// The recorded sources of the real-image mode (None: the simulator).
     real: Option<Arc<RealSources>>,
     ranges: AccRanges,
@@ -181,6 +203,7 @@ pub fn run(
         hardware,
         perturbation,
         best: None,
+        top: Vec::new(),
     };
 
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
@@ -227,7 +250,7 @@ pub fn run(
                 &mut model,
                 &mut state.perturbation,
                 &design,
-                index,
+                (index, state.generation as u64),
                 &mut on_step,
             ) {
                 Err(TrainError::Nn(source @ joca_nn::NnError::NonFinite { .. })) => {
@@ -244,6 +267,7 @@ pub fn run(
             if state.best.as_ref().is_none_or(|(_, f)| fitness > *f) {
                 state.best = Some((members[state.candidate].clone(), fitness));
             }
+            state.rank(&members[state.candidate], fitness);
             cx.log(&Event::Candidate(CandidateRecord {
                 generation: state.generation,
                 candidate: state.candidate,
@@ -297,13 +321,14 @@ pub fn run(
         }
     }
     let _ = progress(&RunEvent::Testing);
-    let design = best_design(&cx, &state)?;
+    let (design, validation) = best_design(&mut cx, &mut model, &state)?;
     write_atomic(
         &run_dir.join("best_design.json"),
         &serde_json::to_string_pretty(&summary(&design, config.method.hardware_ga()))
             .unwrap_or_default(),
     )?;
-    let results = test_design(&mut cx, &mut model, &state, &design, Some(&run_dir.join("test")))?;
+    let out = run_dir.join("test");
+    let results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
     write_atomic(
         &run_dir.join("results.json"),
         &serde_json::to_string_pretty(&results).unwrap_or_default(),
@@ -371,13 +396,15 @@ fn ga_err(e: joca_evolve::GaError) -> TrainError {
     TrainError::Config { field: "ga".into(), value: String::new(), allowed: e.to_string() }
 }
 
+/// The simulator of town `map_seed` under `illumination` (`None`: drawn per episode), built
+/// once.
 fn simulator(
-    sims: &mut HashMap<u64, Arc<Simulator>>,
+    sims: &mut Sims,
     map_seed: u64,
     max_speed: f64,
     illumination: Option<Illumination>,
 ) -> Arc<Simulator> {
-    Arc::clone(sims.entry(map_seed).or_insert_with(|| {
+    Arc::clone(sims.entry((map_seed, illumination)).or_insert_with(|| {
         Arc::new(Simulator::new(SimConfig {
             map_seed,
             max_speed_mps: max_speed,
@@ -385,17 +412,4 @@ fn simulator(
             ..SimConfig::default()
         }))
     }))
-}
-
-/// The illumination schedule of a training episode, as logged (`recorded` for real frames).
-fn illumination_name(
-    sims: &HashMap<u64, Arc<Simulator>>,
-    real: Option<&RealSources>,
-    map_seed: u64,
-    episode: u64,
-) -> &'static str {
-    match (real, sims.get(&map_seed)) {
-        (None, Some(sim)) => sim.episode(episode).illumination.name(),
-        _ => "recorded",
-    }
 }

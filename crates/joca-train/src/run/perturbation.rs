@@ -37,8 +37,10 @@ pub(super) struct Probe<'a> {
     pub(super) camera: &'a PinholeCamera,
     pub(super) request: FrameRequest,
     pub(super) sensor: SensorLimits,
-    /// Global step index: seeds the members' noise and the GA's update.
+    /// Global step index: seeds the GA's update.
     pub(super) global_step: u64,
+    /// The step's scene index, common to the candidates of a generation: seeds the noise.
+    pub(super) scene_step: u64,
 }
 
 /// One perturbation search around `predicted` (NeuralAE's settings for the calibration pitch):
@@ -63,7 +65,7 @@ pub(super) fn search(
         ));
         let applied = for_sensor(perturbed, &probe.sensor);
         // Every member of a step on the same noise sample: they differ by their settings only.
-        let mut noise = cx.streams.indexed("perturbation-noise", probe.global_step);
+        let mut noise = cx.streams.indexed("perturbation-noise", probe.scene_step);
         let joca_camera::Capture { frame, image } = cx.formation.capture(
             probe.source,
             probe.camera,

@@ -131,9 +131,10 @@ pub fn bench_step(
     config.validate()?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     let mut perturbation = perturbation::ga(&config, &cx.streams)?;
-    candidate::train(&mut cx, &mut model, &mut perturbation, design, 0, &mut |_, _| {})?; // warm-up
+    let train = candidate::train;
+    train(&mut cx, &mut model, &mut perturbation, design, (0, 0), &mut |_, _| {})?; // warm-up
     cx.watch = Stopwatch::measuring();
-    candidate::train(&mut cx, &mut model, &mut perturbation, design, 1, &mut |_, _| {})?;
+    train(&mut cx, &mut model, &mut perturbation, design, (1, 1), &mut |_, _| {})?;
     let t = cx.watch.breakdown.unwrap_or_default();
     Ok(t.scaled(1.0 / t.steps.max(1) as f64))
 }
