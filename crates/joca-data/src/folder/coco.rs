@@ -1,0 +1,199 @@
+//! The folder format's annotation file: a COCO `annotations.json` whose images also carry
+//! `timestamp_s`, `exposure_s`, `gain_db` and `sequence`, read and checked into a
+//! [`Recording`]: categories mapped to joca's classes, boxes with area inside their image, file
+//! names inside the folder.
+
+use super::*;
+
+#[derive(Debug, Deserialize)]
+struct CocoFile {
+    images: Vec<CocoImage>,
+    #[serde(default)]
+    annotations: Vec<CocoAnnotation>,
+    categories: Vec<CocoCategory>,
+}
+
+#[derive(Debug, Deserialize)]
+struct CocoImage {
+    id: u64,
+    file_name: String,
+    width: u32,
+    height: u32,
+    timestamp_s: Option<f64>,
+    exposure_s: Option<f64>,
+    gain_db: Option<f64>,
+    sequence: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+struct CocoAnnotation {
+    image_id: u64,
+    bbox: [f32; 4],
+    category_id: u64,
+    #[serde(default)]
+    iscrowd: u8,
+}
+
+#[derive(Debug, Deserialize)]
+struct CocoCategory {
+    id: u64,
+    name: String,
+    joca_class: Option<String>,
+}
+
+/// Maps a category to a joca class (`Ok(None)`: ignored).
+fn class_of(c: &CocoCategory) -> Result<Option<Class>, String> {
+    let name = c.joca_class.as_deref().unwrap_or(&c.name).to_ascii_lowercase().replace(' ', "_");
+    Ok(match name.as_str() {
+        "vehicle" | "car" | "truck" | "bus" | "van" => Some(Class::Vehicle),
+        "walker" | "pedestrian" | "person" | "cyclist" => Some(Class::Walker),
+        "traffic_sign" | "sign" => Some(Class::TrafficSign),
+        "ignore" => None,
+        _ => {
+            return Err(format!(
+                "category {} {:?} is not a joca class; name it vehicle, walker or traffic_sign \
+                    (or car, truck, bus, pedestrian, person, cyclist, sign), or add \
+                    \"joca_class\": \"vehicle\" | \"walker\" | \"traffic_sign\" | \"ignore\"",
+                c.id, c.name
+            ));
+        }
+    })
+}
+
+/// A COCO box `[x, y, w, h]` must have a positive size and lie inside its `w × h` image (up to
+/// one pixel of rounding at the border).
+fn check_box([x, y, w, h]: [f32; 4], (width, height): (u32, u32)) -> Result<(), String> {
+    if ![x, y, w, h].iter().all(|v| v.is_finite()) || w <= 0.0 || h <= 0.0 {
+        return Err("needs finite coordinates and a width and height above 0".into());
+    }
+    let slack = 1.0;
+    if x < -slack || y < -slack || x + w > width as f32 + slack || y + h > height as f32 + slack {
+        return Err(format!("reaches outside the {width}×{height} image"));
+    }
+    Ok(())
+}
+
+/// `dir/name`, where `name` (an annotation's `file_name`) must stay inside `dir`: relative, with
+/// no `..`, and not leading out through a symbolic link. A recording's annotation file is input
+/// like any other, and nothing outside the dataset folder is opened on its word.
+fn inside(dir: &Path, name: &str) -> Result<PathBuf, String> {
+    let rel = Path::new(name);
+    let plain = rel.components().all(|c| matches!(c, Component::Normal(_) | Component::CurDir));
+    if name.is_empty() || rel.is_absolute() || !plain {
+        return Err(format!(
+            "file_name {name:?} is not a path inside the dataset folder (relative, without `..`)"
+        ));
+    }
+    let path = dir.join(rel);
+    // A missing file is reported by the header check; an existing one must resolve inside.
+    if let (Ok(root), Ok(real)) = (dir.canonicalize(), path.canonicalize())
+        && !real.starts_with(&root)
+    {
+        return Err(format!(
+            "file_name {name:?} leads outside the dataset folder, to {} (a symbolic link)",
+            real.display()
+        ));
+    }
+    Ok(path)
+}
+
+impl Recording {
+    /// Opens `dir/annotations.json` and checks every frame's header.
+    pub fn open(dir: &Path, config: FolderConfig) -> Result<Self, SourceError> {
+        let json_path = dir.join("annotations.json");
+        let text = std::fs::read_to_string(&json_path).map_err(|e| read_err(&json_path, e))?;
+        let coco: CocoFile = serde_json::from_str(&text).map_err(|e| read_err(&json_path, e))?;
+        let mut classes = HashMap::new();
+        for c in &coco.categories {
+            classes.insert(c.id, class_of(c).map_err(|e| read_err(&json_path, e))?);
+        }
+        let mut boxes: HashMap<u64, Vec<Annotation>> = HashMap::new();
+        let mut crowds: HashMap<u64, Vec<Annotation>> = HashMap::new();
+        let sizes: HashMap<u64, (u32, u32)> =
+            coco.images.iter().map(|i| (i.id, (i.width, i.height))).collect();
+        for a in &coco.annotations {
+            let size = sizes.get(&a.image_id).copied().ok_or_else(|| {
+                read_err(
+                    &json_path,
+                    format!("an annotation has image_id {} that no image declares", a.image_id),
+                )
+            })?;
+            check_box(a.bbox, size).map_err(|why| {
+                read_err(
+                    &json_path,
+                    format!("an annotation of image {}: bbox {:?} {why}", a.image_id, a.bbox),
+                )
+            })?;
+            let class = *classes.get(&a.category_id).ok_or_else(|| {
+                read_err(
+                    &json_path,
+                    format!(
+                        "an annotation of image {} has category_id {} that no category declares",
+                        a.image_id, a.category_id
+                    ),
+                )
+            })?;
+            if let Some(class) = class {
+                let [x, y, w, h] = a.bbox;
+                let list = if a.iscrowd == 0 { &mut boxes } else { &mut crowds };
+                list.entry(a.image_id)
+                    .or_default()
+                    .push(Annotation { bbox: BBox::new(x, y, x + w, y + h), class });
+            }
+        }
+        let mut sequences: BTreeMap<String, Vec<RecordedFrame>> = BTreeMap::new();
+        let mut skipped = Vec::new();
+        for img in &coco.images {
+            let path = inside(dir, &img.file_name).map_err(|e| read_err(&json_path, e))?;
+            let timestamp_s = img.timestamp_s.ok_or_else(|| {
+                read_err(
+                    &json_path,
+                    format!(
+                        "image {} ({}) has no timestamp_s; every frame needs its capture time \
+                         in seconds",
+                        img.id, img.file_name
+                    ),
+                )
+            })?;
+            let exposure_s = img.exposure_s.or(config.default_exposure_s).ok_or_else(|| {
+                read_err(
+                    &json_path,
+                    format!(
+                        "image {} ({}) has no exposure_s: add the recorded exposure time in \
+                         seconds to each image, or set a default exposure \
+                         (--default-exposure-ms) if the whole recording used one",
+                        img.id, img.file_name
+                    ),
+                )
+            })?;
+            if exposure_s.is_nan() || exposure_s <= 0.0 {
+                return Err(read_err(
+                    &json_path,
+                    format!("image {} has exposure_s = {exposure_s}; it must be above 0", img.id),
+                ));
+            }
+            let origin = FrameOrigin::File(path);
+            if let Err(why) = check_header(&origin, (img.width, img.height), img.id) {
+                match config.on_bad_frame {
+                    OnBadFrame::Stop => return Err(read_err(Path::new(&origin.label()), why)),
+                    OnBadFrame::Skip => {
+                        skipped.push(format!("{}: {why}", origin.label()));
+                        continue;
+                    }
+                }
+            }
+            sequences.entry(img.sequence.clone().unwrap_or_default()).or_default().push(
+                RecordedFrame {
+                    origin,
+                    timestamp_s,
+                    exposure_s,
+                    gain_db: img.gain_db.unwrap_or(config.calibration_gain_db),
+                    size_px: (img.width, img.height),
+                    boxes: boxes.remove(&img.id).unwrap_or_default(),
+                    ignore: crowds.remove(&img.id).unwrap_or_default(),
+                },
+            );
+        }
+        Self::from_sequences(dir, sequences.into_values().collect(), config, skipped)
+    }
+}
