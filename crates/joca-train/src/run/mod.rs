@@ -3,12 +3,13 @@
 //! camera; NeuralAE or AverageAE; GA supervision, fixed perturbations or none; detector trained
 //! or frozen).
 //!
-//! One idea per file: [`config`] (the `[run]` table and its validation), [`method`] (methods,
-//! scenarios, fixed cameras), this file (the hardware GA's loop over candidates, checkpoints),
-//! [`candidate`] (one candidate's k steps of joint training), [`perturbation`] (DF-Grad's
-//! perturbation search), [`evaluate`] (testing the best design, `joca eval`), [`closed_loop`]
-//! (closed-loop driving on the test town), [`results`] (what a run reports), [`timing`]
-//! (`joca bench step`).
+//! One idea per file: [`config`] (the `[run]` table and its validation), [`method`] (the fixed
+//! cameras; methods and scenarios are `joca_record`'s), this file (the hardware GA's loop over
+//! candidates, checkpoints), [`candidate`] (one candidate's k steps of joint training on its
+//! generation's scenes), [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
+//! (choosing the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop
+//! driving: the test, the validation, the showcases), [`results`] (what a run reports),
+//! [`timing`] (`joca bench step`).
 
 mod candidate;
 mod closed_loop;
