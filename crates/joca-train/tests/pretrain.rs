@@ -161,6 +161,12 @@ fn a_batched_bfloat16_run_is_reproducible_across_kill_and_resume() {
     let report_b = pretrain(&cfg, &b_dir, &b_w, true, &mut go).unwrap();
     assert_eq!(std::fs::read(&a_w).unwrap(), std::fs::read(&b_w).unwrap());
     assert_eq!(report_a, report_b);
+    // bfloat16 where this CPU has it natively, float32 otherwise, and results.json says which.
+    let want = if Precision::native_bf16() { Precision::Bf16 } else { Precision::Fp32 };
+    assert_eq!(report_a.training_precision, Some(want));
+    let text = std::fs::read_to_string(a_dir.join("results.json")).unwrap();
+    assert!(text.contains(&format!("\"training_precision\": \"{want:?}\"").to_lowercase()));
+    assert_eq!(Precision::Fp32.on_this_cpu(), Precision::Fp32);
 }
 
 #[test]

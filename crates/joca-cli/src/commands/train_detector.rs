@@ -42,12 +42,19 @@ pub fn run(args: &Args) -> Result<()> {
         cfg.threads = t;
     }
     let run_dir = args.out.with_extension("run");
+    let precision = cfg.precision.on_this_cpu();
+    if precision != cfg.precision {
+        println!(
+            "precision: bf16 asked for, but this CPU has no native bfloat16 (AVX-512 BF16); \
+             training in fp32, which is faster here"
+        );
+    }
     println!(
         "pre-training the detector: {} frames ({} per step, {}), {} frames per random camera, \
             render scale {} (test {}), {} threads; run directory {}",
         cfg.steps,
         cfg.batch,
-        format!("{:?}", cfg.precision).to_lowercase(),
+        format!("{precision:?}").to_lowercase(),
         cfg.data.frames_per_design,
         cfg.train_scale(),
         cfg.render_scale,

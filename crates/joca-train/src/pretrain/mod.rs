@@ -21,7 +21,9 @@ use joca_camera::{
 };
 use joca_core::SeedStreams;
 use joca_metrics::TaskScores;
-use joca_nn::detector::{DetectorConfig, DetectorModel, LossParts, TrainFrame, WeightAverage};
+use joca_nn::detector::{
+    DetectorConfig, DetectorModel, LossParts, Precision, TrainFrame, WeightAverage,
+};
 use joca_nn::{AdamConfig, Engine};
 use joca_sim::{CityConfig, Illumination, SimConfig, VisibilityRules};
 use rand::Rng;
@@ -60,6 +62,10 @@ pub struct EvalReport {
     pub day: TaskScores,
     /// Night.
     pub night: TaskScores,
+    /// The precision the training steps ran in on this CPU (`precision` asks for bfloat16 only
+    /// where the CPU has it natively); none for a weights file scored alone.
+    #[serde(default)]
+    pub training_precision: Option<Precision>,
 }
 
 /// The fixed camera every pre-training evaluation uses: a FLIR-like IMX172 behind 3.6 mm at the
@@ -96,7 +102,9 @@ pub fn pretrain(
     let mut model = DetectorModel::new(&engine, config.detector, adam);
     model.set_class_weights(&config.experimental.class_weights);
     model.set_regression(config.experimental.regression);
-    model.set_precision(config.precision);
+    // bfloat16 only where the CPU has it: emulated, it is many times slower than float32.
+    let precision = config.precision.on_this_cpu();
+    model.set_precision(precision);
     model.set_min_radius(i64::from(config.experimental.min_radius));
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let mut start = 0;
@@ -299,6 +307,7 @@ pub fn pretrain(
             r
         }
     };
+    let report = EvalReport { training_precision: Some(precision), ..report };
     result.save_weights(weights_out)?;
     write_atomic(
         &run_dir.join("results.json"),
@@ -343,7 +352,7 @@ fn evaluate_day_night(
     let mut control = AverageControl::new(AccRanges::PAPER);
     let day = evaluate(model, &design, &mut control, &spec(Illumination::Day), streams)?;
     let night = evaluate(model, &design, &mut control, &spec(Illumination::Night), streams)?;
-    Ok(EvalReport { step, day, night })
+    Ok(EvalReport { step, day, night, training_precision: None })
 }
 
 /// Top-level field names whose values differ between two configurations.
