@@ -11,7 +11,7 @@
 //!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
 //! - `<sequence>/NNN.png` — those frames.
 
-use super::{Context, SettingsByLight};
+use super::{Context, SettingsByLight, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use crate::control::{ExposureControl, SensorLimits, controller};
@@ -25,6 +25,7 @@ use joca_sim::{Illumination, SimConfig, Simulator, TUNNEL_PHASE_S, test_map_seed
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Frames the controller runs before scoring starts (it starts at E0, G0).
 const WARMUP_FRAMES: usize = 3;
@@ -155,19 +156,13 @@ pub(super) fn test(
     // `Illumination::ALL[e % 4]` (day, night, tunnel, cycle), so every light gets the same
     // number of episodes (within one), whatever the episodes' own draws would have been.
     // Recordings have their own light, and no towns are built for them.
-    let towns: Vec<Simulator> = if real.is_some() {
+    // Built once per run (the validation re-scores several designs on the same towns).
+    let towns: Vec<Arc<Simulator>> = if real.is_some() {
         Vec::new()
     } else {
         Illumination::ALL
             .iter()
-            .map(|&illumination| {
-                Simulator::new(SimConfig {
-                    map_seed: plan.town,
-                    illumination: Some(illumination),
-                    max_speed_mps: c.max_speed_mps,
-                    ..SimConfig::default()
-                })
-            })
+            .map(|&il| simulator(&mut cx.sims, plan.town, c.max_speed_mps, Some(il)))
             .collect()
     };
     // Recorded sequences are played from their start; the test town from t = 1 s.
@@ -176,7 +171,7 @@ pub(super) fn test(
         let town = towns.get(episode as usize % Illumination::ALL.len());
         let source: &dyn FrameSource = match (&real, town) {
             (Some(r), _) => r.test(),
-            (None, Some(town)) => town,
+            (None, Some(town)) => &**town,
             (None, None) => unreachable!("the test towns are built above without a recording"),
         };
         let mut driver = Driver::new(cx, model, design, source.frame_interval_s());
