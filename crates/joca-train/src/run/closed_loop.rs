@@ -21,7 +21,7 @@ use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
 use joca_record::TraceRecord;
 pub use joca_record::{Showcase, ShowcaseFrame};
-use joca_sim::{Illumination, SimConfig, Simulator, TUNNEL_PHASE_S, test_map_seed};
+use joca_sim::{Illumination, Simulator, TUNNEL_PHASE_S, test_map_seed};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -230,7 +230,7 @@ pub(super) fn test(
 /// (last frame saved). Same town, episodes and times for every run, so different methods are
 /// compared on the same scenes.
 fn showcases(
-    cx: &Context,
+    cx: &mut Context,
     model: &mut JointModel,
     design: &CameraDesign,
     camera: &PinholeCamera,
@@ -245,12 +245,9 @@ fn showcases(
     .into_iter()
     .enumerate()
     {
-        let sim = Simulator::new(SimConfig {
-            map_seed: test_map_seed(0),
-            illumination: Some(illumination),
-            max_speed_mps: cx.config.max_speed_mps,
-            ..SimConfig::default()
-        });
+        // The test has built these towns already: the run's simulator cache holds them.
+        let sim =
+            simulator(&mut cx.sims, test_map_seed(0), cx.config.max_speed_mps, Some(illumination));
         let episode = 0;
         let dt = sim.frame_interval_s();
         let (start_s, frames) = if illumination == Illumination::Tunnel {
@@ -274,7 +271,7 @@ fn showcases(
         for k in 0..frames {
             let time_s = start_s + k as f64 * dt;
             let mut noise = cx.streams.indexed("showcase-noise", index as u64 * 10_000 + k as u64);
-            let s = driver.step(cx, model, &sim, camera, episode, time_s, &mut noise)?;
+            let s = driver.step(cx, model, &*sim, camera, episode, time_s, &mut noise)?;
             let save = illumination == Illumination::Tunnel || k + 1 == frames;
             let image = if save {
                 let rel = format!("{name}/{k:03}.png");
