@@ -76,8 +76,21 @@ fn name_list(items: &[(&str, &str)]) -> String {
     items.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
 }
 
-/// Reads a built-in experiment or a file, and resolves every cell's configuration.
-pub fn resolve(name: &str, preset: &str, user_config: Option<&Path>) -> Result<Experiment> {
+/// Most seeds per cell (`--seeds`).
+pub const MAX_SEEDS: u64 = 100;
+
+/// Reads a built-in experiment or a file, and resolves every cell's configuration, `seeds`
+/// times: with more than one seed, cell `<variant>-<scenario>-s<k>` runs with the resolved
+/// `seed` + k, so every variant of a scenario meets the same seeds.
+pub fn resolve(
+    name: &str,
+    preset: &str,
+    user_config: Option<&Path>,
+    seeds: u64,
+) -> Result<Experiment> {
+    if !(1..=MAX_SEEDS).contains(&seeds) {
+        bail!("--seeds = {seeds} is invalid: 1 to {MAX_SEEDS} seeds per cell");
+    }
     let (text, source, short) = match EXPERIMENTS.iter().find(|(n, _)| *n == name) {
         Some((n, t)) => ((*t).to_owned(), format!("experiments/{n}.toml"), (*n).to_owned()),
         None => {
@@ -142,16 +155,24 @@ pub fn resolve(name: &str, preset: &str, user_config: Option<&Path>) -> Result<E
                         = \"waymo:DIR\" or \"folder:DIR\" (and test_source for held-out frames)"
                 );
             }
-            let id = format!("{}-{scenario}", v.id);
-            cells.push(Cell {
-                spec: CellSpec {
-                    dir: format!("cells/{id}"),
-                    id,
-                    label: v.label.clone(),
-                    group: scenario_title(scenario),
-                },
-                config,
-            });
+            for k in 0..seeds {
+                let id = if seeds == 1 {
+                    format!("{}-{scenario}", v.id)
+                } else {
+                    format!("{}-{scenario}-s{k}", v.id)
+                };
+                let config = RunConfig { seed: config.seed.wrapping_add(k), ..config.clone() };
+                cells.push(Cell {
+                    spec: CellSpec {
+                        dir: format!("cells/{id}"),
+                        id,
+                        label: v.label.clone(),
+                        group: scenario_title(scenario),
+                        seed: config.seed,
+                    },
+                    config,
+                });
+            }
         }
     }
     // Rows of a group together: order by scenario as listed, then variant (already so).
@@ -160,6 +181,7 @@ pub fn resolve(name: &str, preset: &str, user_config: Option<&Path>) -> Result<E
             name: short,
             title: file.title,
             preset: preset.to_owned(),
+            seeds,
             label_header: file.label_header,
             cells: cells.iter().map(|c| c.spec.clone()).collect(),
         },
@@ -228,7 +250,7 @@ mod tests {
     fn every_built_in_experiment_resolves_with_every_preset() {
         for (name, _) in EXPERIMENTS {
             for (preset, _) in config::PRESETS {
-                let result = resolve(name, preset, None);
+                let result = resolve(name, preset, None, 1);
                 if name == "real" {
                     // Needs a recording; without one it is refused.
                     assert!(result.unwrap_err().to_string().contains("runs on recorded frames"));
@@ -241,9 +263,30 @@ mod tests {
                 assert_eq!(ids.len(), exp.cells.len(), "{name}: duplicate cell ids");
             }
         }
-        let table1 = resolve("table1", "quick", None).unwrap();
+        let table1 = resolve("table1", "quick", None, 1).unwrap();
         assert_eq!(table1.cells.len(), 20);
         assert_eq!(table1.cells[0].spec.id, "flir-calibrated");
         assert_eq!(table1.cells[0].config.method, Method::FixedNeural);
+    }
+
+    #[test]
+    fn seeds_repeat_every_cell_with_consecutive_seeds() {
+        let one = resolve("ablation", "quick", None, 1).unwrap();
+        let three = resolve("ablation", "quick", None, 3).unwrap();
+        assert_eq!(three.cells.len(), 3 * one.cells.len());
+        assert_eq!(three.manifest.seeds, 3);
+        let base = one.cells[0].config.seed;
+        for (k, cell) in three.cells[..3].iter().enumerate() {
+            assert_eq!(cell.spec.id, format!("{}-s{k}", one.cells[0].spec.id));
+            assert_eq!(cell.config.seed, base + k as u64);
+            assert_eq!(cell.spec.seed, base + k as u64);
+            // Only the seed differs from the one-seed cell.
+            let c = RunConfig { seed: base, ..cell.config.clone() };
+            assert_eq!(c, one.cells[0].config);
+        }
+        for bad in [0, MAX_SEEDS + 1] {
+            let e = resolve("ablation", "quick", None, bad).unwrap_err().to_string();
+            assert!(e.contains("--seeds") && e.contains("1 to 100"), "{e}");
+        }
     }
 }

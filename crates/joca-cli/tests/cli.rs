@@ -465,6 +465,25 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         e.contains("perturbation_mutation") && e.contains("`paper`") && e.contains("`additive`"),
         "{e}"
     );
+    // A reference range of zero (or less) names the field and the allowed range.
+    std::fs::write(
+        &cfg,
+        "[run.reference]\nvehicle_m = 100.0\nwalker_m = 0.0\ntraffic_sign_m = 50.0\n",
+    )
+    .unwrap();
+    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let e = stderr(&o);
+    assert!(
+        !o.status.success()
+            && e.contains("run.reference.walker_m = 0 is invalid: above 0 m, at most 200 m"),
+        "{e}"
+    );
+    // `joca experiment --seeds 0` is refused before anything is written.
+    let exp_dir = dir.path().join("exp");
+    let o = joca(&["experiment", "ablation", "--seeds", "0", "--out", exp_dir.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("--seeds = 0 is invalid: 1 to 100"), "{e}");
+    assert!(!exp_dir.exists());
     // A misspelt table is refused, not ignored.
     std::fs::write(&cfg, "[runn]\ngenerations = 2\n").unwrap();
     let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);

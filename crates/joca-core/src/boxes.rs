@@ -117,6 +117,42 @@ pub struct Annotation {
     pub bbox: BBox,
     /// Its class.
     pub class: Class,
+    /// Horizontal distance from the camera to the object's centre, metres, where the source
+    /// knows it (the simulator does; recorded datasets without depth do not). Evaluation
+    /// reports AP and recall per distance band from it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance_m: Option<f32>,
+}
+
+impl Annotation {
+    /// An object of unknown distance.
+    pub fn new(bbox: BBox, class: Class) -> Self {
+        Self { bbox, class, distance_m: None }
+    }
+
+    /// An object `distance_m` metres from the camera.
+    pub fn at_distance(bbox: BBox, class: Class, distance_m: f32) -> Self {
+        Self { bbox, class, distance_m: Some(distance_m) }
+    }
+}
+
+/// Smallest box width and height, pixels, that training asks the detector to find; smaller
+/// reference objects are ignore regions for the training loss (a 7-px walker looks like an
+/// 8-px one) but stay objects, and misses when undetected, in every evaluation.
+pub const TRAINING_MIN_BOX_PX: f32 = 8.0;
+
+/// Splits a frame's reference objects for training: boxes at least `min_box_px` wide and tall
+/// stay objects, smaller ones join the ignore regions.
+pub fn training_targets(
+    boxes: &[Annotation],
+    ignore: &[Annotation],
+    min_box_px: f32,
+) -> (Vec<Annotation>, Vec<Annotation>) {
+    let (kept, small): (Vec<Annotation>, Vec<Annotation>) =
+        boxes.iter().partition(|a| a.bbox.width() >= min_box_px && a.bbox.height() >= min_box_px);
+    let mut ignore = ignore.to_vec();
+    ignore.extend(small);
+    (kept, ignore)
 }
 
 /// A detector output in one frame.

@@ -28,7 +28,7 @@ mod image;
 pub mod rng;
 pub mod units;
 
-pub use boxes::{Annotation, BBox, Class, Detection};
+pub use boxes::{Annotation, BBox, Class, Detection, TRAINING_MIN_BOX_PX, training_targets};
 pub use frame::{Frame, FrameRequest, FrameSource, PinholeCamera, SourceError};
 pub use image::{HdrImage, ImageError, Rgb8Image};
 pub use rng::SeedStreams;

@@ -143,7 +143,7 @@ impl Recording {
                     (cy + h / 2.0) as f32,
                 );
                 let key = (text(row, SEGMENT, &path)?, int(row, TIMESTAMP, &path)?);
-                boxes.entry(key).or_default().push(Annotation { bbox, class });
+                boxes.entry(key).or_default().push(Annotation::new(bbox, class));
                 Ok(())
             })?;
         }

@@ -158,7 +158,7 @@ fn write_dataset(dir: &Path, with_shutter: bool, corrupt: Option<usize>) {
 }
 
 fn config() -> FolderConfig {
-    FolderConfig { linearize: Linearize::Srgb, min_box_px: 2.0, ..FolderConfig::default() }
+    FolderConfig { linearize: Linearize::Srgb, ..FolderConfig::default() }
 }
 
 #[test]

@@ -81,12 +81,21 @@ pub struct GroundTruth {
     pub area: f64,
     /// A crowd region (`iscrowd = 1`).
     pub crowd: bool,
+    /// Distance from the camera, metres, where known: [`CocoEvaluator::evaluate_where`] can
+    /// score a distance band.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance_m: Option<f64>,
 }
 
 impl GroundTruth {
     /// A non-crowd object with area `w·h`.
     pub fn new(bbox: [f64; 4], category: u32) -> Self {
-        Self { bbox, category, area: bbox[2] * bbox[3], crowd: false }
+        Self { bbox, category, area: bbox[2] * bbox[3], crowd: false, distance_m: None }
+    }
+
+    /// The object, `distance_m` metres from the camera.
+    pub fn at_distance(self, distance_m: Option<f64>) -> Self {
+        Self { distance_m, ..self }
     }
 
     /// A crowd (ignore) region with area `w·h`.
@@ -170,6 +179,14 @@ impl CocoEvaluator {
 
     /// Evaluates everything added so far.
     pub fn evaluate(&self) -> CocoSummary {
+        self.evaluate_where(|_| true)
+    }
+
+    /// Evaluates everything added so far on the ground truth that `keep` accepts (e.g. one
+    /// distance band). The rest is ignored as COCO ignores objects outside an area range: a
+    /// detection matched to it is neither a true nor a false positive. Unlike an area range,
+    /// an unmatched detection has no distance, so it stays a false positive in every subset.
+    pub fn evaluate_where(&self, keep: impl Fn(&GroundTruth) -> bool) -> CocoSummary {
         let thresholds = iou_thresholds();
         let categories: BTreeSet<u32> =
             self.images.values().flat_map(|(g, _)| g.iter().map(|g| g.category)).collect();
@@ -195,7 +212,7 @@ impl CocoEvaluator {
                             g.iter().filter(|x| x.category == category).collect();
                         let d: Vec<&ScoredBox> =
                             d.iter().filter(|x| x.category == category).collect();
-                        evaluate_image(&g, &d, range, &thresholds)
+                        evaluate_image(&g, &d, range, &thresholds, &keep)
                     })
                     .collect();
                 if a == 0 {
@@ -332,11 +349,12 @@ fn evaluate_image(
     dts: &[&ScoredBox],
     range: (f64, f64),
     thresholds: &[f64],
+    keep: &dyn Fn(&GroundTruth) -> bool,
 ) -> Option<ImageEval> {
     if gts.is_empty() && dts.is_empty() {
         return None;
     }
-    let ignore = |g: &GroundTruth| g.crowd || g.area < range.0 || g.area > range.1;
+    let ignore = |g: &GroundTruth| g.crowd || g.area < range.0 || g.area > range.1 || !keep(g);
     // Non-ignored ground truth first (stable).
     let mut g_order: Vec<usize> = (0..gts.len()).collect();
     g_order.sort_by_key(|&i| ignore(gts[i]));

@@ -26,4 +26,4 @@ mod coco;
 mod task;
 
 pub use coco::{CocoEvaluator, CocoSummary, GroundTruth, STAT_NAMES, ScoredBox, iou_xywh};
-pub use task::{TaskMetrics, TaskScores};
+pub use task::{BandScores, DISTANCE_BANDS_M, TaskMetrics, TaskScores};

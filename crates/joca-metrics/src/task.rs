@@ -12,6 +12,10 @@ use serde::{Deserialize, Serialize};
 /// Weight of the TP ratio in the hardware fitness (paper Sec. 6.1).
 pub const TP_RATIO_WEIGHT: f64 = 1.1;
 
+/// Distance bands of [`TaskMetrics::bands`], metres from the camera, `[from, to)`.
+pub const DISTANCE_BANDS_M: [(f64, f64); 4] =
+    [(0.0, 20.0), (20.0, 40.0), (40.0, 70.0), (70.0, 100.0)];
+
 /// Accumulates frames and scores them together.
 #[derive(Debug, Clone, Default)]
 pub struct TaskMetrics {
@@ -19,6 +23,27 @@ pub struct TaskMetrics {
     visible_180: u64,
     frames: u64,
     class_objects: [u64; 3],
+    /// Class index and distance of every reference object added.
+    objects: Vec<(usize, Option<f32>)>,
+}
+
+/// Scores of the reference objects in one distance band.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BandScores {
+    /// Nearest distance of the band, metres (inclusive).
+    pub from_m: f64,
+    /// Farthest distance of the band, metres (exclusive).
+    pub to_m: f64,
+    /// Reference objects in the band per class (`Class::ALL` order).
+    pub class_objects: [u64; 3],
+    /// mAP@[.5:.95] over the band's objects (objects of other bands ignored; false positives,
+    /// having no distance, count in every band); `None` without objects.
+    pub map: Option<f64>,
+    /// AP at IoU 0.5, as `map`.
+    pub ap50: Option<f64>,
+    /// Share of the band's objects found at IoU 0.5 (any score, the 100 best detections of a
+    /// frame); `None` without objects.
+    pub recall50: Option<f64>,
 }
 
 /// Scores of a set of frames.
@@ -75,7 +100,10 @@ impl TaskMetrics {
         let gts =
             truth
                 .iter()
-                .map(|a| GroundTruth::new(a.bbox.to_xywh().map(f64::from), a.class.coco_id()))
+                .map(|a| {
+                    GroundTruth::new(a.bbox.to_xywh().map(f64::from), a.class.coco_id())
+                        .at_distance(a.distance_m.map(f64::from))
+                })
                 .chain(ignore.iter().map(|a| {
                     GroundTruth::crowd(a.bbox.to_xywh().map(f64::from), a.class.coco_id())
                 }))
@@ -92,6 +120,7 @@ impl TaskMetrics {
             .collect();
         for a in truth {
             self.class_objects[a.class.index()] += 1;
+            self.objects.push((a.class.index(), a.distance_m));
         }
         self.coco.add_image(self.frames, gts, dts);
         self.visible_180 += u64::from(visible_180);
@@ -118,6 +147,34 @@ impl TaskMetrics {
         }
     }
 
+    /// Scores per distance band ([`DISTANCE_BANDS_M`]) of the objects whose distance the
+    /// source knows (none for recorded frames without depth).
+    pub fn bands(&self) -> Vec<BandScores> {
+        DISTANCE_BANDS_M
+            .iter()
+            .map(|&(from_m, to_m)| {
+                let inside = |d: f64| d >= from_m && d < to_m;
+                let mut class_objects = [0u64; 3];
+                for &(c, d) in &self.objects {
+                    if d.is_some_and(|d| inside(f64::from(d))) {
+                        class_objects[c] += 1;
+                    }
+                }
+                let s = self.coco.evaluate_where(|g| g.distance_m.is_some_and(inside));
+                let defined = |v: f64| (v >= 0.0).then_some(v);
+                BandScores {
+                    from_m,
+                    to_m,
+                    class_objects,
+                    map: defined(s.stats[0]),
+                    ap50: defined(s.stats[1]),
+                    recall50: (s.ground_truths > 0)
+                        .then(|| s.true_positives_50 as f64 / s.ground_truths as f64),
+                }
+            })
+            .collect()
+    }
+
     /// Forgets every frame.
     pub fn reset(&mut self) {
         *self = Self::default();
@@ -132,7 +189,7 @@ mod tests {
     #[test]
     fn perfect_detection_of_half_the_visible_objects() {
         let mut m = TaskMetrics::default();
-        let gt = [Annotation { bbox: BBox::new(10.0, 10.0, 50.0, 40.0), class: Class::Vehicle }];
+        let gt = [Annotation::new(BBox::new(10.0, 10.0, 50.0, 40.0), Class::Vehicle)];
         let dt = [Detection {
             bbox: BBox::new(10.0, 10.0, 50.0, 40.0),
             class: Class::Vehicle,
@@ -155,9 +212,35 @@ mod tests {
     }
 
     #[test]
+    fn a_distance_band_scores_its_own_objects_and_every_false_alarm() {
+        let near = Annotation::at_distance(BBox::new(0.0, 0.0, 40.0, 40.0), Class::Vehicle, 12.0);
+        let far = Annotation::at_distance(BBox::new(100.0, 0.0, 104.0, 4.0), Class::Vehicle, 80.0);
+        let det = |b: BBox, score: f32| Detection { bbox: b, class: Class::Vehicle, score };
+        // The near car found; the far one missed; a false alarm scored between them.
+        let dt = [det(near.bbox, 0.9), det(BBox::new(200.0, 0.0, 220.0, 20.0), 0.8)];
+        let mut m = TaskMetrics::default();
+        m.update(&[near, far], &[], &dt, 2);
+        let bands = m.bands();
+        assert_eq!(bands.len(), DISTANCE_BANDS_M.len());
+        // 0–20 m: one object, found first: AP 1 and recall 1, the false alarm ranked after it.
+        assert_eq!(bands[0].class_objects, [1, 0, 0]);
+        assert!((bands[0].ap50.unwrap() - 1.0).abs() < 1e-12 && bands[0].recall50 == Some(1.0));
+        // 20–40 and 40–70 m: no objects, nothing defined.
+        assert!(bands[1].ap50.is_none() && bands[2].recall50.is_none());
+        // 70–100 m: the missed car: recall 0, AP 0 (the near detection is ignored there, the
+        // false alarm is not).
+        assert_eq!(bands[3].class_objects, [1, 0, 0]);
+        assert_eq!((bands[3].ap50, bands[3].recall50), (Some(0.0), Some(0.0)));
+        // Over all objects: recall 1/2, and AP50 = precision 1 up to recall 0.5 (51 of the 101
+        // recall points).
+        let s = m.compute();
+        assert!((s.ap50 - 51.0 / 101.0).abs() < 1e-12, "{s:?}");
+    }
+
+    #[test]
     fn a_box_at_iou_below_half_is_no_true_positive() {
         let mut m = TaskMetrics::default();
-        let gt = [Annotation { bbox: BBox::new(0.0, 0.0, 10.0, 10.0), class: Class::Walker }];
+        let gt = [Annotation::new(BBox::new(0.0, 0.0, 10.0, 10.0), Class::Walker)];
         // IoU = 50 / 150 = 1/3.
         let dt =
             [Detection { bbox: BBox::new(5.0, 0.0, 15.0, 10.0), class: Class::Walker, score: 0.9 }];
@@ -176,8 +259,8 @@ mod tests {
 
     #[test]
     fn a_detection_on_an_ignore_region_is_neither_true_nor_false() {
-        let gt = [Annotation { bbox: BBox::new(10.0, 10.0, 50.0, 40.0), class: Class::Vehicle }];
-        let far = Annotation { bbox: BBox::new(100.0, 20.0, 106.0, 25.0), class: Class::Vehicle };
+        let gt = [Annotation::new(BBox::new(10.0, 10.0, 50.0, 40.0), Class::Vehicle)];
+        let far = Annotation::new(BBox::new(100.0, 20.0, 106.0, 25.0), Class::Vehicle);
         let dt = [
             Detection {
                 bbox: BBox::new(101.0, 21.0, 105.0, 25.0),

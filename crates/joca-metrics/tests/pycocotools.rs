@@ -21,6 +21,7 @@ fn load(name: &str) -> (CocoEvaluator, Vec<f64>, PerCategory) {
             category: a["category_id"].as_u64().unwrap() as u32,
             area: a["area"].as_f64().unwrap(),
             crowd: a["iscrowd"].as_u64().unwrap() == 1,
+            distance_m: None,
         };
         eval.add_image(a["image_id"].as_u64().unwrap(), vec![g], vec![]);
     }

@@ -22,8 +22,8 @@ mod results;
 mod showcase;
 
 /// The record types that come from the crates below: boxes, and the task scores.
-pub use joca_core::{Annotation, BBox, Detection};
-pub use joca_metrics::TaskScores;
+pub use joca_core::{Annotation, BBox, Class, Detection};
+pub use joca_metrics::{BandScores, TaskScores};
 
 pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
 pub use method::{Method, Scenario};

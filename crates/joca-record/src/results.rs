@@ -1,7 +1,7 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
 use crate::{Method, Scenario};
-use joca_metrics::TaskScores;
+use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -12,12 +12,22 @@ pub struct RunResults {
     pub method: Method,
     /// Scenario.
     pub scenario: Scenario,
+    /// The run's `seed`.
+    #[serde(default)]
+    pub seed: u64,
     /// The evaluated design.
     pub design: DesignSummary,
-    /// Test scores.
+    /// Test scores (`test.class_objects`: the reference objects each class's AP rests on).
     pub test: TaskScores,
+    /// Test scores per distance band (simulator; empty for recordings without depth).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub test_bands: Vec<BandScores>,
     /// Mean exposure (ms) and gain (dB) by illumination during the test.
     pub settings_by_illumination: BTreeMap<String, (f64, f64)>,
+    /// Mean of exposure (ms) × linear gain (10^(G/20)) over the test frames, by illumination:
+    /// the total amplification the controller applies to the light it sees.
+    #[serde(default)]
+    pub exposure_gain_by_illumination: BTreeMap<String, f64>,
     /// Best hardware fitness seen in training.
     #[serde(default)]
     pub best_fitness: f64,

@@ -20,6 +20,9 @@ pub struct CellSpec {
     pub group: String,
     /// Run directory, relative to the experiment directory.
     pub dir: String,
+    /// The cell's `seed`.
+    #[serde(default)]
+    pub seed: u64,
 }
 
 /// `experiment.json`: what an experiment directory contains.
@@ -31,10 +34,17 @@ pub struct Manifest {
     pub title: String,
     /// Preset the cells were run with.
     pub preset: String,
+    /// Seeds per variant and scenario (cells with the same group and label).
+    #[serde(default = "one")]
+    pub seeds: u64,
     /// Header of the tables' label column.
     pub label_header: String,
     /// Cells in display order.
     pub cells: Vec<CellSpec>,
+}
+
+fn one() -> u64 {
+    1
 }
 
 /// Where a cell stands.
@@ -94,6 +104,7 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
             group: cell.group.clone(),
             label: cell.label.clone(),
             cell: cell.id.clone(),
+            seed: cell.seed,
             results: run.results.clone(),
         });
         runs.push((cell.clone(), run));
@@ -113,10 +124,18 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
         let _ = write!(meta, " Not finished: {}.", pending.join(", "));
     }
     let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
+    let (seeds_md, seeds_html) = crate::seeds::seeds_sections(&table.rows);
+    md.push_str(&seeds_md);
+    if !seeds_md.is_empty() {
+        md.push_str("## Every cell\n\n");
+    }
     md.push_str(&table.markdown());
-    md.push_str("\nAll numbers, at full precision: `results.csv`.\n\n");
-    let mut html_body =
-        format!("<p class=\"meta\">{}</p>\n{}", escape(&meta.replace('`', "")), table.html());
+    md.push_str("\nAll numbers, every seed, at full precision: `results.csv`.\n\n");
+    let mut html_body = format!(
+        "<p class=\"meta\">{}</p>\n{seeds_html}{}",
+        escape(&meta.replace('`', "")),
+        table.html()
+    );
     let mut figures: Vec<Figure> = Vec::new();
     for group in table.groups() {
         let members: Vec<(String, &RunData)> = runs

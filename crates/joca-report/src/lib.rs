@@ -22,12 +22,14 @@ mod experiment;
 mod frames;
 mod html;
 mod plot;
+mod seeds;
 mod table;
 
 pub use data::{GenerationFitness, RunData, StepLog};
 pub use experiment::{CellSpec, CellState, Manifest, write_experiment_report};
 pub use frames::DRAW_MIN_SCORE;
 pub use joca_record::{DesignSummary, RunResults, Showcase, ShowcaseFrame};
+pub use seeds::{mean_interval, t_975};
 pub use table::{Row, Table};
 
 use std::fmt::Write as _;
@@ -191,8 +193,14 @@ pub fn write_figures(
                     series: series(|f| f.exposure_ms),
                 },
                 plot::Panel { y_label: "gain (dB)".into(), series: series(|f| f.gain_db) },
+                // On the ambient panel's log scale: a controller that keeps the image level
+                // moves this by as much as the ambient light moves, the other way.
+                plot::Panel {
+                    y_label: "exposure × gain, log10 (ms)".into(),
+                    series: series(|f| (f.exposure_ms * 10f64.powf(f.gain_db / 20.0)).log10()),
+                },
             ],
-            (900, 820),
+            (900, 1060),
         )?;
         figures.push(Figure {
             section: what.to_owned(),
@@ -200,7 +208,9 @@ pub fn write_figures(
             caption: format!(
                 "What each exposure controller chose, frame by frame, while driving through an \
                     abrupt change of illumination on the test town (closed loop: each frame's \
-                    settings come from the previous frame; {what})."
+                    settings come from the previous frame; {what}). The last panel, exposure × \
+                    linear gain on the ambient panel's log scale, falls by as much as the light \
+                    rises when a controller keeps the image level."
             ),
         });
     }
@@ -293,6 +303,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
             group: r.scenario.name().to_owned(),
             label: r.method.name().to_owned(),
             cell: run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            seed: r.seed,
             results: r.clone(),
         }],
     };
@@ -320,6 +331,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     md.push_str(&table.markdown());
     let _ = writeln!(md, "\nAP50 {:.3}.\n", r.test.ap50);
     md.push_str(&settings_markdown(r));
+    md.push_str(&objects_markdown(r));
     md.push_str(&fitness_markdown(&run));
     md.push_str(&figures_markdown(&figures));
     write_text(&run_dir.join("report.md"), &md)?;
@@ -338,13 +350,64 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     Ok(md)
 }
 
-fn settings_markdown(r: &RunResults) -> String {
+/// The closed-loop test's settings by illumination: mean exposure, gain, and exposure × linear
+/// gain, the last also relative to night (a controller that reacts to light amplifies day far
+/// less than night).
+pub fn settings_markdown(r: &RunResults) -> String {
     let mut md = String::from(
         "## Exposure and gain during the closed-loop test\n\n| illumination | mean E (ms) | mean \
-            G (dB) |\n|---|---|---|\n",
+            G (dB) | mean E × gain (ms) | relative to night |\n|---|---|---|---|---|\n",
     );
+    let night = r.exposure_gain_by_illumination.get("night").copied();
     for (light, (e, g)) in &r.settings_by_illumination {
-        let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} |");
+        let eg = r.exposure_gain_by_illumination.get(light);
+        let cell = eg.map_or_else(|| "-".to_owned(), |v| format!("{v:.1}"));
+        let relative = match (eg, night) {
+            (Some(v), Some(n)) if n > 0.0 => format!("{:.3}", v / n),
+            _ => "-".to_owned(),
+        };
+        let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} | {cell} | {relative} |");
+    }
+    md.push('\n');
+    md
+}
+
+/// What the test's scores rest on: reference objects and AP per class, and AP50 and recall at
+/// IoU 0.5 per distance band.
+pub fn objects_markdown(r: &RunResults) -> String {
+    let t = &r.test;
+    let mut md = format!(
+        "## Test objects ({} frames)\n\n| class | reference objects | AP@[.5:.95] | AP50 \
+            |\n|---|---|---|---|\n",
+        t.frames
+    );
+    let num = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| format!("{v:.3}"));
+    for (i, class) in joca_record::Class::ALL.iter().enumerate() {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} |",
+            class.name(),
+            t.class_objects[i],
+            num(t.class_map[i]),
+            num(t.class_ap50[i])
+        );
+    }
+    if !r.test_bands.is_empty() {
+        md.push_str(
+            "\n| distance (m) | vehicles | walkers | signs | AP50 | recall at IoU 0.5 \
+                |\n|---|---|---|---|---|---|\n",
+        );
+        for b in &r.test_bands {
+            let [v, w, s] = b.class_objects;
+            let _ = writeln!(
+                md,
+                "| {:.0}–{:.0} | {v} | {w} | {s} | {} | {} |",
+                b.from_m,
+                b.to_m,
+                num(b.ap50),
+                num(b.recall50)
+            );
+        }
     }
     md.push('\n');
     md

@@ -15,6 +15,8 @@ pub struct Row {
     pub label: String,
     /// Cell id (the run directory's name), for the CSV.
     pub cell: String,
+    /// The run's seed.
+    pub seed: u64,
     /// The run's results.
     pub results: RunResults,
 }
@@ -212,18 +214,20 @@ impl Table {
     /// The table as CSV, with every number at full precision.
     pub fn csv(&self) -> String {
         let mut c = String::from(
-            "scenario,label,cell,method,source,x_m,z_m,focal_length_mm,sensor,sensor_w_mm,\
-             sensor_h_mm,pixel_pitch_um,optimised,map,ap50,tp_ratio,test_frames\n",
+            "scenario,label,cell,seed,method,source,x_m,z_m,focal_length_mm,sensor,sensor_w_mm,\
+             sensor_h_mm,pixel_pitch_um,optimised,map,ap50,tp_ratio,test_frames,\
+             exposure_ms_day,exposure_ms_night,exposure_gain_day,exposure_gain_night\n",
         );
         for r in &self.rows {
             let d = &r.results.design;
             let t = &r.results.test;
             let _ = writeln!(
                 c,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 csv_field(&r.group),
                 csv_field(&r.label),
                 csv_field(&r.cell),
+                r.seed,
                 csv_field(r.results.method.name()),
                 csv_field(&r.results.source),
                 d.x_m,
@@ -237,11 +241,19 @@ impl Table {
                 t.map,
                 t.ap50,
                 t.tp_ratio,
-                t.frames
+                t.frames,
+                opt(r.results.settings_by_illumination.get("day").map(|s| s.0)),
+                opt(r.results.settings_by_illumination.get("night").map(|s| s.0)),
+                opt(r.results.exposure_gain_by_illumination.get("day").copied()),
+                opt(r.results.exposure_gain_by_illumination.get("night").copied()),
             );
         }
         c
     }
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or_else(String::new, |v| v.to_string())
 }
 
 fn csv_field(s: &str) -> String {
@@ -258,14 +270,15 @@ pub fn escape(s: &str) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use joca_record::{DesignSummary, Method, Scenario, TaskScores};
 
-    fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
+    pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         RunResults {
             method: Method::Joca,
             scenario: Scenario::Calibrated,
+            seed: 0,
             design: DesignSummary {
                 x_m: 1.35,
                 z_m: 1.3,
@@ -286,7 +299,9 @@ mod tests {
                 class_ap50: [None; 3],
                 class_objects: [0; 3],
             },
+            test_bands: Vec::new(),
             settings_by_illumination: Default::default(),
+            exposure_gain_by_illumination: Default::default(),
             best_fitness: 0.0,
             validation: Vec::new(),
             render_scale: 0.08,
@@ -298,6 +313,7 @@ mod tests {
     #[allow(clippy::approx_constant)]
     fn table() -> Table {
         let row = |group: &str, label: &str, map, tp, o| Row {
+            seed: 0,
             group: group.into(),
             label: label.into(),
             cell: format!("{label}-{group}"),
@@ -364,9 +380,10 @@ mod tests {
         assert!(h.contains("TaCOS, AverageAE"));
         let c = t.csv();
         assert_eq!(c.lines().count(), 7);
-        assert!(c.starts_with("scenario,label,cell,method,source,"));
-        let row = "Calibrated,\"TaCOS, AverageAE\",\"TaCOS, AverageAE-Calibrated\",joca,sim,\
-                   1.35,1.3,5.19,IMX178,7.3728,4.9152,2.4,true,0.303,0.5,0.358,10";
+        assert!(c.starts_with("scenario,label,cell,seed,method,source,"));
+        // The settings columns are empty where the run has no such illumination.
+        let row = "Calibrated,\"TaCOS, AverageAE\",\"TaCOS, AverageAE-Calibrated\",0,joca,sim,\
+                   1.35,1.3,5.19,IMX178,7.3728,4.9152,2.4,true,0.303,0.5,0.358,10,,,,\n";
         assert!(c.contains(row), "{c}");
     }
 }

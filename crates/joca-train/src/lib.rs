@@ -26,7 +26,7 @@ pub use pretrain::{
     PretrainEvent, differing_fields, evaluate_weights, pretrain, reference_design,
 };
 pub use run::{
-    DesignSummary, FixedCamera, MAX_SPEED_MPS, MIN_RENDER_SCALE, Method, PerturbationMutation,
-    RealConfig, RunConfig, RunEvent, RunResults, Scenario, Showcase, ShowcaseFrame, Source,
-    StepBreakdown, bench_step, evaluate_run, run,
+    DesignSummary, FixedCamera, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MIN_RENDER_SCALE, Method,
+    PerturbationMutation, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario,
+    Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step, evaluate_run, run,
 };

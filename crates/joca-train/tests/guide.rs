@@ -54,6 +54,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     let expect = [
         ("[run]", keys(&run)),
         ("[run.real]", keys(&run["real"])),
+        ("[run.reference]", keys(&run["reference"])),
         ("detector", keys(&run["detector"])),
         ("[pretrain]", keys(&pretrain)),
         ("[pretrain.optimizer]", keys(&pretrain["optimizer"])),

@@ -28,6 +28,7 @@ fn tiny(method: Method) -> RunConfig {
         steps_per_candidate: 5,
         perturbation_population: 4,
         perturbation_mutation: PerturbationMutation::Additive,
+        perturbation_tie_break: Default::default(),
         clip_gradient: Default::default(),
         ga_every: 2,
         task_weight: 7.0,
@@ -41,6 +42,7 @@ fn tiny(method: Method) -> RunConfig {
         source: Source::Sim,
         test_source: Source::Sim,
         real: RealConfig::default(),
+        reference: Default::default(),
     }
 }
 
@@ -298,14 +300,15 @@ fn the_test_gives_every_illumination_its_share_of_episodes() {
     assert_eq!(r.settings_by_illumination.len(), 4);
 }
 
-/// Common random numbers: every candidate of a generation drives the same scenes, generation g
-/// under `Illumination::ALL[g mod 4]`; the best designs of training are re-scored on the
-/// validation town and the best there is the one tested.
+/// Common random numbers: every candidate of a generation drives the same scenes, its k steps in
+/// four stretches under day, night, tunnel and cycle (generation g starting at
+/// `Illumination::ALL[g mod 4]`); the best designs of training are re-scored on the validation
+/// town and the best there is the one tested.
 #[test]
 fn candidates_of_a_generation_share_their_scenes_and_the_validation_picks_the_design() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
-    let cfg = RunConfig { steps_per_candidate: 2, ..tiny(Method::Joca) };
+    let cfg = RunConfig { steps_per_candidate: 8, ..tiny(Method::Joca) };
     let r = run(&cfg, dir.path(), false, &mut go).unwrap();
     let events = std::fs::read_to_string(dir.path().join("events.jsonl")).unwrap();
     let steps: Vec<serde_json::Value> = events
@@ -313,11 +316,15 @@ fn candidates_of_a_generation_share_their_scenes_and_the_validation_picks_the_de
         .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
         .filter(|v| v.get("step").is_some())
         .collect();
-    // Step 0 of each candidate is logged: two candidates per generation, two generations.
+    // Steps 0 and 5 of each candidate are logged (stretches of 2 steps: step 5 is in the third):
+    // two candidates per generation, two generations.
     let lights: Vec<&str> = steps.iter().map(|v| v["illumination"].as_str().unwrap()).collect();
-    assert_eq!(lights, ["day", "day", "night", "night"]);
+    let generation_0 = ["day", "tunnel"];
+    let generation_1 = ["night", "cycle"];
+    assert_eq!(lights, [generation_0, generation_0, generation_1, generation_1].concat());
     // Step 0 runs at the calibration camera's settings for every candidate.
-    assert!(steps.iter().all(|v| (v["exposure_ms"].as_f64().unwrap() - 5.0).abs() < 1e-3));
+    let first = steps.iter().step_by(2);
+    assert!(first.clone().all(|v| (v["exposure_ms"].as_f64().unwrap() - 5.0).abs() < 1e-3));
     // Validation: up to three designs re-scored, the tested one first and best there.
     assert!(!r.validation.is_empty() && r.validation.len() <= 3);
     assert_eq!(r.validation[0].design, r.design);

@@ -37,8 +37,8 @@ pub fn run(args: &Args) -> Result<()> {
         r.test.tp_ratio,
         r.test.frames
     );
-    for (light, (e, g)) in &r.settings_by_illumination {
-        println!("  {light:<7} E = {e:6.2} ms   G = {g:5.1} dB");
-    }
+    println!();
+    print!("{}", joca_report::settings_markdown(&r));
+    print!("{}", joca_report::objects_markdown(&r));
     Ok(())
 }

@@ -29,6 +29,10 @@ pub struct Args {
     /// Experiment directory [default: runs/<name>-<preset>].
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Runs of every cell, with seeds seed, seed + 1, …: tables then show mean ± 95 % interval
+    /// over seeds and ours paired with each baseline (1 to 100).
+    #[arg(long, default_value_t = 1)]
+    seeds: u64,
     /// Cells run at once, each in its own process (each uses the cell's `threads`).
     #[arg(long, default_value_t = 1)]
     jobs: usize,
@@ -61,7 +65,7 @@ pub struct CellArgs {
 
 /// Runs `joca experiment`.
 pub fn run(args: &Args) -> Result<()> {
-    let exp = resolve(&args.name, &args.preset, args.config.as_deref())?;
+    let exp = resolve(&args.name, &args.preset, args.config.as_deref(), args.seeds)?;
     let dir = args
         .out
         .clone()

@@ -100,6 +100,7 @@ pub fn run(args: &Args) -> Result<()> {
             category,
             area: a.get("area").and_then(Value::as_f64).unwrap_or(b[2] * b[3]),
             crowd: a.get("iscrowd").and_then(Value::as_u64).unwrap_or(0) == 1,
+            distance_m: None,
         };
         eval.add_image(image, vec![g], vec![]);
     }

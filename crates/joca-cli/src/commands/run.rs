@@ -208,8 +208,7 @@ fn print_results(r: &RunResults, seconds: f64) {
     println!("| {} |", row(|c| c.0.to_owned()));
     println!("|{}", "---|".repeat(columns.len()));
     println!("| {} |", row(|c| c.1.clone()));
-    println!("\nmean exposure and gain during the test, by illumination:");
-    for (light, (e, g)) in &r.settings_by_illumination {
-        println!("  {light:<7} E = {e:6.2} ms   G = {g:5.1} dB");
-    }
+    println!();
+    print!("{}", joca_report::settings_markdown(r));
+    print!("{}", joca_report::objects_markdown(r));
 }

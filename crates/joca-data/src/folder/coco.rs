@@ -138,7 +138,7 @@ impl Recording {
                 let list = if a.iscrowd == 0 { &mut boxes } else { &mut crowds };
                 list.entry(a.image_id)
                     .or_default()
-                    .push(Annotation { bbox: BBox::new(x, y, x + w, y + h), class });
+                    .push(Annotation::new(BBox::new(x, y, x + w, y + h), class));
             }
         }
         let mut sequences: BTreeMap<String, Vec<RecordedFrame>> = BTreeMap::new();

@@ -54,8 +54,6 @@ pub struct FolderConfig {
     pub calibration_gain_db: f64,
     /// Frames that fail to read.
     pub on_bad_frame: OnBadFrame,
-    /// Smallest box width and height kept after resizing, pixels.
-    pub min_box_px: f32,
     /// Optical flow for the motion blur.
     pub flow: DisParams,
 }
@@ -68,7 +66,6 @@ impl Default for FolderConfig {
             calibration_exposure_s: 0.005,
             calibration_gain_db: 10.0,
             on_bad_frame: OnBadFrame::Stop,
-            min_box_px: 8.0,
             flow: DisParams::preset(DisPreset::Medium),
         }
     }
@@ -310,20 +307,18 @@ impl Recording {
             )
         };
         let (mut boxes, mut ignore) = (Vec::new(), Vec::new());
+        // Every annotated object inside the crop is a reference object whatever its size after
+        // resizing (training applies its own size rule); one cropped away is gone.
         for a in &rec.boxes {
             let bbox = moved(a.bbox);
-            let big =
-                bbox.width() >= self.config.min_box_px && bbox.height() >= self.config.min_box_px;
-            if big {
-                boxes.push(Annotation { bbox, class: a.class });
-            } else if bbox.width() > 0.0 && bbox.height() > 0.0 {
-                ignore.push(Annotation { bbox, class: a.class });
+            if bbox.width() > 0.0 && bbox.height() > 0.0 {
+                boxes.push(Annotation { bbox, ..*a });
             }
         }
         ignore.extend(
             rec.ignore
                 .iter()
-                .map(|a| Annotation { bbox: moved(a.bbox), class: a.class })
+                .map(|a| Annotation::new(moved(a.bbox), a.class))
                 .filter(|a| a.bbox.width() > 0.0 && a.bbox.height() > 0.0),
         );
         let entry =

@@ -83,7 +83,7 @@ pub fn time_training(
     let truth: Vec<Annotation> = (0..6)
         .map(|k| {
             let (fx, fy) = ((k as f32 * 0.15 + 0.1) * w as f32, (k as f32 * 0.1 + 0.3) * h as f32);
-            Annotation { bbox: BBox::new(fx, fy, fx + 20.0, fy + 14.0), class: Class::ALL[k % 3] }
+            Annotation::new(BBox::new(fx, fy, fx + 20.0, fy + 14.0), Class::ALL[k % 3])
         })
         .collect();
     let out = net.forward(&x);

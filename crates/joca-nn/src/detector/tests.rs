@@ -38,7 +38,7 @@ fn any_input_size_gives_a_quarter_resolution_grid() {
 #[test]
 fn targets_peak_at_object_centres() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    let a = [Annotation { bbox: BBox::new(8.0, 12.0, 24.0, 20.0), class: Class::Walker }];
+    let a = [Annotation::new(BBox::new(8.0, 12.0, 24.0, 20.0), Class::Walker)];
     let t = Targets::new(&a, &[], 3, 10, 10, Device::Cpu);
     assert_eq!(t.count, 1);
     assert!(t.ignore.is_none());
@@ -55,8 +55,8 @@ fn targets_peak_at_object_centres() {
 fn firing_inside_an_ignore_region_costs_nothing() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     // A walker ignore region over px x 9–23, y 13–19: cells x 2..6, y 3..5 of the walker plane.
-    let region = [Annotation { bbox: BBox::new(9.0, 13.0, 23.0, 19.0), class: Class::Walker }];
-    let object = [Annotation { bbox: BBox::new(40.0, 8.0, 60.0, 24.0), class: Class::Vehicle }];
+    let region = [Annotation::new(BBox::new(9.0, 13.0, 23.0, 19.0), Class::Walker)];
+    let object = [Annotation::new(BBox::new(40.0, 8.0, 60.0, 24.0), Class::Vehicle)];
     let t = Targets::new(&object, &region, 3, 10, 20, Device::Cpu);
     let mask = t.ignore.as_ref().unwrap();
     assert_eq!(mask.sum(Kind::Float).double_value(&[]), 8.0);
@@ -91,8 +91,8 @@ fn class_weights_scale_that_class_and_nothing_else() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     // A vehicle 16×16 px and a walker 8×16 px on a 10×20 grid (stride 4); every logit 0 (p = ½)
     // and every size/offset output 0.
-    let vehicle = Annotation { bbox: BBox::new(8.0, 8.0, 24.0, 24.0), class: Class::Vehicle };
-    let walker = Annotation { bbox: BBox::new(48.0, 12.0, 56.0, 28.0), class: Class::Walker };
+    let vehicle = Annotation::new(BBox::new(8.0, 8.0, 24.0, 24.0), Class::Vehicle);
+    let walker = Annotation::new(BBox::new(48.0, 12.0, 56.0, 28.0), Class::Walker);
     let output = DetectorOutput {
         heatmap: Tensor::zeros([1, 3, 10, 20], (Kind::Float, Device::Cpu)),
         size: Tensor::zeros([1, 2, 10, 20], (Kind::Float, Device::Cpu)),
@@ -140,7 +140,7 @@ fn gaussian_regression_decodes_the_box_from_a_peak_next_to_the_centre() {
     // CenterNet's radius for 8×10 cells at IoU 0.7 is 2.43 → 2, so σ = 5/6 and the Gaussian
     // covers the 5×5 cells around the centre.
     let b = BBox::new(20.0, 8.0, 60.0, 40.0);
-    let ann = [Annotation { bbox: b, class: Class::Vehicle }];
+    let ann = [Annotation::new(b, Class::Vehicle)];
     let (h, w) = (10, 20);
     let t = Targets::with_style(&ann, &[], 3, (h, w), Regression::Gaussian, 0, Device::Cpu);
     assert_eq!(t.count, 1);
@@ -182,8 +182,8 @@ fn gaussian_regression_keeps_every_centre_for_its_own_object() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     // Two overlapping vehicles with centre cells (10, 6) and (11, 6): each lies in the other's
     // Gaussian, but a centre (value 1) outranks a neighbour.
-    let a = Annotation { bbox: BBox::new(20.0, 8.0, 60.0, 40.0), class: Class::Vehicle };
-    let b = Annotation { bbox: BBox::new(28.0, 12.0, 64.0, 38.0), class: Class::Vehicle };
+    let a = Annotation::new(BBox::new(20.0, 8.0, 60.0, 40.0), Class::Vehicle);
+    let b = Annotation::new(BBox::new(28.0, 12.0, 64.0, 38.0), Class::Vehicle);
     let t = Targets::with_style(&[a, b], &[], 3, (10, 20), Regression::Gaussian, 0, Device::Cpu);
     let cells: Vec<i64> = Vec::try_from(&t.indices).unwrap();
     let at = |cell: i64| cells.iter().position(|&c| c == cell).unwrap() as i64;
@@ -208,7 +208,7 @@ fn learns_to_find_a_box_in_a_few_hundred_steps() {
         let b = BBox::new(20.0, 16.0, 44.0, 36.0);
         let frame = frame_with_box(64, 48, b);
         let x = image_tensor(&frame, engine.device());
-        let ann = [Annotation { bbox: b, class: Class::Vehicle }];
+        let ann = [Annotation::new(b, Class::Vehicle)];
         let targets = Targets::new(&ann, &[], 3, 12, 16, engine.device());
         let mut first = 0.0;
         for step in 0..250 {
@@ -327,7 +327,7 @@ fn a_non_finite_loss_is_refused_before_any_weight_changes() {
     let mut model = small_model(&engine);
     let frame = frame_with_box(32, 32, BBox::new(4.0, 4.0, 12.0, 12.0));
     let before = model.detect(&frame);
-    let bad = [Annotation { bbox: BBox::new(4.0, 4.0, f32::INFINITY, 12.0), class: Class::Walker }];
+    let bad = [Annotation::new(BBox::new(4.0, 4.0, f32::INFINITY, 12.0), Class::Walker)];
     let err = model.train_step(&frame, &bad, &[]).unwrap_err().to_string();
     assert!(err.contains("detector loss is inf"), "{err}");
     assert_eq!(model.detect(&frame), before);
@@ -391,16 +391,16 @@ fn a_batch_loss_is_the_object_weighted_combination_of_its_images() {
     let (_vs, d) = random_detector(&engine, 3);
     let boxes = [
         vec![
-            Annotation { bbox: BBox::new(4.0, 6.0, 20.0, 18.0), class: Class::Vehicle },
-            Annotation { bbox: BBox::new(30.0, 10.0, 38.0, 30.0), class: Class::Walker },
+            Annotation::new(BBox::new(4.0, 6.0, 20.0, 18.0), Class::Vehicle),
+            Annotation::new(BBox::new(30.0, 10.0, 38.0, 30.0), Class::Walker),
         ],
         vec![
-            Annotation { bbox: BBox::new(10.0, 2.0, 22.0, 12.0), class: Class::TrafficSign },
-            Annotation { bbox: BBox::new(40.0, 20.0, 60.0, 34.0), class: Class::Vehicle },
-            Annotation { bbox: BBox::new(2.0, 24.0, 14.0, 44.0), class: Class::Walker },
+            Annotation::new(BBox::new(10.0, 2.0, 22.0, 12.0), Class::TrafficSign),
+            Annotation::new(BBox::new(40.0, 20.0, 60.0, 34.0), Class::Vehicle),
+            Annotation::new(BBox::new(2.0, 24.0, 14.0, 44.0), Class::Walker),
         ],
     ];
-    let ignore = [Annotation { bbox: BBox::new(44.0, 2.0, 60.0, 10.0), class: Class::Vehicle }];
+    let ignore = [Annotation::new(BBox::new(44.0, 2.0, 60.0, 10.0), Class::Vehicle)];
     let frames =
         [frame_with_box(64, 48, boxes[0][0].bbox), frame_with_box(64, 48, boxes[1][1].bbox)];
     let targets = |i: usize| {
@@ -456,7 +456,7 @@ fn bfloat16_computation_stays_close_to_float32_and_trains_the_float32_weights() 
     engine.seed(5);
     let mut model = small_model(&engine);
     model.set_precision(Precision::Bf16);
-    let truth = [Annotation { bbox: BBox::new(10.0, 8.0, 34.0, 26.0), class: Class::Vehicle }];
+    let truth = [Annotation::new(BBox::new(10.0, 8.0, 34.0, 26.0), Class::Vehicle)];
     let before = model.vs.variables()["backbone.stem.weight"].copy();
     let first = model.train_step(&frame, &truth, &[]).unwrap().total;
     let after = &model.vs.variables()["backbone.stem.weight"];
@@ -485,7 +485,7 @@ fn a_batch_of_frames_of_different_sizes_is_refused() {
 fn a_minimum_radius_softens_the_neighbours_of_a_small_objects_centre() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     // A 10×10 px sign centred at (18, 18) px: 2.5 cells, CenterNet radius 0, centre cell (4, 4).
-    let a = [Annotation { bbox: BBox::new(13.0, 13.0, 23.0, 23.0), class: Class::TrafficSign }];
+    let a = [Annotation::new(BBox::new(13.0, 13.0, 23.0, 23.0), Class::TrafficSign)];
     let at = |t: &Targets, y: i64, x: i64| t.heatmap.double_value(&[0, 2, y, x]);
     let plain = Targets::with_style(&a, &[], 3, (10, 10), Regression::Centre, 0, Device::Cpu);
     assert_eq!(at(&plain, 4, 4), 1.0);
@@ -502,7 +502,7 @@ fn a_minimum_radius_softens_the_neighbours_of_a_small_objects_centre() {
     // The regression sample and object count do not change.
     assert_eq!((soft.count, soft.indices.int64_value(&[0])), (1, 44));
     // A large object keeps CenterNet's radius (here 2 cells > 1).
-    let big = [Annotation { bbox: BBox::new(0.0, 0.0, 40.0, 40.0), class: Class::Vehicle }];
+    let big = [Annotation::new(BBox::new(0.0, 0.0, 40.0, 40.0), Class::Vehicle)];
     let r0 = Targets::with_style(&big, &[], 3, (10, 10), Regression::Centre, 0, Device::Cpu);
     let r1 = Targets::with_style(&big, &[], 3, (10, 10), Regression::Centre, 1, Device::Cpu);
     assert!(r0.heatmap.equal(&r1.heatmap));

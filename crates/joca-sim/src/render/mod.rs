@@ -76,6 +76,19 @@ impl Target {
             coverage: vec![0; objects + 1],
         }
     }
+
+    /// Depth and id buffers without colour, for [`render_ids`].
+    pub fn ids_only(width: usize, height: usize, objects: usize) -> Self {
+        Self { colour: Vec::new(), ..Self::new(0, 0, objects) }.resized(width, height)
+    }
+
+    fn resized(mut self, width: usize, height: usize) -> Self {
+        self.width = width;
+        self.height = height;
+        self.inv_depth = vec![0.0; width * height];
+        self.id = vec![0; width * height];
+        self
+    }
 }
 
 /// The camera's frame in the world.
@@ -150,10 +163,27 @@ pub fn render(city: &City, view: &View<'_>, target: &mut Target) {
     for (_, index) in visible {
         let id = index as u32 + 1;
         for (b, material) in city.objects[index].boxes_at(view.time_s) {
-            draw_box(city, view, &cam, lamp_pos, heading, &b, material, id, target);
+            if target.colour.is_empty() {
+                draw_faces(&cam, &b, &|_, _| Shade::Constant([0.0; 3]), id, target);
+            } else {
+                let shade = |face_index: usize, n: V3| {
+                    face_shade(city, view, lamp_pos, heading, &b, material, face_index, n)
+                };
+                draw_faces(&cam, &b, &shade, id, target);
+            }
         }
     }
-    ground_and_sky(city, view, &cam, lamp_pos, heading, target);
+    if !target.colour.is_empty() {
+        ground_and_sky(city, view, &cam, lamp_pos, heading, target);
+    }
+}
+
+/// Which object each pixel of `view` sees and how many pixels each object's camera-facing faces
+/// cover, without colour, ground or sky: the ground-truth pass. `target` must come from
+/// [`Target::ids_only`].
+pub fn render_ids(city: &City, view: &View<'_>, target: &mut Target) {
+    debug_assert!(target.colour.is_empty());
+    render(city, view, target);
 }
 
 /// Relative irradiance from the ego head lights on a surface at `p` with normal `n`
@@ -230,23 +260,18 @@ fn ground_and_sky(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn draw_box(
-    city: &City,
-    view: &View<'_>,
+/// The camera-facing faces of one box: corners, texture coordinates and rasterisation; `shade`
+/// gives each face's colouring from its index and outward normal.
+fn draw_faces(
     cam: &CameraFrame,
-    lamp: V3,
-    heading: V3,
     b: &OrientedBox,
-    material: Material,
+    shade: &dyn Fn(usize, V3) -> Shade,
     id: u32,
     target: &mut Target,
 ) {
     let (f, l) = b.axes();
     let up = V3::new(0.0, 0.0, 1.0);
     let h = b.half;
-    let lights_on = view.lighting.lights_on();
-    let lamp_ground = if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
     // (normal, half along normal, first in-face axis and half, second (vertical if side) axis).
     let faces = [
         (f, h.x, -l, h.y, up, h.z),
@@ -260,16 +285,7 @@ fn draw_box(
         if (cam.origin - centre).dot(n) <= 0.0 {
             continue; // back face
         }
-        let top = face_index == 4;
-        // Irradiance at the face centre: sun and sky by orientation, lamps from above (half on
-        // vertical faces), head lights by distance and incidence.
-        let sun_sky = view.lighting.sun_sky([n.x, n.y, n.z]);
-        let lamp_share = if top { 1.0 } else { 0.5 };
-        let head = if lights_on { headlight(lamp, heading, centre, Some(n)) } else { 0.0 };
-        let irradiance: Rgb = std::array::from_fn(|ch| {
-            sun_sky + lamp_share * lamp_ground * lighting::LAMP_TINT[ch] + head
-        });
-        let shade = shade_for(material, face_index, &irradiance, lights_on);
+        let shade = shade(face_index, n);
         // Corners counter-clockwise seen from outside, with texture coordinates in metres
         // (u along the face, v upwards from its bottom edge for side faces).
         let corners = [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
@@ -280,6 +296,35 @@ fn draw_box(
         });
         raster::draw_polygon(&verts, cam, &shade, id, target);
     }
+}
+
+/// The colouring of face `face_index` (outward normal `n`) of box `b`: irradiance at the face
+/// centre from sun and sky by orientation, lamps from above (half on vertical faces), head
+/// lights by distance and incidence, then the material.
+#[allow(clippy::too_many_arguments)]
+fn face_shade(
+    city: &City,
+    view: &View<'_>,
+    lamp: V3,
+    heading: V3,
+    b: &OrientedBox,
+    material: Material,
+    face_index: usize,
+    n: V3,
+) -> Shade {
+    let h = b.half;
+    let hn = [h.x, h.x, h.y, h.y, h.z][face_index];
+    let centre = b.centre + n * hn;
+    let lights_on = view.lighting.lights_on();
+    let lamp_ground = if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
+    let top = face_index == 4;
+    let sun_sky = view.lighting.sun_sky([n.x, n.y, n.z]);
+    let lamp_share = if top { 1.0 } else { 0.5 };
+    let head = if lights_on { headlight(lamp, heading, centre, Some(n)) } else { 0.0 };
+    let irradiance: Rgb = std::array::from_fn(|ch| {
+        sun_sky + lamp_share * lamp_ground * lighting::LAMP_TINT[ch] + head
+    });
+    shade_for(material, face_index, &irradiance, lights_on)
 }
 
 fn shade_for(material: Material, face_index: usize, e: &Rgb, lights_on: bool) -> Shade {

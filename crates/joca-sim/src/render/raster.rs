@@ -264,13 +264,15 @@ fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
             if inv_z > target.inv_depth[i] {
                 target.inv_depth[i] = inv_z;
                 target.id[i] = id;
-                let rgb = if textured {
-                    let z = 1.0 / inv_z;
-                    shade.at(u * z, v * z)
-                } else {
-                    constant
-                };
-                target.colour[i * 3..i * 3 + 3].copy_from_slice(&rgb);
+                if !target.colour.is_empty() {
+                    let rgb = if textured {
+                        let z = 1.0 / inv_z;
+                        shade.at(u * z, v * z)
+                    } else {
+                        constant
+                    };
+                    target.colour[i * 3..i * 3 + 3].copy_from_slice(&rgb);
+                }
             }
             inv_z += d_inv_z;
             u += du;

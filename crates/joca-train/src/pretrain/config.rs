@@ -3,7 +3,6 @@
 
 use crate::TrainError;
 use joca_nn::detector::{DetectorConfig, Precision, Regression};
-use joca_sim::VisibilityRules;
 use serde::{Deserialize, Serialize};
 
 /// Settings of a pre-training run (the `[pretrain]` presets in `presets/`): the run itself at
@@ -152,7 +151,7 @@ impl Default for ExperimentalConfig {
             class_weights: [1.0; 3],
             regression: Regression::default(),
             min_radius: 0,
-            min_box_px: f64::from(VisibilityRules::default().min_box_px),
+            min_box_px: f64::from(joca_core::TRAINING_MIN_BOX_PX),
             repeats: [0; 3],
             pipeline: false,
         }

@@ -8,7 +8,9 @@ use crate::TrainError;
 use joca_camera::{
     AverageAe, Calibration, CameraDesign, Capture, DynamicSettings, GenomeCodec, ImageFormation,
 };
-use joca_core::{Annotation, FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams};
+use joca_core::{
+    Annotation, FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams, training_targets,
+};
 use joca_nn::detector::TrainFrame;
 use joca_sim::{SimConfig, Simulator, train_map_seed};
 use rand::Rng;
@@ -181,7 +183,12 @@ impl<'w> FrameStream<'w> {
                     &mut noise,
                 )?;
                 let next = world.ae.step(run.settings, &image);
-                Ok((Shot { image, truth: frame.boxes, ignore: frame.ignore }, next))
+                let (truth, ignore) = training_targets(
+                    &frame.boxes,
+                    &frame.ignore,
+                    world.config.experimental.min_box_px as f32,
+                );
+                Ok((Shot { image, truth, ignore }, next))
             })
             .collect::<Result<Vec<_>, TrainError>>()?;
         let (shots, next): (Vec<Shot>, Vec<DynamicSettings>) = made.into_iter().unzip();

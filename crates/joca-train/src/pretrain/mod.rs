@@ -25,7 +25,7 @@ use joca_nn::detector::{
     DetectorConfig, DetectorModel, LossParts, Precision, TrainFrame, WeightAverage,
 };
 use joca_nn::{AdamConfig, Engine};
-use joca_sim::{CityConfig, Illumination, SimConfig, VisibilityRules};
+use joca_sim::{CityConfig, Illumination, SimConfig};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -150,10 +150,6 @@ pub fn pretrain(
             city: CityConfig::default()
                 .with_walker_density(config.data.walker_density as f32)
                 .with_sign_density(config.data.sign_density as f32),
-            visibility: VisibilityRules {
-                min_box_px: config.experimental.min_box_px as f32,
-                ..VisibilityRules::default()
-            },
             ..SimConfig::default()
         },
     };

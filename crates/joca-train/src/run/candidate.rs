@@ -5,25 +5,79 @@
 //! together.
 
 use super::perturbation::{self, Probe};
-use super::{Context, simulator};
+use super::{Context, RealSources, simulator};
 use crate::TrainError;
 use crate::control::{Decision, SensorLimits, controller};
 use joca_camera::{CameraDesign, ImageFormation};
-use joca_core::{FrameRequest, FrameSource};
+use joca_core::{FrameRequest, FrameSource, TRAINING_MIN_BOX_PX, training_targets};
 use joca_evolve::Ga;
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::formation::Scene;
 use joca_nn::joint::{DfGradWeights, JointModel, Prediction};
 use joca_record::{Event, LossRecord, StepRecord};
-use joca_sim::{Illumination, train_map_seed};
+use joca_sim::{Illumination, Simulator, train_map_seed};
 use rand::Rng;
+use std::sync::Arc;
+
+/// A stretch of a candidate's frames driven in one scene.
+struct Stretch {
+    /// The training town (`None`: the recording).
+    town: Option<Arc<Simulator>>,
+    /// Its light (`None` for a recording).
+    illumination: Option<Illumination>,
+    episode: u64,
+    /// Time of the stretch's first frame, seconds.
+    t0: f64,
+    /// The candidate's step at which the stretch begins.
+    first_step: usize,
+}
+
+/// The scenes of generation `scenes`, the same for every candidate of it (common random numbers).
+/// In the simulator the k steps are split into four stretches, one per illumination (day, night,
+/// tunnel, cycle, starting at `ALL[g mod 4]`), each in its own training town, episode and start
+/// time. The controller carries its settings from one stretch into the next, as through a
+/// tunnel portal, so it meets 100–1000× changes of light within every candidate, and every
+/// candidate's fitness covers all four lights. A recording is one stretch.
+fn stretches(cx: &mut Context, scenes: u64) -> Vec<Stretch> {
+    let c = cx.config.clone();
+    let mut rng = cx.streams.indexed("scenes", scenes);
+    let k = c.steps_per_candidate;
+    if let Some(r) = cx.real.clone() {
+        let episode: u64 = rng.random_range(0..1_000_000);
+        // A window of k frames inside the recorded sequence (from its start if shorter).
+        let room = r.train.duration_s(episode) - k as f64 * r.train.frame_interval_s();
+        let t0 = if room > 0.0 { rng.random_range(0.0..room) } else { 0.0 };
+        return vec![Stretch { town: None, illumination: None, episode, t0, first_step: 0 }];
+    }
+    let n = Illumination::ALL.len().min(k);
+    (0..n)
+        .map(|s| {
+            let illumination = Illumination::ALL[(scenes as usize + s) % Illumination::ALL.len()];
+            let map_seed = train_map_seed(rng.random_range(0..c.train_maps));
+            let episode: u64 = rng.random_range(0..1_000_000);
+            let (first_step, last) = (s * k / n, (s + 1) * k / n);
+            let span = 59.0 - (last - first_step) as f64 * 0.1;
+            let t0 = rng.random_range(1.0..span.max(1.5));
+            let town = simulator(&mut cx.sims, map_seed, &c, Some(illumination));
+            Stretch { town: Some(town), illumination: Some(illumination), episode, t0, first_step }
+        })
+        .collect()
+}
+
+/// Where a stretch's frames come from.
+fn source<'a>(real: &'a Option<Arc<RealSources>>, s: &'a Stretch) -> &'a dyn FrameSource {
+    match (real, &s.town) {
+        (Some(r), _) => &r.train,
+        (None, Some(town)) => &**town,
+        (None, None) => unreachable!("every simulator stretch has its town"),
+    }
+}
 
 /// Trains on candidate `index` (`design`) for `steps_per_candidate` steps and scores its frames.
 ///
-/// The scenes come from `scenes` (the generation): every candidate of a generation drives the
-/// same town, episode, start time and sensor noise (common random numbers), so the GA compares
-/// designs, not luck; generation g drives under `Illumination::ALL[g mod 4]`, so the generations
-/// cycle through day, night, tunnel and cycle.
+/// The scenes come from `scenes` (the generation, see [`stretches`]): every candidate of a
+/// generation drives the same towns, episodes, start times and sensor noise (common random
+/// numbers), so the GA compares designs, not luck.
 pub(super) fn train(
     cx: &mut Context,
     model: &mut JointModel,
@@ -33,34 +87,11 @@ pub(super) fn train(
     on_step: &mut dyn FnMut(usize, usize),
 ) -> Result<TaskScores, TrainError> {
     let c = cx.config.clone();
-    let mut rng = cx.streams.indexed("scenes", scenes);
-    let illumination = Illumination::ALL[(scenes % Illumination::ALL.len() as u64) as usize];
-    let map_seed = train_map_seed(rng.random_range(0..c.train_maps));
-    let episode: u64 = rng.random_range(0..1_000_000);
+    let stretches = stretches(cx, scenes);
     let real = cx.real.clone();
-    let t0: f64 = match &real {
-        None => {
-            let span = 59.0 - c.steps_per_candidate as f64 * 0.1;
-            rng.random_range(1.0..span.max(1.5))
-        }
-        Some(r) => {
-            // A window of k frames inside the recorded sequence (from its start if shorter).
-            let room = r.train.duration_s(episode)
-                - c.steps_per_candidate as f64 * r.train.frame_interval_s();
-            if room > 0.0 { rng.random_range(0.0..room) } else { 0.0 }
-        }
-    };
     let camera = design.pinhole(c.render_scale);
     let pitch = design.sensor().pixel_pitch_um;
-    let town = match &real {
-        Some(_) => None,
-        None => Some(simulator(&mut cx.sims, map_seed, c.max_speed_mps, Some(illumination))),
-    };
-    let sim: &dyn FrameSource = match (&real, &town) {
-        (Some(r), _) => &r.train,
-        (None, Some(town)) => &**town,
-        (None, None) => unreachable!("a training town is built above when no recording is used"),
-    };
+    let sim = source(&real, &stretches[0]);
     let sensor = SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s());
     model.set_max_exposure(sensor.max_exposure_s);
     let mut control = controller(c.method.neural(), sensor, cx.ranges);
@@ -80,9 +111,12 @@ pub(super) fn train(
         };
         let predicted = decision.prediction.as_ref().map(Prediction::settings);
         cx.watch.lap(|t| &mut t.acc_predict_ms);
+        let stretch =
+            stretches.iter().rev().find(|s| s.first_step <= step).unwrap_or(&stretches[0]);
+        let sim = source(&real, stretch);
         let request = FrameRequest {
-            episode,
-            time_s: t0 + step as f64 * sim.frame_interval_s(),
+            episode: stretch.episode,
+            time_s: stretch.t0 + (step - stretch.first_step) as f64 * sim.frame_interval_s(),
             exposure_s: decision.applied.exposure_s,
             motion_scale: c.scenario.motion_scale(),
         };
@@ -118,13 +152,15 @@ pub(super) fn train(
             pixel_pitch_um: pitch,
         };
         let exposure = decision.into_exposure();
-        let report =
-            model.step(&scene, &frame.boxes, &frame.ignore, exposure, ga_target, weights)?;
+        // The detector learns objects of at least TRAINING_MIN_BOX_PX; the fitness counts every
+        // reference object.
+        let (targets, ignore) = training_targets(&frame.boxes, &frame.ignore, TRAINING_MIN_BOX_PX);
+        let report = model.step(&scene, &targets, &ignore, exposure, ga_target, weights)?;
         cx.watch.restart();
         cx.watch.add_model_step(&report.timings);
         metrics.update(&frame.boxes, &frame.ignore, &report.detections, frame.visible_180);
         if step % 5 == 0 {
-            let illumination = if real.is_some() { "recorded" } else { illumination.name() };
+            let illumination = stretch.illumination.map_or("recorded", Illumination::name);
             let l = report.loss;
             cx.log(&Event::Step(StepRecord {
                 step: global,

@@ -17,7 +17,7 @@ use crate::checkpoint::write_atomic;
 use crate::control::{ExposureControl, SensorLimits, controller};
 use joca_camera::{CameraDesign, Capture, DynamicSettings};
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
-use joca_metrics::{TaskMetrics, TaskScores};
+use joca_metrics::{BandScores, TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
 use joca_record::TraceRecord;
 pub use joca_record::{Showcase, ShowcaseFrame};
@@ -145,11 +145,11 @@ pub(super) fn test(
     design: &CameraDesign,
     plan: Plan,
     out: Option<&Path>,
-) -> Result<(TaskScores, SettingsByLight), TrainError> {
+) -> Result<Tested, TrainError> {
     let c = cx.config.clone();
     let camera = design.pinhole(c.render_scale);
     let mut metrics = TaskMetrics::default();
-    let mut sums: BTreeMap<String, (f64, f64, f64)> = BTreeMap::new();
+    let mut sums: BTreeMap<String, [f64; 4]> = BTreeMap::new();
     let mut trace = String::new();
     let real = cx.real.clone();
     // The test is stratified by illumination: episode e drives the test town under
@@ -162,7 +162,7 @@ pub(super) fn test(
     } else {
         Illumination::ALL
             .iter()
-            .map(|&il| simulator(&mut cx.sims, plan.town, c.max_speed_mps, Some(il)))
+            .map(|&il| simulator(&mut cx.sims, plan.town, &c, Some(il)))
             .collect()
     };
     // Recorded sequences are played from their start; the test town from t = 1 s.
@@ -191,9 +191,10 @@ pub(super) fn test(
                 _ => ("recorded", None),
             };
             let e = sums.entry(illumination.to_owned()).or_default();
-            e.0 += s.settings.exposure_s * 1e3;
-            e.1 += s.settings.gain_db;
-            e.2 += 1.0;
+            e[0] += s.settings.exposure_s * 1e3;
+            e[1] += s.settings.gain_db;
+            e[2] += s.settings.exposure_s * 1e3 * 10f64.powf(s.settings.gain_db / 20.0);
+            e[3] += 1.0;
             let record = TraceRecord {
                 episode,
                 frame: k - WARMUP_FRAMES,
@@ -211,7 +212,8 @@ pub(super) fn test(
             }
         }
     }
-    let settings = sums.into_iter().map(|(k, (e, g, n))| (k, (e / n, g / n))).collect();
+    let settings = sums.iter().map(|(k, [e, g, _, n])| (k.clone(), (e / n, g / n))).collect();
+    let exposure_gain = sums.into_iter().map(|(k, [_, _, eg, n])| (k, eg / n)).collect();
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
         write_atomic(&dir.join("trace.jsonl"), &trace)?;
@@ -223,7 +225,19 @@ pub(super) fn test(
             &serde_json::to_string(&showcases).unwrap_or_default(),
         )?;
     }
-    Ok((metrics.compute(), settings))
+    Ok(Tested { scores: metrics.compute(), bands: metrics.bands(), settings, exposure_gain })
+}
+
+/// What a closed-loop evaluation found.
+pub(super) struct Tested {
+    /// Scores over every frame.
+    pub(super) scores: TaskScores,
+    /// Scores per distance band.
+    pub(super) bands: Vec<BandScores>,
+    /// Mean exposure and gain by illumination.
+    pub(super) settings: SettingsByLight,
+    /// Mean exposure × linear gain (ms) by illumination.
+    pub(super) exposure_gain: BTreeMap<String, f64>,
 }
 
 /// The showcase sequences: a tunnel transition (every frame saved), a day and a night drive
@@ -246,8 +260,7 @@ fn showcases(
     .enumerate()
     {
         // The test has built these towns already: the run's simulator cache holds them.
-        let sim =
-            simulator(&mut cx.sims, test_map_seed(0), cx.config.max_speed_mps, Some(illumination));
+        let sim = simulator(&mut cx.sims, test_map_seed(0), &cx.config, Some(illumination));
         let episode = 0;
         let dt = sim.frame_interval_s();
         let (start_s, frames) = if illumination == Illumination::Tunnel {

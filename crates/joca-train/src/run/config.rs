@@ -8,6 +8,7 @@ use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use joca_nn::detector::DetectorConfig;
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
+use joca_sim::VisibilityRules;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -61,6 +62,10 @@ pub struct RunConfig {
     /// The perturbation GA's mutation: `additive` (default) or `paper`.
     #[serde(default)]
     pub perturbation_mutation: PerturbationMutation,
+    /// How perturbation members whose AP50 ties are ranked: `clipping` (fewer clipped pixels
+    /// first) or `none` (the GA's order).
+    #[serde(default)]
+    pub perturbation_tie_break: TieBreak,
     /// The gradient of the differentiable formation's clip: `clamp` (none where a pixel
     /// saturates) or `straight-through`.
     #[serde(default)]
@@ -96,6 +101,48 @@ pub struct RunConfig {
     /// How recorded frames are read (real-image mode only).
     #[serde(default)]
     pub real: RealConfig,
+    /// Which simulated objects every design is scored against (`[run.reference]`).
+    #[serde(default)]
+    pub reference: ReferenceConfig,
+}
+
+/// The reference objects of the simulator's ground truth: every object of a class in the
+/// camera's view within the class's range and at least 15 % visible, at any size in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceConfig {
+    /// Farthest vehicle, metres.
+    pub vehicle_m: f64,
+    /// Farthest walker, metres.
+    pub walker_m: f64,
+    /// Farthest traffic sign, metres.
+    pub traffic_sign_m: f64,
+}
+
+/// Longest reference range, metres (objects are drawn to 220 m).
+pub const MAX_REFERENCE_RANGE_M: f64 = 200.0;
+
+impl Default for ReferenceConfig {
+    fn default() -> Self {
+        let r = VisibilityRules::default();
+        Self {
+            vehicle_m: f64::from(r.vehicle_range_m),
+            walker_m: f64::from(r.walker_range_m),
+            traffic_sign_m: f64::from(r.sign_range_m),
+        }
+    }
+}
+
+impl ReferenceConfig {
+    /// The simulator's rules.
+    pub fn rules(&self) -> VisibilityRules {
+        VisibilityRules {
+            vehicle_range_m: self.vehicle_m as f32,
+            walker_range_m: self.walker_m as f32,
+            sign_range_m: self.traffic_sign_m as f32,
+            ..VisibilityRules::default()
+        }
+    }
 }
 
 /// The perturbation GA's mutation.
@@ -110,6 +157,20 @@ pub enum PerturbationMutation {
     /// reachable.
     #[default]
     Additive,
+}
+
+/// How the perturbation search ranks members of equal AP50.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TieBreak {
+    /// The share of clipped pixels (at 0 or 255) breaks ties, fewer first: a member's fitness
+    /// is AP50 + 0.001 · (1 − clipped share). A single frame's AP50 often ties (0 for every
+    /// member of a saturated day frame or a black night one); the task cannot tell the members
+    /// apart there, and the one that keeps more of the scene within the sensor's range wins.
+    #[default]
+    Clipping,
+    /// AP50 alone; ties go to the GA's first member (the paper says nothing of ties).
+    None,
 }
 
 /// How the real-image mode reads recorded frames (`[run.real]`).
@@ -291,6 +352,19 @@ impl RunConfig {
                 self.max_speed_mps.to_string(),
                 &format!("0 to {MAX_SPEED_MPS}"),
             );
+        }
+        for (field, v) in [
+            ("reference.vehicle_m", self.reference.vehicle_m),
+            ("reference.walker_m", self.reference.walker_m),
+            ("reference.traffic_sign_m", self.reference.traffic_sign_m),
+        ] {
+            if !(v > 0.0 && v <= MAX_REFERENCE_RANGE_M) {
+                return bad(
+                    field,
+                    v.to_string(),
+                    &format!("above 0 m, at most {MAX_REFERENCE_RANGE_M} m"),
+                );
+            }
         }
         check_detector(&self.detector, "run")?;
         if self.method == Method::FrozenDetector && self.detector_weights.is_empty() {

@@ -83,7 +83,7 @@ pub(super) fn best_design(
     let mut scored = Vec::with_capacity(state.top.len());
     for (genes, fitness) in &state.top {
         let design = cx.codec.decode(genes)?;
-        let (validation, _) = closed_loop::test(cx, model, &design, Plan::validation(), None)?;
+        let validation = closed_loop::test(cx, model, &design, Plan::validation(), None)?.scores;
         scored.push((
             design,
             Validated {
@@ -108,14 +108,17 @@ pub(super) fn test_design(
     out: Option<&Path>,
 ) -> Result<RunResults, TrainError> {
     let plan = Plan::test(&cx.config);
-    let (test, settings) = closed_loop::test(cx, model, design, plan, out)?;
+    let tested = closed_loop::test(cx, model, design, plan, out)?;
     let config = &cx.config;
     Ok(RunResults {
         method: config.method,
         scenario: config.scenario,
+        seed: config.seed,
         design: summary(design, config.method.hardware_ga()),
-        test,
-        settings_by_illumination: settings,
+        test: tested.scores,
+        test_bands: tested.bands,
+        settings_by_illumination: tested.settings,
+        exposure_gain_by_illumination: tested.exposure_gain,
         best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
         render_scale: config.render_scale,
         // Without a recording the test town is used, whatever `test_source` says.

@@ -26,7 +26,8 @@ pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub(crate) use config::check_detector;
 pub use config::{
-    MAX_SPEED_MPS, MIN_RENDER_SCALE, PerturbationMutation, RealConfig, RunConfig, Source,
+    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MIN_RENDER_SCALE, PerturbationMutation, RealConfig,
+    ReferenceConfig, RunConfig, Source, TieBreak,
 };
 pub use evaluate::evaluate_run;
 use evaluate::{best_design, test_design};
@@ -402,14 +403,15 @@ fn ga_err(e: joca_evolve::GaError) -> TrainError {
 fn simulator(
     sims: &mut Sims,
     map_seed: u64,
-    max_speed: f64,
+    config: &RunConfig,
     illumination: Option<Illumination>,
 ) -> Arc<Simulator> {
     Arc::clone(sims.entry((map_seed, illumination)).or_insert_with(|| {
         Arc::new(Simulator::new(SimConfig {
             map_seed,
-            max_speed_mps: max_speed,
+            max_speed_mps: config.max_speed_mps,
             illumination,
+            visibility: config.reference.rules(),
             ..SimConfig::default()
         }))
     }))

@@ -3,7 +3,7 @@
 //! perturbed exposure (so with its own motion blur, which no gradient can see), formed, detected
 //! and scored by AP50. The best member's settings become the target of the GA loss l_GA.
 
-use super::config::PerturbationMutation;
+use super::config::{PerturbationMutation, TieBreak};
 use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
@@ -15,6 +15,18 @@ use joca_nn::joint::JointModel;
 
 /// The perturbations of the `fixed-perturbation` ablation: ±2.5 % of each range, four signs.
 const FIXED: [[f64; 2]; 4] = [[0.025, 0.025], [0.025, -0.025], [-0.025, 0.025], [-0.025, -0.025]];
+
+/// Weight of the clipping tie-break in a member's fitness: below any AP50 difference a frame can
+/// make (one object of a frame with hundreds of reference objects moves AP50 by more).
+const TIE_BREAK_WEIGHT: f64 = 1e-3;
+
+/// Share of 8-bit values at 0 or 255.
+pub(super) fn clipped_share(data: &[u8]) -> f64 {
+    if data.is_empty() {
+        return 0.0;
+    }
+    data.iter().filter(|&&v| v == 0 || v == 255).count() as f64 / data.len() as f64
+}
 
 /// The perturbation GA of DF-Grad: `(p_e, p_g)` in normalised units within ±5 % of each range,
 /// mutation ×U(0.9, 1.1) and, unless the paper's operator is chosen, a normal shift of 10 % of
@@ -45,7 +57,8 @@ pub(super) struct Probe<'a> {
 
 /// One perturbation search around `predicted` (NeuralAE's settings for the calibration pitch):
 /// scores every member and, unless the perturbations are fixed, tells the GA their fitness.
-/// Returns the best member's settings (ties go to the first member), for the calibration pitch.
+/// Returns the best member's settings (equal fitness goes to the first member), for the
+/// calibration pitch.
 pub(super) fn search(
     cx: &mut Context,
     model: &JointModel,
@@ -77,7 +90,11 @@ pub(super) fn search(
         cx.watch.lap(|t| &mut t.perturbation_render_ms);
         let mut one = TaskMetrics::default();
         one.update(&frame.boxes, &frame.ignore, &model.detect(&image), frame.visible_180);
-        fitness.push(one.compute().ap50);
+        let tie_break = match cx.config.perturbation_tie_break {
+            TieBreak::Clipping => TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data())),
+            TieBreak::None => 0.0,
+        };
+        fitness.push(one.compute().ap50 + tie_break);
         settings.push(perturbed);
         cx.watch.lap(|t| &mut t.perturbation_detect_ms);
     }

@@ -2,13 +2,15 @@
 
 use crate::city::{City, CityConfig};
 use crate::ego::EgoTrajectory;
-use crate::geometry::{OrientedBox, V3};
+use crate::geometry::V3;
 use crate::lighting::{Illumination, Lighting};
 use crate::render::{self, CameraFrame, Target, View};
 use joca_core::rng::SeedStreams;
-use joca_core::{
-    Annotation, BBox, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError,
-};
+mod truth;
+
+pub use truth::{REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, reference_camera};
+
+use joca_core::{Class, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError};
 use rand::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -24,23 +26,48 @@ pub const MAX_SUBFRAMES: usize = 31;
 /// the result, does not depend on the thread count.
 const SUBFRAMES_PER_CHUNK: usize = 4;
 
-/// Which objects count as visible (ground truth and the 180° count).
+/// Which objects are reference objects (ground truth) and count towards the 180° total.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VisibilityRules {
-    /// Farthest object that counts, metres from the camera (horizontal).
-    pub max_range_m: f32,
-    /// Smallest visible share of an object's camera-facing surface (id-buffer pixels over the
-    /// pixels its front faces cover without occlusion; for the 180° count, the share of sample
-    /// points on the object that a ray from the eye reaches unoccluded).
+    /// Farthest vehicle that counts, metres from the camera (horizontal).
+    pub vehicle_range_m: f32,
+    /// Farthest walker that counts, metres.
+    pub walker_range_m: f32,
+    /// Farthest traffic sign that counts, metres.
+    pub sign_range_m: f32,
+    /// Smallest visible share of an object's camera-facing surface (reference-grid pixels over
+    /// the pixels its front faces cover without occlusion; for the 180° count, the share of
+    /// sample points on the object that a ray from the eye reaches unoccluded).
     pub min_visible_fraction: f32,
-    /// Smallest box width and height in pixels.
-    pub min_box_px: f32,
 }
 
 impl Default for VisibilityRules {
+    /// Vehicles to 100 m; walkers and signs, smaller and met at lower closing speeds, to 50 m
+    /// (3 s ahead at the simulator's 15 m/s); 15 % visible.
     fn default() -> Self {
-        Self { max_range_m: 100.0, min_visible_fraction: 0.15, min_box_px: 8.0 }
+        Self {
+            vehicle_range_m: 100.0,
+            walker_range_m: 50.0,
+            sign_range_m: 50.0,
+            min_visible_fraction: 0.15,
+        }
+    }
+}
+
+impl VisibilityRules {
+    /// The range of `class`, metres.
+    pub fn range_m(&self, class: Class) -> f32 {
+        match class {
+            Class::Vehicle => self.vehicle_range_m,
+            Class::Walker => self.walker_range_m,
+            Class::TrafficSign => self.sign_range_m,
+        }
+    }
+
+    /// The longest of the class ranges, metres.
+    pub fn farthest_m(&self) -> f32 {
+        Class::ALL.iter().map(|&c| self.range_m(c)).fold(0.0, f32::max)
     }
 }
 
@@ -286,157 +313,6 @@ impl Simulator {
         acc.iter_mut().for_each(|v| *v *= inv);
         acc
     }
-
-    /// Ground truth of the middle sub-frame: tight boxes of the classed objects that pass the
-    /// visibility rules, and (second) of those in view that do not — the ignore regions.
-    fn annotations(
-        &self,
-        episode: &Episode,
-        camera: &PinholeCamera,
-        time_s: f64,
-        mid: &Target,
-    ) -> (Vec<Annotation>, Vec<Annotation>) {
-        let rules = self.config.visibility;
-        let mut stats: HashMap<u32, (u32, [usize; 4])> = HashMap::new();
-        for y in 0..mid.height {
-            for x in 0..mid.width {
-                let id = mid.id[y * mid.width + x];
-                if id == 0 {
-                    continue;
-                }
-                let e = stats.entry(id).or_insert((0, [x, y, x, y]));
-                e.0 += 1;
-                e.1 = [e.1[0].min(x), e.1[1].min(y), e.1[2].max(x), e.1[3].max(y)];
-            }
-        }
-        let cam = CameraFrame::new(camera, episode.ego.pose_at(time_s));
-        let mut out: Vec<(u32, bool, Annotation)> = stats
-            .into_iter()
-            .filter_map(|(id, (count, b))| {
-                let object = &self.city.objects[id as usize - 1];
-                let class = object.class?;
-                let bbox =
-                    BBox::new(b[0] as f32, b[1] as f32, (b[2] + 1) as f32, (b[3] + 1) as f32);
-                let pos = object.position_at(time_s);
-                let (dx, dy) = (pos.x - cam.origin.x, pos.y - cam.origin.y);
-                let coverage = mid.coverage[id as usize].max(count);
-                let annotated = (dx * dx + dy * dy).sqrt() <= rules.max_range_m
-                    && count as f32 >= rules.min_visible_fraction * coverage as f32
-                    && bbox.width() >= rules.min_box_px
-                    && bbox.height() >= rules.min_box_px;
-                Some((id, annotated, Annotation { bbox, class }))
-            })
-            .collect();
-        out.sort_by_key(|(id, _, _)| *id);
-        let (boxes, ignore): (Vec<_>, Vec<_>) = out.into_iter().partition(|(_, a, _)| *a);
-        let strip = |v: Vec<(u32, bool, Annotation)>| v.into_iter().map(|(_, _, a)| a).collect();
-        (strip(boxes), strip(ignore))
-    }
-
-    /// Objects visible within a 180° horizontal field around the heading, from an eye at the
-    /// vehicle centre 1.5 m up: within range, and with at least the minimum share of sample
-    /// points on the object reachable by an unoccluded ray. Independent of the camera design.
-    pub fn visible_180(&self, episode: &Episode, time_s: f64) -> u32 {
-        let rules = self.config.visibility;
-        let ego = episode.ego.pose_at(time_s);
-        let eye = V3::new(ego.x, ego.y, 1.5);
-        let (fx, fy) = (ego.yaw.cos(), ego.yaw.sin());
-        struct Occ {
-            owner: usize,
-            bearing: f32,
-            half_angle: f32,
-            near: f32,
-            boxes: Vec<OrientedBox>,
-        }
-        let reach = rules.max_range_m + 30.0;
-        let mut occluders = Vec::new();
-        for (index, object) in self.city.objects.iter().enumerate() {
-            let p = object.position_at(time_s);
-            let (dx, dy) = (p.x - eye.x, p.y - eye.y);
-            let d = (dx * dx + dy * dy).sqrt();
-            if d - object.radius_m > reach {
-                continue;
-            }
-            let half_angle = if d > object.radius_m {
-                (object.radius_m / d).asin()
-            } else {
-                std::f32::consts::PI
-            };
-            occluders.push(Occ {
-                owner: index,
-                bearing: dy.atan2(dx),
-                half_angle,
-                near: d - object.radius_m,
-                boxes: object.boxes_at(time_s).map(|(b, _)| b).collect(),
-            });
-        }
-        let mut count = 0;
-        for occ in occluders.iter() {
-            let object = &self.city.objects[occ.owner];
-            if object.class.is_none() {
-                continue;
-            }
-            let p = object.position_at(time_s);
-            let (dx, dy) = (p.x - eye.x, p.y - eye.y);
-            let d = (dx * dx + dy * dy).sqrt();
-            if d > rules.max_range_m || dx * fx + dy * fy <= 0.0 {
-                continue;
-            }
-            let blockers: Vec<&Occ> = occluders
-                .iter()
-                .filter(|o| {
-                    o.owner != occ.owner
-                        && o.near < d
-                        && angle_diff(o.bearing, occ.bearing).abs() < o.half_angle + occ.half_angle
-                })
-                .collect();
-            let samples = sample_points(&occ.boxes);
-            let free = samples
-                .iter()
-                .filter(|&&s| {
-                    let v = s - eye;
-                    let len = v.norm();
-                    let dir = v * (1.0 / len);
-                    !blockers
-                        .iter()
-                        .any(|o| o.boxes.iter().any(|b| b.ray_hit(eye, dir, len - 0.05).is_some()))
-                })
-                .count();
-            if free as f32 >= rules.min_visible_fraction * samples.len() as f32 && free > 0 {
-                count += 1;
-            }
-        }
-        count
-    }
-}
-
-fn angle_diff(a: f32, b: f32) -> f32 {
-    let d = (a - b).rem_euclid(std::f32::consts::TAU);
-    if d > std::f32::consts::PI { d - std::f32::consts::TAU } else { d }
-}
-
-/// Sample points on an object: each part's centre and, for its largest part, the eight corners
-/// pulled 20 % towards the centre.
-fn sample_points(boxes: &[OrientedBox]) -> Vec<V3> {
-    let mut points: Vec<V3> = boxes.iter().map(|b| b.centre).collect();
-    if let Some(big) = boxes.iter().max_by(|a, b| {
-        (a.half.x * a.half.y * a.half.z).total_cmp(&(b.half.x * b.half.y * b.half.z))
-    }) {
-        let (f, l) = big.axes();
-        for sx in [-0.8f32, 0.8] {
-            for sy in [-0.8f32, 0.8] {
-                for sz in [-0.8f32, 0.8] {
-                    points.push(
-                        big.centre
-                            + f * (sx * big.half.x)
-                            + l * (sy * big.half.y)
-                            + V3::new(0.0, 0.0, sz * big.half.z),
-                    );
-                }
-            }
-        }
-    }
-    points
 }
 
 impl FrameSource for Simulator {
@@ -472,7 +348,7 @@ impl FrameSource for Simulator {
         let n = self.subframes(&episode, camera, t0, t1, &mid);
         // Ground truth and the 180° count run beside the sub-frame renders.
         let (((boxes, ignore), visible_180), colour) = rayon::join(
-            || (self.annotations(&episode, camera, t_mid, &mid), self.visible_180(&episode, t_mid)),
+            || (self.annotations(&episode, camera, t_mid), self.visible_180(&episode, t_mid)),
             || self.blurred(&episode, camera, t0, shutter, n, &mid),
         );
         let hdr = HdrImage::from_vec(w, h, colour)
