@@ -666,6 +666,42 @@ fn flow_and_blur_report_motion_and_refuse_bad_input() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("mean displacement 2.0"), "{}", stdout(&o));
     assert!(out.is_file());
+    // The flow written as .flo and scored against itself (EPE 0), and against the true motion,
+    // (2, 0) everywhere, written as a .flo.
+    let flo = dir.path().join("flow.flo");
+    let truth = dir.path().join("truth.flo");
+    let mut bytes = b"PIEH".to_vec();
+    bytes.extend_from_slice(&96i32.to_le_bytes());
+    bytes.extend_from_slice(&64i32.to_le_bytes());
+    for _ in 0..96 * 64 {
+        bytes.extend_from_slice(&2.0f32.to_le_bytes());
+        bytes.extend_from_slice(&0.0f32.to_le_bytes());
+    }
+    std::fs::write(&truth, &bytes).unwrap();
+    let args = [a.to_str().unwrap(), b.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let o = joca(&[&["flow"], &args[..], &["--flo", flo.to_str().unwrap()]].concat());
+    assert!(o.status.success() && flo.is_file(), "{}", stderr(&o));
+    let o = joca(&[&["flow"], &args[..], &["--gt", flo.to_str().unwrap()]].concat());
+    assert!(stdout(&o).contains("end-point error 0.000 px, 0.00 %"), "{}", stdout(&o));
+    let o = joca(&[&["flow"], &args[..], &["--gt", truth.to_str().unwrap()]].concat());
+    let line = stdout(&o);
+    let epe: f64 = line
+        .split("end-point error ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(epe < 0.25, "{line}");
+    assert!(line.contains("(6144 known pixels)"), "{line}");
+    // A file that is not a .flo is named, and nothing is computed.
+    let o = joca(&[&["flow"], &args[..], &["--gt", a.to_str().unwrap()]].concat());
+    assert!(
+        !o.status.success()
+            && stderr(&o).contains("000.png")
+            && stderr(&o).contains("not a Middlebury .flo"),
+        "{}",
+        stderr(&o)
+    );
 
     let blurred = dir.path().join("blurred");
     let o = joca(&[

@@ -5,7 +5,10 @@ use crate::io::{read_rgb8, write_png};
 use anyhow::{Context, Result, anyhow, bail};
 use joca_core::{HdrImage, Rgb8Image};
 use joca_data::blur::{Linearize, motion_blur, samples_for};
-use joca_data::flow::{DisParams, DisPreset, Flow, Gray, colour_code, dis};
+use joca_data::flow::{
+    DisParams, DisPreset, Flow, Gray, accuracy, colour_code, dis, read_disparity, read_flo,
+    write_flo,
+};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -25,6 +28,17 @@ pub struct FlowArgs {
     /// Also write I1 warped back onto I0 by the flow (I1(x + u(x))) to this PNG.
     #[arg(long, value_name = "PNG")]
     warped: Option<PathBuf>,
+    /// Also write the flow as a Middlebury .flo file (OpenCV's readOpticalFlow reads it).
+    #[arg(long, value_name = "FILE")]
+    flo: Option<PathBuf>,
+    /// Ground-truth flow (.flo): print the end-point error and the share of pixels off by more
+    /// than 3 px, over the pixels where the truth is known.
+    #[arg(long, value_name = "FLO", conflicts_with = "gt_disparity")]
+    gt: Option<PathBuf>,
+    /// Ground-truth disparity of a rectified stereo pair, first = left (.npy or .pfm): the
+    /// true flow is (−d, 0); scored as --gt.
+    #[arg(long, value_name = "FILE")]
+    gt_disparity: Option<PathBuf>,
 }
 
 /// Arguments of `joca blur`.
@@ -97,6 +111,18 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
             b.height()
         );
     }
+    // Ground truth is read (and checked) before the flow is computed, so a bad file costs
+    // nothing.
+    let truth = match (&args.gt, &args.gt_disparity) {
+        (Some(p), _) => Some(read_flo(p)?),
+        (None, Some(p)) => Some(read_disparity(p)?),
+        (None, None) => None,
+    };
+    if let Some((w, h, _)) = &truth
+        && (*w, *h) != (a.width(), a.height())
+    {
+        bail!("the ground truth is {w}×{h} but the frames are {}×{}", a.width(), a.height());
+    }
     let started = Instant::now();
     let flow = dis(&Gray::from_rgb8(&a), &Gray::from_rgb8(&b), &params);
     let ms = started.elapsed().as_secs_f64() * 1e3;
@@ -117,8 +143,22 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
         mean_abs_diff(&a, &b),
         mean_abs_diff(&a, &warped)
     );
+    if let Some(truth) = &truth {
+        let acc = accuracy(&flow, truth).map_err(|e| anyhow!(e))?;
+        println!(
+            "against the ground truth: end-point error {:.3} px, {:.2} % of pixels off by more \
+             than 3 px ({} known pixels)",
+            acc.epe,
+            100.0 * acc.above_3px,
+            acc.known
+        );
+    }
     if let Some(path) = &args.warped {
         write_png(path, &warped)?;
+    }
+    if let Some(path) = &args.flo {
+        write_flo(path, &flow)?;
+        println!("flow field: {}", path.display());
     }
     println!("flow: {}", args.out.display());
     Ok(())

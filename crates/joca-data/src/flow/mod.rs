@@ -17,10 +17,15 @@
 //! The result is computed down to `finest_scale` (1 = half resolution) and upsampled bilinearly.
 
 mod colour;
+mod files;
 mod image;
 pub mod variational;
 
 pub use colour::colour_code;
+pub use files::{
+    FLO_MAGIC, FlowAccuracy, FlowFileError, KnownFlow, UNKNOWN_FLOW, accuracy, read_disparity,
+    read_flo, write_flo,
+};
 
 pub use image::{Gray, pyramid};
 use rayon::prelude::*;
