@@ -106,6 +106,18 @@ fn translation() {
 }
 
 #[test]
+fn the_flow_does_not_depend_on_the_thread_count() {
+    // Spatial propagation runs within fixed stripes of patch rows, whatever the threads.
+    let tex = Texture::new(5);
+    let (i0, i1, _) = pair(&tex, |x, y| (x + 2.2, y - 0.6), |x, y| (x - 2.2, y + 0.6));
+    let with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| dis(&i0, &i1, &medium()))
+    };
+    assert_eq!(with(1), with(3));
+}
+
+#[test]
 fn rotation_about_the_centre() {
     let tex = Texture::new(2);
     let (cx, cy, a) = (W as f32 / 2.0, H as f32 / 2.0, 2.5f32.to_radians());
