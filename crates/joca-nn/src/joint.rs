@@ -158,6 +158,11 @@ impl JointModel {
         self.max_exposure_s = max_exposure_s;
     }
 
+    /// NeuralAE's learning rate (the paper's 1e-5 by default).
+    pub fn set_acc_lr(&mut self, lr: f64) {
+        self.acc_opt.set_lr(lr);
+    }
+
     /// How the differentiable formation's clip passes gradients.
     pub fn set_clip_gradient(&mut self, clip: ClipGradient) {
         self.clip = clip;

@@ -70,6 +70,9 @@ pub struct RunConfig {
     /// saturates) or `straight-through`.
     #[serde(default)]
     pub clip_gradient: ClipGradient,
+    /// NeuralAE's Adam learning rate (paper: 1e-5).
+    #[serde(default = "paper_acc_lr")]
+    pub acc_lr: f64,
     /// GA loss applied every i steps.
     pub ga_every: usize,
     /// Task-loss weight of the ACC loss (GA loss weight 1).
@@ -157,6 +160,10 @@ pub enum PerturbationMutation {
     /// reachable.
     #[default]
     Additive,
+}
+
+fn paper_acc_lr() -> f64 {
+    1e-5
 }
 
 /// How the perturbation search ranks members of equal AP50.
@@ -335,6 +342,9 @@ impl RunConfig {
             if !(min..=max).contains(&value) {
                 return bad(field, value.to_string(), &format!("{min} to {max}"));
             }
+        }
+        if !(self.acc_lr > 0.0 && self.acc_lr <= 0.1) {
+            return bad("acc_lr", self.acc_lr.to_string(), "above 0, at most 0.1");
         }
         if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
             return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");

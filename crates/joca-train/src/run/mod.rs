@@ -363,6 +363,7 @@ fn setup(
     }
     model.set_detector_trainable(config.method != Method::FrozenDetector);
     model.set_clip_gradient(config.clip_gradient);
+    model.set_acc_lr(config.acc_lr);
     let (real, space) = match config.source.open(&config.real)? {
         None => (None, DesignSpace::synthetic()),
         Some(train) => {
