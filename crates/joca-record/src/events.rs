@@ -96,4 +96,7 @@ pub struct TraceRecord {
     pub visible_180: u32,
     /// Detections above the decoding threshold.
     pub detections: usize,
+    /// Mean 8-bit value of the formed frame, DN.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_dn: Option<f64>,
 }

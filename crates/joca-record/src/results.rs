@@ -28,6 +28,9 @@ pub struct RunResults {
     /// the total amplification the controller applies to the light it sees.
     #[serde(default)]
     pub exposure_gain_by_illumination: BTreeMap<String, f64>,
+    /// Mean 8-bit value of the formed test frames by illumination, DN.
+    #[serde(default)]
+    pub mean_dn_by_illumination: BTreeMap<String, f64>,
     /// Best hardware fitness seen in training.
     #[serde(default)]
     pub best_fitness: f64,

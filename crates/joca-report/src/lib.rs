@@ -356,7 +356,8 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
 pub fn settings_markdown(r: &RunResults) -> String {
     let mut md = String::from(
         "## Exposure and gain during the closed-loop test\n\n| illumination | mean E (ms) | mean \
-            G (dB) | mean E × gain (ms) | relative to night |\n|---|---|---|---|---|\n",
+            G (dB) | mean E × gain (ms) | relative to night | mean frame (DN) |\n\
+            |---|---|---|---|---|---|\n",
     );
     let night = r.exposure_gain_by_illumination.get("night").copied();
     for (light, (e, g)) in &r.settings_by_illumination {
@@ -366,7 +367,11 @@ pub fn settings_markdown(r: &RunResults) -> String {
             (Some(v), Some(n)) if n > 0.0 => format!("{:.3}", v / n),
             _ => "-".to_owned(),
         };
-        let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} | {cell} | {relative} |");
+        let mean = r
+            .mean_dn_by_illumination
+            .get(light)
+            .map_or_else(|| "-".to_owned(), |v| format!("{v:.0}"));
+        let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} | {cell} | {relative} | {mean} |");
     }
     md.push('\n');
     md

@@ -302,6 +302,7 @@ pub(crate) mod tests {
             test_bands: Vec::new(),
             settings_by_illumination: Default::default(),
             exposure_gain_by_illumination: Default::default(),
+            mean_dn_by_illumination: Default::default(),
             best_fitness: 0.0,
             validation: Vec::new(),
             render_scale: 0.08,

@@ -48,6 +48,8 @@ struct Step {
     frame: Frame,
     detections: Vec<Detection>,
     settings: DynamicSettings,
+    /// Mean of the formed 8-bit frame, DN.
+    mean_dn: f64,
 }
 
 impl Driver {
@@ -96,8 +98,10 @@ impl Driver {
             noise,
         )?;
         let detections = model.observe(&image);
+        let data = image.data();
+        let mean_dn = data.iter().map(|&v| f64::from(v)).sum::<f64>() / data.len().max(1) as f64;
         self.previous = Some(image);
-        Ok(Step { frame, detections, settings: self.applied })
+        Ok(Step { frame, detections, settings: self.applied, mean_dn })
     }
 }
 
@@ -149,7 +153,7 @@ pub(super) fn test(
     let c = cx.config.clone();
     let camera = design.pinhole(c.render_scale);
     let mut metrics = TaskMetrics::default();
-    let mut sums: BTreeMap<String, [f64; 4]> = BTreeMap::new();
+    let mut sums: BTreeMap<String, [f64; 5]> = BTreeMap::new();
     let mut trace = String::new();
     let real = cx.real.clone();
     // The test is stratified by illumination: episode e drives the test town under
@@ -195,6 +199,7 @@ pub(super) fn test(
             e[1] += s.settings.gain_db;
             e[2] += s.settings.exposure_s * 1e3 * 10f64.powf(s.settings.gain_db / 20.0);
             e[3] += 1.0;
+            e[4] += s.mean_dn;
             let record = TraceRecord {
                 episode,
                 frame: k - WARMUP_FRAMES,
@@ -206,14 +211,16 @@ pub(super) fn test(
                 objects: s.frame.boxes.len(),
                 visible_180: s.frame.visible_180,
                 detections: s.detections.len(),
+                mean_dn: Some(s.mean_dn),
             };
             if let Ok(line) = serde_json::to_string(&record) {
                 let _ = writeln!(trace, "{line}");
             }
         }
     }
-    let settings = sums.iter().map(|(k, [e, g, _, n])| (k.clone(), (e / n, g / n))).collect();
-    let exposure_gain = sums.into_iter().map(|(k, [_, _, eg, n])| (k, eg / n)).collect();
+    let settings = sums.iter().map(|(k, [e, g, _, n, _])| (k.clone(), (e / n, g / n))).collect();
+    let exposure_gain = sums.iter().map(|(k, [_, _, eg, n, _])| (k.clone(), eg / n)).collect();
+    let mean_dn = sums.into_iter().map(|(k, [_, _, _, n, m])| (k, m / n)).collect();
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
         write_atomic(&dir.join("trace.jsonl"), &trace)?;
@@ -225,7 +232,13 @@ pub(super) fn test(
             &serde_json::to_string(&showcases).unwrap_or_default(),
         )?;
     }
-    Ok(Tested { scores: metrics.compute(), bands: metrics.bands(), settings, exposure_gain })
+    Ok(Tested {
+        scores: metrics.compute(),
+        bands: metrics.bands(),
+        settings,
+        exposure_gain,
+        mean_dn,
+    })
 }
 
 /// What a closed-loop evaluation found.
@@ -238,6 +251,8 @@ pub(super) struct Tested {
     pub(super) settings: SettingsByLight,
     /// Mean exposure × linear gain (ms) by illumination.
     pub(super) exposure_gain: BTreeMap<String, f64>,
+    /// Mean 8-bit value of the formed frames by illumination, DN.
+    pub(super) mean_dn: BTreeMap<String, f64>,
 }
 
 /// The showcase sequences: a tunnel transition (every frame saved), a day and a night drive

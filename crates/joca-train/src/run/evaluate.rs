@@ -119,6 +119,7 @@ pub(super) fn test_design(
         test_bands: tested.bands,
         settings_by_illumination: tested.settings,
         exposure_gain_by_illumination: tested.exposure_gain,
+        mean_dn_by_illumination: tested.mean_dn,
         best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
         render_scale: config.render_scale,
         // Without a recording the test town is used, whatever `test_source` says.
