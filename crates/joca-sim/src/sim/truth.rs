@@ -97,6 +97,11 @@ impl Simulator {
                     to_design(b[2] + 1, kx, w),
                     to_design(b[3] + 1, ky, h),
                 );
+                // The reference grid may reach a fraction of a design pixel past the image's
+                // right and bottom edges: an object seen only there is not in the design's view.
+                if bbox.width() <= 0.0 || bbox.height() <= 0.0 {
+                    return None;
+                }
                 let pos = object.position_at(time_s);
                 let (dx, dy) = (pos.x - cam.origin.x, pos.y - cam.origin.y);
                 let distance = (dx * dx + dy * dy).sqrt();
