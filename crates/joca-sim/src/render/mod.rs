@@ -79,15 +79,14 @@ impl Target {
 
     /// Depth and id buffers without colour, for [`render_ids`].
     pub fn ids_only(width: usize, height: usize, objects: usize) -> Self {
-        Self { colour: Vec::new(), ..Self::new(0, 0, objects) }.resized(width, height)
-    }
-
-    fn resized(mut self, width: usize, height: usize) -> Self {
-        self.width = width;
-        self.height = height;
-        self.inv_depth = vec![0.0; width * height];
-        self.id = vec![0; width * height];
-        self
+        Self {
+            width,
+            height,
+            colour: Vec::new(),
+            inv_depth: vec![0.0; width * height],
+            id: vec![0; width * height],
+            coverage: vec![0; objects + 1],
+        }
     }
 }
 
@@ -166,10 +165,8 @@ pub fn render(city: &City, view: &View<'_>, target: &mut Target) {
             if target.colour.is_empty() {
                 draw_faces(&cam, &b, &|_, _| Shade::Constant([0.0; 3]), id, target);
             } else {
-                let shade = |face_index: usize, n: V3| {
-                    face_shade(city, view, lamp_pos, heading, &b, material, face_index, n)
-                };
-                draw_faces(&cam, &b, &shade, id, target);
+                let light = BoxLight::new(city, view, lamp_pos, heading, &b);
+                draw_faces(&cam, &b, &|face, n| light.shade(material, face, n), id, target);
             }
         }
     }
@@ -298,33 +295,41 @@ fn draw_faces(
     }
 }
 
-/// The colouring of face `face_index` (outward normal `n`) of box `b`: irradiance at the face
-/// centre from sun and sky by orientation, lamps from above (half on vertical faces), head
-/// lights by distance and incidence, then the material.
-#[allow(clippy::too_many_arguments)]
-fn face_shade(
-    city: &City,
-    view: &View<'_>,
+/// What lights one box: the lamps' irradiance at its foot, computed once per box, and what each
+/// face needs to add its own sun, sky and head-light terms.
+struct BoxLight<'a> {
+    view: &'a View<'a>,
     lamp: V3,
     heading: V3,
-    b: &OrientedBox,
-    material: Material,
-    face_index: usize,
-    n: V3,
-) -> Shade {
-    let h = b.half;
-    let hn = [h.x, h.x, h.y, h.y, h.z][face_index];
-    let centre = b.centre + n * hn;
-    let lights_on = view.lighting.lights_on();
-    let lamp_ground = if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
-    let top = face_index == 4;
-    let sun_sky = view.lighting.sun_sky([n.x, n.y, n.z]);
-    let lamp_share = if top { 1.0 } else { 0.5 };
-    let head = if lights_on { headlight(lamp, heading, centre, Some(n)) } else { 0.0 };
-    let irradiance: Rgb = std::array::from_fn(|ch| {
-        sun_sky + lamp_share * lamp_ground * lighting::LAMP_TINT[ch] + head
-    });
-    shade_for(material, face_index, &irradiance, lights_on)
+    b: &'a OrientedBox,
+    lights_on: bool,
+    lamp_ground: f32,
+}
+
+impl<'a> BoxLight<'a> {
+    fn new(city: &City, view: &'a View<'a>, lamp: V3, heading: V3, b: &'a OrientedBox) -> Self {
+        let lights_on = view.lighting.lights_on();
+        let lamp_ground =
+            if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
+        Self { view, lamp, heading, b, lights_on, lamp_ground }
+    }
+
+    /// The colouring of face `face_index` (outward normal `n`): irradiance at the face centre
+    /// from sun and sky by orientation, lamps from above (half on vertical faces), head lights
+    /// by distance and incidence, then the material.
+    fn shade(&self, material: Material, face_index: usize, n: V3) -> Shade {
+        let h = self.b.half;
+        let hn = [h.x, h.x, h.y, h.y, h.z][face_index];
+        let centre = self.b.centre + n * hn;
+        let sun_sky = self.view.lighting.sun_sky([n.x, n.y, n.z]);
+        let lamp_share = if face_index == 4 { 1.0 } else { 0.5 };
+        let head =
+            if self.lights_on { headlight(self.lamp, self.heading, centre, Some(n)) } else { 0.0 };
+        let irradiance: Rgb = std::array::from_fn(|ch| {
+            sun_sky + lamp_share * self.lamp_ground * lighting::LAMP_TINT[ch] + head
+        });
+        shade_for(material, face_index, &irradiance, self.lights_on)
+    }
 }
 
 fn shade_for(material: Material, face_index: usize, e: &Rgb, lights_on: bool) -> Shade {

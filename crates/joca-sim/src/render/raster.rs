@@ -229,6 +229,8 @@ fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
         return;
     }
     let mut covered = 0u32;
+    // An id-only target (the ground-truth pass) has no colour buffer.
+    let with_colour = !target.colour.is_empty();
     for y in y0 as usize..=y1 as usize {
         let yc = y as f64 + 0.5;
         let (mut lo, mut hi) = (0.5f64, w - 0.5);
@@ -264,7 +266,7 @@ fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
             if inv_z > target.inv_depth[i] {
                 target.inv_depth[i] = inv_z;
                 target.id[i] = id;
-                if !target.colour.is_empty() {
+                if with_colour {
                     let rgb = if textured {
                         let z = 1.0 / inv_z;
                         shade.at(u * z, v * z)

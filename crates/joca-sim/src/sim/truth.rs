@@ -11,7 +11,6 @@ use super::{Episode, Simulator};
 use crate::geometry::{OrientedBox, V3};
 use crate::render::{self, CameraFrame, Target};
 use joca_core::{Annotation, BBox, PinholeCamera};
-use std::collections::HashMap;
 
 /// Angular sampling of the reference grid at the image centre, pixels per radian (2 mrad a
 /// pixel: a car 1.8 m wide at 100 m spans 9 pixels, a walker 0.5 m wide at 50 m 5 pixels).
@@ -71,14 +70,16 @@ impl Simulator {
         let (rw, rh) = (reference.width_px, reference.height_px);
         let mut grid = Target::ids_only(rw, rh, self.city.objects.len());
         render::render_ids(&self.city, &self.view(episode, &reference, time_s), &mut grid);
-        let mut stats: HashMap<u32, (u32, [usize; 4])> = HashMap::new();
+        // Per object id: visible pixels and tight box, indexed by id (no hashing per pixel of a
+        // grid of ~1.5 Mpixel).
+        let mut stats: Vec<(u32, [usize; 4])> =
+            vec![(0, [usize::MAX, usize::MAX, 0, 0]); self.city.objects.len() + 1];
         for y in 0..rh {
-            for x in 0..rw {
-                let id = grid.id[y * rw + x];
+            for (x, &id) in grid.id[y * rw..(y + 1) * rw].iter().enumerate() {
                 if id == 0 {
                     continue;
                 }
-                let e = stats.entry(id).or_insert((0, [x, y, x, y]));
+                let e = &mut stats[id as usize];
                 e.0 += 1;
                 e.1 = [e.1[0].min(x), e.1[1].min(y), e.1[2].max(x), e.1[3].max(y)];
             }
@@ -86,10 +87,13 @@ impl Simulator {
         let cam = CameraFrame::new(camera, episode.ego.pose_at(time_s));
         let (w, h) = (camera.width_px as f64, camera.height_px as f64);
         let to_design = |v: usize, k: f64, max: f64| ((v as f64 / k).min(max)) as f32;
-        let mut out: Vec<(u32, bool, Annotation)> = stats
+        // In id order, as the ground truth always was.
+        let out: Vec<(bool, Annotation)> = stats
             .into_iter()
+            .enumerate()
+            .filter(|(_, (count, _))| *count > 0)
             .filter_map(|(id, (count, b))| {
-                let object = &self.city.objects[id as usize - 1];
+                let object = &self.city.objects[id - 1];
                 let class = object.class?;
                 let bbox = BBox::new(
                     to_design(b[0], kx, w),
@@ -105,15 +109,14 @@ impl Simulator {
                 let pos = object.position_at(time_s);
                 let (dx, dy) = (pos.x - cam.origin.x, pos.y - cam.origin.y);
                 let distance = (dx * dx + dy * dy).sqrt();
-                let coverage = grid.coverage[id as usize].max(count);
+                let coverage = grid.coverage[id].max(count);
                 let reference = distance <= rules.range_m(class)
                     && count as f32 >= rules.min_visible_fraction * coverage as f32;
-                Some((id, reference, Annotation::at_distance(bbox, class, distance)))
+                Some((reference, Annotation::at_distance(bbox, class, distance)))
             })
             .collect();
-        out.sort_by_key(|(id, _, _)| *id);
-        let (boxes, ignore): (Vec<_>, Vec<_>) = out.into_iter().partition(|(_, a, _)| *a);
-        let strip = |v: Vec<(u32, bool, Annotation)>| v.into_iter().map(|(_, _, a)| a).collect();
+        let (boxes, ignore): (Vec<_>, Vec<_>) = out.into_iter().partition(|(r, _)| *r);
+        let strip = |v: Vec<(bool, Annotation)>| v.into_iter().map(|(_, a)| a).collect();
         (strip(boxes), strip(ignore))
     }
 
