@@ -153,7 +153,7 @@ pub(super) fn test(
     let c = cx.config.clone();
     let camera = design.pinhole(c.render_scale);
     let mut metrics = TaskMetrics::default();
-    let mut sums: BTreeMap<String, [f64; 5]> = BTreeMap::new();
+    let mut sums: BTreeMap<String, LightSums> = BTreeMap::new();
     let mut trace = String::new();
     let real = cx.real.clone();
     // The test is stratified by illumination: episode e drives the test town under
@@ -194,12 +194,7 @@ pub(super) fn test(
                 ),
                 _ => ("recorded", None),
             };
-            let e = sums.entry(illumination.to_owned()).or_default();
-            e[0] += s.settings.exposure_s * 1e3;
-            e[1] += s.settings.gain_db;
-            e[2] += s.settings.exposure_s * 1e3 * 10f64.powf(s.settings.gain_db / 20.0);
-            e[3] += 1.0;
-            e[4] += s.mean_dn;
+            sums.entry(illumination.to_owned()).or_default().add(s.settings, s.mean_dn);
             let record = TraceRecord {
                 episode,
                 frame: k - WARMUP_FRAMES,
@@ -218,9 +213,13 @@ pub(super) fn test(
             }
         }
     }
-    let settings = sums.iter().map(|(k, [e, g, _, n, _])| (k.clone(), (e / n, g / n))).collect();
-    let exposure_gain = sums.iter().map(|(k, [_, _, eg, n, _])| (k.clone(), eg / n)).collect();
-    let mean_dn = sums.into_iter().map(|(k, [_, _, _, n, m])| (k, m / n)).collect();
+    let mean = |f: fn(&LightSums) -> f64| -> BTreeMap<String, f64> {
+        sums.iter().map(|(k, v)| (k.clone(), f(v) / v.frames)).collect()
+    };
+    let (exposure, gain) = (mean(|v| v.exposure_ms), mean(|v| v.gain_db));
+    let settings = exposure.into_iter().map(|(k, e)| (k.clone(), (e, gain[&k]))).collect();
+    let exposure_gain = mean(|v| v.exposure_gain_ms);
+    let mean_dn = mean(|v| v.mean_dn);
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
         write_atomic(&dir.join("trace.jsonl"), &trace)?;
@@ -239,6 +238,28 @@ pub(super) fn test(
         exposure_gain,
         mean_dn,
     })
+}
+
+/// Sums over the test frames of one illumination, for their means.
+#[derive(Default)]
+struct LightSums {
+    exposure_ms: f64,
+    gain_db: f64,
+    /// Exposure (ms) × linear gain.
+    exposure_gain_ms: f64,
+    mean_dn: f64,
+    frames: f64,
+}
+
+impl LightSums {
+    fn add(&mut self, settings: DynamicSettings, mean_dn: f64) {
+        let exposure_ms = settings.exposure_s * 1e3;
+        self.exposure_ms += exposure_ms;
+        self.gain_db += settings.gain_db;
+        self.exposure_gain_ms += exposure_ms * 10f64.powf(settings.gain_db / 20.0);
+        self.mean_dn += mean_dn;
+        self.frames += 1.0;
+    }
 }
 
 /// What a closed-loop evaluation found.
