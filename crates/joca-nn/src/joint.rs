@@ -378,6 +378,13 @@ fn eq4(
 
 /// `joca_camera::limit_exposure` on tensors: an exposure beyond `max_exposure_s` is capped and
 /// the gain raised by the same factor, up to `max_gain_db`.
+///
+/// The forward values are the camera crate's. The gradient is not the cap's own: capped exposure
+/// and clamped gain both have derivative 0, so a prediction pushed past both (a small pixel at
+/// night, after Eq. 4) would never hear from the task loss again, in daylight too. The gain's
+/// clamp is therefore straight-through: its gradient is that of the unclamped gain, which carries
+/// the exposure's excess, so `∂(E·G)/∂E_pred` and `∂(E·G)/∂G_pred` are those of the uncapped
+/// product.
 fn limit_exposure(
     e: &Tensor,
     g_db: &Tensor,
@@ -385,7 +392,9 @@ fn limit_exposure(
     max_gain_db: f64,
 ) -> (Tensor, Tensor) {
     let excess = (e / max_exposure_s).clamp_min(1.0);
-    (e / &excess, (g_db + excess.log10() * 20.0).clamp_max(max_gain_db))
+    let g = g_db + excess.log10() * 20.0;
+    let clamped = &g + (g.clamp_max(max_gain_db) - &g).detach();
+    (e / &excess, clamped)
 }
 
 fn tensor_to_rgb8(frame_dn: &Tensor) -> Rgb8Image {
@@ -458,6 +467,32 @@ mod tests {
             let (et, gt) = (et.double_value(&[0]), gt.double_value(&[0]));
             assert!((et / want.exposure_s - 1.0).abs() < 1e-5, "{pitch}: E {et} vs {want:?}");
             assert!((gt - want.gain_db).abs() < 1e-4, "{pitch}: G {gt} vs {want:?}");
+        }
+    }
+
+    /// Past the exposure cap and the gain's maximum the applied settings stay the camera crate's,
+    /// but the gradient of the applied light `ln(E·G)` is the uncapped one: 1 per unit of
+    /// `ln E_pred` and ln 10 / 20 per dB of `G_pred` — not 0, which left a small-pixel camera's
+    /// controller stuck at the top of its range in every light.
+    #[test]
+    fn the_cap_passes_the_gradient_of_the_uncapped_light() {
+        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        // 1.55 µm pixel: 40 ms → 234 ms before the cap; 25 dB + 13.4 dB > 30 dB: both limits hit.
+        for (e0, g0, capped) in [(0.04, 25.0, true), (0.002, 5.0, false)] {
+            let e = Tensor::from_slice(&[e0 as f32]).set_requires_grad(true);
+            let g = Tensor::from_slice(&[g0 as f32]).set_requires_grad(true);
+            let (et, gt) = eq4(&e, &g, 1.55, 3.75);
+            let (et, gt) = limit_exposure(&et, &gt, 0.05, 30.0);
+            if capped {
+                assert!((et.double_value(&[0]) - 0.05).abs() < 1e-7);
+                assert!((gt.double_value(&[0]) - 30.0).abs() < 1e-4);
+            }
+            let light = et.log() + &gt / 20.0 * std::f64::consts::LN_10;
+            light.sum(Kind::Float).backward();
+            let de = e.grad().double_value(&[0]) * e0; // ∂ light / ∂ ln E_pred
+            let dg = g.grad().double_value(&[0]);
+            assert!((de - 1.0).abs() < 1e-4, "{e0}: {de}");
+            assert!((dg - std::f64::consts::LN_10 / 20.0).abs() < 1e-5, "{e0}: {dg}");
         }
     }
 }
