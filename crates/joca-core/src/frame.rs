@@ -49,7 +49,9 @@ impl PinholeCamera {
 pub struct FrameRequest {
     /// Episode the frame belongs to (fixes map, start pose, illumination, speed profile).
     pub episode: u64,
-    /// Time of the shutter opening since the episode start, seconds.
+    /// The frame's time since the episode start, seconds: the middle of the shutter interval
+    /// (the shutter is open over `time_s ± exposure_s · motion_scale / 2`; ground truth is of
+    /// this instant, so frames of one instant with different exposures share it).
     pub time_s: f64,
     /// Shutter interval, seconds: motion during it is integrated (motion blur).
     pub exposure_s: f64,
@@ -101,6 +103,22 @@ pub enum SourceError {
 pub trait FrameSource: Send + Sync {
     /// Renders or loads the frame seen by `camera` for `request`.
     fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError>;
+
+    /// The frames of one instant for several exposures (`request.exposure_s` is replaced by each
+    /// of `exposures_s` in turn), in that order. A source that can share work between them (the
+    /// simulator renders every shutter from one grid of sub-frames) overrides this; the default
+    /// renders each on its own.
+    fn render_exposures(
+        &self,
+        camera: &PinholeCamera,
+        request: &FrameRequest,
+        exposures_s: &[f64],
+    ) -> Result<Vec<Frame>, SourceError> {
+        exposures_s
+            .iter()
+            .map(|&exposure_s| self.render(camera, &FrameRequest { exposure_s, ..*request }))
+            .collect()
+    }
 
     /// Time between consecutive frames of an episode, seconds.
     fn frame_interval_s(&self) -> f64;

@@ -337,6 +337,12 @@ impl JointModel {
     pub fn detect(&self, frame: &Rgb8Image) -> Vec<Detection> {
         self.det.detect(frame)
     }
+
+    /// Detections in several frames of one size, as one batch, without touching the sequence
+    /// state.
+    pub fn detect_batch(&self, frames: &[&Rgb8Image]) -> Vec<Vec<Detection>> {
+        self.det.detect_batch(frames)
+    }
 }
 
 /// DF-Grad's GA supervision loss (paper Sec. 5): the L1 distance between NeuralAE's prediction

@@ -112,14 +112,20 @@ impl Adam {
             if !g.defined() {
                 continue;
             }
-            let _ = m.g_mul_scalar_(c.beta1).g_add_(&(&g * (1.0 - c.beta1)));
-            let _ = v.g_mul_scalar_(c.beta2).g_add_(&(&g * &g * (1.0 - c.beta2)));
+            // The same update in few in-place kernels (it is memory-bound): m and v by lerp,
+            // then p += m / d with d = −(bc1/lr)·(√v/√bc2 + ε).
+            let _ = m.lerp_(&g, 1.0 - c.beta1);
+            let _ = v.lerp_(&(&g * &g), 1.0 - c.beta2);
+            if c.lr == 0.0 {
+                continue; // nothing moves (and d would divide by 0)
+            }
             if c.weight_decay != 0.0 {
                 let _ = p.g_mul_scalar_(1.0 - c.lr * c.weight_decay);
             }
-            let denom = (&*v / bc2).sqrt() + c.eps;
-            let update = &*m / denom * (c.lr / bc1);
-            let _ = p.g_sub_(&update);
+            let mut denom = v.sqrt();
+            let _ = denom.g_mul_scalar_(-bc1 / (c.lr * bc2.sqrt()));
+            let _ = denom.g_add_scalar_(-bc1 / c.lr * c.eps);
+            let _ = p.addcdiv_(m, &denom);
         }
     }
 
@@ -183,4 +189,48 @@ pub fn grad_norm(vs: &VarStore) -> f64 {
         })
         .sum::<f64>()
         .sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three AdamW steps against the update written out in f64 (Loshchilov & Hutter's decoupled
+    /// weight decay, bias-corrected moments), with gradients of both signs and a zero one.
+    #[test]
+    fn adamw_follows_the_closed_form() {
+        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let c = AdamConfig { lr: 1e-2, weight_decay: 0.1, beta1: 0.9, beta2: 0.999, eps: 1e-8 };
+        let vs = VarStore::new(tch::Device::Cpu);
+        let p = vs.root().var_copy("p", &Tensor::from_slice(&[1.0f32, -2.0, 0.5]));
+        let mut adam = Adam::new(&vs, c);
+        let grads = [[0.3f64, -1.0, 0.0], [0.1, 2.0, 0.0], [-0.5, 0.25, 0.0]];
+        let (mut want, mut m, mut v) = ([1.0f64, -2.0, 0.5], [0.0f64; 3], [0.0f64; 3]);
+        for (t, g) in grads.iter().enumerate() {
+            adam.zero_grad();
+            let gt = Tensor::from_slice(&g.map(|x| x as f32));
+            (&p * &gt).sum(Kind::Float).backward();
+            adam.step();
+            let t = t as i32 + 1;
+            for i in 0..3 {
+                m[i] = c.beta1 * m[i] + (1.0 - c.beta1) * g[i];
+                v[i] = c.beta2 * v[i] + (1.0 - c.beta2) * g[i] * g[i];
+                want[i] *= 1.0 - c.lr * c.weight_decay;
+                let m_hat = m[i] / (1.0 - c.beta1.powi(t));
+                let v_hat = v[i] / (1.0 - c.beta2.powi(t));
+                want[i] -= c.lr * m_hat / (v_hat.sqrt() + c.eps);
+            }
+            for (i, w) in want.iter().enumerate() {
+                let got = p.double_value(&[i as i64]);
+                assert!((got - w).abs() < 1e-6, "step {t}, p[{i}]: {got} vs {w}");
+            }
+        }
+        // A learning rate of 0 moves nothing.
+        let before = Vec::<f32>::try_from(&p).unwrap();
+        adam.set_lr(0.0);
+        adam.zero_grad();
+        (&p * 3.0).sum(Kind::Float).backward();
+        adam.step();
+        assert_eq!(Vec::<f32>::try_from(&p).unwrap(), before);
+    }
 }

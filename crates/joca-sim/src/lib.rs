@@ -41,8 +41,8 @@ pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
 pub use lighting::{Illumination, TUNNEL_PHASE_S};
 pub use sim::{
-    Episode, MAX_SUBFRAMES, REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, SimConfig, Simulator,
-    VisibilityRules, reference_camera,
+    Episode, MAX_SUBFRAMES, REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, ShutterGrid, SimConfig,
+    Simulator, VisibilityRules, reference_camera,
 };
 
 use rand::Rng;

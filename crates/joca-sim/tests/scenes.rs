@@ -7,7 +7,7 @@ use joca_core::{Class, FrameRequest, FrameSource, PinholeCamera};
 use joca_sim::geometry::{Pose2, V3};
 use joca_sim::lighting::{Illumination, RADIANCE_SCALE_DN, SKY, SUN};
 use joca_sim::objects::{Material, Motion, Object, Part};
-use joca_sim::{City, CityConfig, EgoTrajectory, Episode, SimConfig, Simulator};
+use joca_sim::{City, CityConfig, EgoTrajectory, Episode, ShutterGrid, SimConfig, Simulator};
 
 fn camera(width: usize, height: usize, focal_px: f64, mount: [f64; 3]) -> PinholeCamera {
     PinholeCamera {
@@ -361,4 +361,66 @@ fn frames_are_bit_identical_for_the_same_inputs_on_any_thread_count() {
         .render(&cam, &r)
         .unwrap();
     assert_ne!(a.hdr, other.hdr);
+}
+
+/// Mean absolute difference of two frames over the mean of the second (relative error).
+fn relative_difference(a: &joca_core::Frame, b: &joca_core::Frame) -> f64 {
+    let (x, y) = (a.hdr.data(), b.hdr.data());
+    let diff: f64 = x.iter().zip(y).map(|(p, q)| f64::from((p - q).abs())).sum();
+    let mean: f64 = y.iter().map(|&q| f64::from(q)).sum();
+    diff / mean
+}
+
+#[test]
+fn the_frames_of_one_instant_share_one_grid_and_equal_separate_renders_on_it() {
+    // Driving and turning past the pillar: every sub-frame differs.
+    let sim = pillar_scene(12.0, 0.3);
+    let cam = camera(320, 240, 200.0, [1.0, 0.0, 1.5]);
+    let exposures = [2e-3, 11e-3, 30e-3];
+    let r = request(0.5, 0.0, 1.0);
+    let frames = sim.render_exposures(&cam, &r, &exposures).unwrap();
+    // The longest shutter uses every cell of the grid.
+    let cells = frames[2].subframes as usize;
+    assert!(cells > 9, "{cells} cells");
+    assert!(frames[0].subframes < frames[1].subframes && frames[1].subframes < cells as u32);
+    let grid = ShutterGrid::new(0.5, 30e-3, cells);
+    for (frame, &e) in frames.iter().zip(&exposures) {
+        let alone = sim.render_on_grid(&cam, &r, &[e], &grid).unwrap().remove(0);
+        assert_eq!(frame, &alone, "exposure {e}");
+        // Ground truth is of the frame's time, whatever the exposure.
+        assert_eq!(frame.boxes, frames[0].boxes);
+    }
+    // `render` is `render_exposures` of one exposure: the longest alone has the same grid.
+    assert_eq!(sim.render(&cam, &request(0.5, 30e-3, 1.0)).unwrap(), frames[2]);
+    // The grid's weights are a box filter in time: they sum to 1 and are symmetric.
+    for s in [0.0, 1e-3, 11e-3, 30e-3] {
+        let w = grid.weights(s);
+        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-6, "{s}: {w:?}");
+        assert!(w.iter().zip(w.iter().rev()).all(|(a, b)| (a - b).abs() < 1e-7), "{s}: {w:?}");
+    }
+}
+
+#[test]
+fn nested_shutters_are_within_the_sampling_error_of_a_grid_four_times_finer() {
+    let sim = pillar_scene(14.0, 0.4);
+    let cam = camera(320, 240, 200.0, [1.0, 0.0, 1.5]);
+    let r = request(0.5, 0.0, 1.0);
+    let exposures = [4e-3, 12e-3, 25e-3, 40e-3];
+    let nested = sim.render_exposures(&cam, &r, &exposures).unwrap();
+    for (frame, &e) in nested.iter().zip(&exposures) {
+        // Today's per-exposure grid (the exposure rendered alone) and a reference grid with four
+        // times its sub-frames.
+        let own = sim.render(&cam, &request(0.5, e, 1.0)).unwrap();
+        let fine = ShutterGrid::new(0.5, e, 4 * own.subframes as usize);
+        let reference = sim.render_on_grid(&cam, &r, &[e], &fine).unwrap().remove(0);
+        let (err_nested, err_own) =
+            (relative_difference(frame, &reference), relative_difference(&own, &reference));
+        eprintln!(
+            "E {:.0} ms: nested {} cells, own {} cells: error {err_nested:.5} vs {err_own:.5}",
+            e * 1e3,
+            frame.subframes,
+            own.subframes
+        );
+        assert!(err_nested <= 2.0 * err_own + 1e-3, "E {e}: {err_nested} vs {err_own}");
+    }
 }

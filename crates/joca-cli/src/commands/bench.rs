@@ -422,8 +422,8 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     println!("{:<46} {:>9} {:>7}", "part", "ms", "share");
     for (name, ms) in [
         ("NeuralAE prediction", b.acc_predict_ms),
-        ("render forward frame (all sub-frames)", b.render_ms),
-        ("render + form the perturbed frames", b.perturbation_render_ms),
+        ("render forward + perturbed frames (one grid)", b.render_ms),
+        ("form the perturbed frames", b.perturbation_render_ms),
         ("detect + AP50 of the perturbed frames", b.perturbation_detect_ms),
         ("perturbation GA", b.perturbation_ga_ms),
         ("noise sample", b.noise_ms),
@@ -436,5 +436,22 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
         println!("{:<46} {:>9.1} {:>6.1}%", name, ms, 100.0 * ms / total);
     }
     println!("{:<46} {:>9.1}", "total per step", total);
+    // One detector training step on a frame of the same size, same threads, same run.
+    let engine = joca_nn::Engine::cpu(cfg.threads);
+    let detector_ms = joca_nn::detector::time_training(
+        &engine,
+        cfg.detector,
+        h,
+        w,
+        steps,
+        1,
+        joca_nn::detector::Precision::Fp32,
+    );
+    println!(
+        "{:<46} {:>9.1}",
+        format!("detector training step alone (best of {steps})"),
+        detector_ms
+    );
+    println!("{:<46} {:>9.2}x", "step / detector training step", total / detector_ms);
     Ok(())
 }

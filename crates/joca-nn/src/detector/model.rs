@@ -2,8 +2,8 @@
 //! that training loops outside this crate never touch the framework.
 
 use super::{
-    DetectionLoss, Detector, DetectorConfig, Precision, Regression, Targets, batch_tensor, decode,
-    image_tensor,
+    DetectionLoss, Detector, DetectorConfig, DetectorOutput, Precision, Regression, Targets,
+    batch_tensor, decode, image_tensor,
 };
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
 use joca_core::{Annotation, Detection, Rgb8Image};
@@ -201,6 +201,29 @@ impl DetectorModel {
         let _guard = tch::no_grad_guard();
         let out = self.net.forward(&image_tensor(frame, self.device));
         decode(&out, frame.width(), frame.height(), MAX_DETECTIONS, MIN_SCORE)
+    }
+
+    /// Detections in each of several frames of one size, through the network as one batch (the
+    /// normalisation is per frame, so each frame's detections do not depend on the others).
+    /// Panics if the frames differ in size.
+    pub fn detect_batch(&self, frames: &[&Rgb8Image]) -> Vec<Vec<Detection>> {
+        if frames.is_empty() {
+            return Vec::new();
+        }
+        let _guard = tch::no_grad_guard();
+        let out = self.net.forward(&batch_tensor(frames, self.device, Precision::Fp32));
+        let (w, h) = (frames[0].width(), frames[0].height());
+        (0..frames.len() as i64)
+            .map(|i| {
+                let one = DetectorOutput {
+                    heatmap: out.heatmap.narrow(0, i, 1),
+                    size: out.size.narrow(0, i, 1),
+                    offset: out.offset.narrow(0, i, 1),
+                    features: out.features.narrow(0, i, 1),
+                };
+                decode(&one, w, h, MAX_DETECTIONS, MIN_SCORE)
+            })
+            .collect()
     }
 
     /// Number of weights.

@@ -525,3 +525,31 @@ fn a_shared_head_saves_two_hidden_convolutions() {
     };
     assert_eq!(count(separate) - count(shared), 2 * (64 * 64 * 9 + 64));
 }
+
+/// A batch gives each frame the detections it gets alone (group normalisation is per frame):
+/// same classes and order, boxes and scores equal to float rounding.
+#[test]
+fn a_batch_detects_what_each_frame_does_alone() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let engine = Engine::cpu(2);
+    engine.seed(5);
+    let model = small_model(&engine);
+    let frames = [
+        frame_with_box(64, 48, BBox::new(20.0, 16.0, 44.0, 36.0)),
+        frame_with_box(64, 48, BBox::new(2.0, 3.0, 12.0, 40.0)),
+        Rgb8Image::from_vec(64, 48, vec![200; 64 * 48 * 3]).unwrap(),
+    ];
+    let batch = model.detect_batch(&frames.iter().collect::<Vec<_>>());
+    assert_eq!(batch.len(), 3);
+    for (frame, got) in frames.iter().zip(&batch) {
+        let alone = model.detect(frame);
+        assert!(!alone.is_empty());
+        assert_eq!(got.len(), alone.len());
+        for (a, b) in got.iter().zip(&alone) {
+            assert_eq!(a.class, b.class);
+            assert!((a.score - b.score).abs() < 1e-5, "{a:?} vs {b:?}");
+            assert!(a.bbox.iou(&b.bbox) > 0.999, "{a:?} vs {b:?}");
+        }
+    }
+    assert!(model.detect_batch(&[]).is_empty());
+}

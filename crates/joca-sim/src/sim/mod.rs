@@ -267,56 +267,104 @@ impl Simulator {
         n | 1
     }
 
-    /// The average of `n` sub-frames spread evenly over the shutter `[t0, t0 + shutter]`; the
-    /// middle one is `mid`, already rendered.
-    fn blurred(
+    /// The frames of `shutters` (seconds, all centred on `grid`'s centre and at most its span)
+    /// integrated over `grid`: each rendered sub-frame is added to every frame whose shutter
+    /// overlaps its cell, weighted by the overlap (see [`ShutterGrid::weights`]). The middle cell
+    /// is `mid`, already rendered; a cell no shutter overlaps is not rendered.
+    fn integrate(
         &self,
         episode: &Episode,
         camera: &PinholeCamera,
-        t0: f64,
-        shutter: f64,
-        n: usize,
+        grid: &ShutterGrid,
+        shutters: &[f64],
         mid: &Target,
-    ) -> Vec<f32> {
-        if n == 1 {
-            return mid.colour.clone();
-        }
+    ) -> Vec<Vec<f32>> {
         let (w, h) = (camera.width_px, camera.height_px);
         let objects = self.city.objects.len();
-        let middle = n / 2;
-        let times: Vec<f64> = (0..n).map(|k| t0 + (k as f64 + 0.5) / n as f64 * shutter).collect();
+        let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
+        if grid.cells == 1 {
+            return weights.iter().map(|_| mid.colour.clone()).collect();
+        }
+        let middle = grid.cells / 2;
+        let cells: Vec<usize> = (0..grid.cells).collect();
         // Each chunk sums its sub-frames in order; chunks are then summed in order, so the
-        // result does not depend on how many threads did the work.
-        let chunk_sums: Vec<Vec<f32>> = times
+        // result does not depend on how many threads did the work, nor (a zero weight adds
+        // nothing) on which other shutters share the grid.
+        let chunk_sums: Vec<Vec<Vec<f32>>> = cells
             .par_chunks(SUBFRAMES_PER_CHUNK)
-            .enumerate()
-            .map(|(c, chunk)| {
-                let mut sum = vec![0.0f32; w * h * 3];
+            .map(|chunk| {
+                let mut sums = vec![vec![0.0f32; w * h * 3]; shutters.len()];
                 let mut target = Target::new(w, h, objects);
-                for (j, &t) in chunk.iter().enumerate() {
-                    let colour = if c * SUBFRAMES_PER_CHUNK + j == middle {
+                for &k in chunk {
+                    if weights.iter().all(|wk| wk[k] == 0.0) {
+                        continue;
+                    }
+                    let colour = if k == middle {
                         &mid.colour
                     } else {
-                        self.render_at(episode, camera, t, &mut target);
+                        self.render_at(episode, camera, grid.time(k), &mut target);
                         &target.colour
                     };
-                    sum.iter_mut().zip(colour).for_each(|(s, &v)| *s += v);
+                    for (sum, wk) in sums.iter_mut().zip(&weights) {
+                        let a = wk[k];
+                        if a != 0.0 {
+                            sum.iter_mut().zip(colour).for_each(|(s, &v)| *s += a * v);
+                        }
+                    }
                 }
-                sum
+                sums
             })
             .collect();
-        let mut acc = vec![0.0f32; w * h * 3];
-        for sum in &chunk_sums {
-            acc.iter_mut().zip(sum).for_each(|(a, &s)| *a += s);
+        let mut out = vec![vec![0.0f32; w * h * 3]; shutters.len()];
+        for sums in &chunk_sums {
+            for (acc, sum) in out.iter_mut().zip(sums) {
+                acc.iter_mut().zip(sum).for_each(|(a, &s)| *a += s);
+            }
         }
-        let inv = 1.0 / n as f32;
-        acc.iter_mut().for_each(|v| *v *= inv);
-        acc
+        out
     }
-}
 
-impl FrameSource for Simulator {
-    fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError> {
+    /// The grid of sub-frames for shutters up to `longest_s` centred on `request.time_s`: about
+    /// one cell per pixel of the largest image-space travel over the longest shutter, odd, at
+    /// most [`MAX_SUBFRAMES`]. `mid` is the view at the centre.
+    fn grid_for(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        centre_s: f64,
+        longest_s: f64,
+        mid: &Target,
+    ) -> ShutterGrid {
+        let half = 0.5 * longest_s;
+        let cells = self.subframes(episode, camera, centre_s - half, centre_s + half, mid);
+        ShutterGrid::new(centre_s, longest_s, cells)
+    }
+
+    /// Frames of one instant for several exposures on a given grid (the shared-grid renderer
+    /// behind [`FrameSource::render_exposures`]; public so that a frame can be checked against a
+    /// render on a finer grid). Every shutter must fit in the grid's span.
+    pub fn render_on_grid(
+        &self,
+        camera: &PinholeCamera,
+        request: &FrameRequest,
+        exposures_s: &[f64],
+        grid: &ShutterGrid,
+    ) -> Result<Vec<Frame>, SourceError> {
+        let shutters = self.check(request, exposures_s)?;
+        if shutters.iter().any(|&s| s > grid.span_s * (1.0 + 1e-9)) {
+            return Err(SourceError::OutOfRange {
+                reason: format!("a shutter is longer than the grid's {} s", grid.span_s),
+            });
+        }
+        let episode = self.episode(request.episode);
+        let mut mid = Target::new(camera.width_px, camera.height_px, self.city.objects.len());
+        self.render_at(&episode, camera, grid.centre_s, &mut mid);
+        self.frames(&episode, camera, grid, &shutters, &mid)
+    }
+
+    /// Validates `request` and `exposures_s`; returns the shutter intervals (exposure × motion
+    /// scale).
+    fn check(&self, request: &FrameRequest, exposures_s: &[f64]) -> Result<Vec<f64>, SourceError> {
         if !(request.time_s >= 0.0 && request.time_s <= self.config.episode_s) {
             return Err(SourceError::OutOfRange {
                 reason: format!(
@@ -325,35 +373,131 @@ impl FrameSource for Simulator {
                 ),
             });
         }
-        if !(request.exposure_s >= 0.0
-            && request.exposure_s.is_finite()
-            && request.motion_scale >= 0.0)
+        let bad = |e: f64| !(e >= 0.0 && e.is_finite());
+        if exposures_s.is_empty()
+            || exposures_s.iter().any(|&e| bad(e))
+            || bad(request.motion_scale)
         {
             return Err(SourceError::OutOfRange {
                 reason: format!(
-                    "exposure {} s and motion scale {} must be finite and non-negative",
-                    request.exposure_s, request.motion_scale
+                    "exposures {exposures_s:?} s and motion scale {} must be finite and \
+                     non-negative (at least one exposure)",
+                    request.motion_scale
                 ),
             });
         }
-        let episode = self.episode(request.episode);
-        let (w, h) = (camera.width_px, camera.height_px);
-        let t0 = request.time_s;
-        let shutter = request.exposure_s * request.motion_scale;
-        let t1 = t0 + shutter;
-        let t_mid = t0 + 0.5 * shutter;
+        Ok(exposures_s.iter().map(|&e| e * request.motion_scale).collect())
+    }
 
-        let mut mid = Target::new(w, h, self.city.objects.len());
-        self.render_at(&episode, camera, t_mid, &mut mid);
-        let n = self.subframes(&episode, camera, t0, t1, &mid);
+    /// The frames of `shutters` on `grid`, with the ground truth of the grid's centre.
+    fn frames(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        grid: &ShutterGrid,
+        shutters: &[f64],
+        mid: &Target,
+    ) -> Result<Vec<Frame>, SourceError> {
+        let (w, h) = (camera.width_px, camera.height_px);
+        let t = grid.centre_s;
         // Ground truth and the 180° count run beside the sub-frame renders.
-        let (((boxes, ignore), visible_180), colour) = rayon::join(
-            || (self.annotations(&episode, camera, t_mid), self.visible_180(&episode, t_mid)),
-            || self.blurred(&episode, camera, t0, shutter, n, &mid),
+        let (((boxes, ignore), visible_180), colours) = rayon::join(
+            || (self.annotations(episode, camera, t), self.visible_180(episode, t)),
+            || self.integrate(episode, camera, grid, shutters, mid),
         );
-        let hdr = HdrImage::from_vec(w, h, colour)
-            .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
-        Ok(Frame { hdr, boxes, ignore, visible_180, subframes: n as u32 })
+        colours
+            .into_iter()
+            .zip(shutters)
+            .map(|(colour, &s)| {
+                let hdr = HdrImage::from_vec(w, h, colour)
+                    .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
+                let subframes = grid.weights(s).iter().filter(|&&a| a > 0.0).count() as u32;
+                Ok(Frame {
+                    hdr,
+                    boxes: boxes.clone(),
+                    ignore: ignore.clone(),
+                    visible_180,
+                    subframes,
+                })
+            })
+            .collect()
+    }
+}
+
+/// The sub-frame grid of one frame: `cells` equal cells over `span_s` seconds centred on
+/// `centre_s` (the frame's time). A shutter of `s ≤ span_s` seconds is open over
+/// `[centre − s/2, centre + s/2]`: shorter shutters nest in longer ones and share their renders,
+/// ground truth and 180° count. Each cell is rendered at its centre and stands for the scene
+/// over the whole cell (a box filter in time).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShutterGrid {
+    /// The frame's time, seconds: the middle of every shutter.
+    pub centre_s: f64,
+    /// The longest shutter the grid covers, seconds.
+    pub span_s: f64,
+    /// Number of cells (odd, so that the middle one is rendered at the centre).
+    pub cells: usize,
+}
+
+impl ShutterGrid {
+    /// A grid of `cells` (made odd, at least 1) over `span_s` centred on `centre_s`.
+    pub fn new(centre_s: f64, span_s: f64, cells: usize) -> Self {
+        Self { centre_s, span_s: span_s.max(0.0), cells: cells.max(1) | 1 }
+    }
+
+    fn step_s(&self) -> f64 {
+        self.span_s / self.cells as f64
+    }
+
+    /// The time cell `k` is rendered at.
+    pub fn time(&self, k: usize) -> f64 {
+        self.centre_s + (k as f64 - (self.cells / 2) as f64) * self.step_s()
+    }
+
+    /// Each cell's share of a shutter of `shutter_s` seconds centred on the grid: the overlap of
+    /// the cell with the open shutter over the shutter's length (they sum to 1). A shutter
+    /// shorter than a cell is the middle cell alone, a sharp frame.
+    pub fn weights(&self, shutter_s: f64) -> Vec<f32> {
+        let mut out = vec![0.0f32; self.cells];
+        let middle = self.cells / 2;
+        let step = self.step_s();
+        if !(shutter_s > 0.0 && step > 0.0) || shutter_s <= step {
+            out[middle] = 1.0;
+            return out;
+        }
+        // In units of cells, from the centre: the shutter covers [−r, r], cell k covers
+        // [k − m − 1/2, k − m + 1/2].
+        let r = 0.5 * shutter_s.min(self.span_s) / step;
+        for (k, o) in out.iter_mut().enumerate() {
+            let c = k as f64 - middle as f64;
+            let overlap = ((c + 0.5).min(r) - (c - 0.5).max(-r)).max(0.0);
+            *o = (overlap / (2.0 * r)) as f32;
+        }
+        out
+    }
+}
+
+impl FrameSource for Simulator {
+    fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError> {
+        let mut frames = self.render_exposures(camera, request, &[request.exposure_s])?;
+        Ok(frames.remove(0))
+    }
+
+    /// One grid for all the exposures, over the longest shutter: the renders of the instant are
+    /// shared (see [`ShutterGrid`]).
+    fn render_exposures(
+        &self,
+        camera: &PinholeCamera,
+        request: &FrameRequest,
+        exposures_s: &[f64],
+    ) -> Result<Vec<Frame>, SourceError> {
+        let shutters = self.check(request, exposures_s)?;
+        let longest = shutters.iter().copied().fold(0.0, f64::max);
+        let episode = self.episode(request.episode);
+        let mut mid = Target::new(camera.width_px, camera.height_px, self.city.objects.len());
+        self.render_at(&episode, camera, request.time_s, &mut mid);
+        let grid = self.grid_for(&episode, camera, request.time_s, longest, &mid);
+        self.frames(&episode, camera, &grid, &shutters, &mid)
     }
 
     fn frame_interval_s(&self) -> f64 {

@@ -9,7 +9,9 @@ use super::{Context, RealSources, simulator};
 use crate::TrainError;
 use crate::control::{Decision, SensorLimits, controller};
 use joca_camera::{CameraDesign, ImageFormation};
-use joca_core::{FrameRequest, FrameSource, TRAINING_MIN_BOX_PX, training_targets};
+use joca_core::{
+    Frame, FrameRequest, FrameSource, SourceError, TRAINING_MIN_BOX_PX, training_targets,
+};
 use joca_evolve::Ga;
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::formation::Scene;
@@ -120,22 +122,27 @@ pub(super) fn train(
             exposure_s: decision.applied.exposure_s,
             motion_scale: c.scenario.motion_scale(),
         };
-        let frame = sim.render(&camera, &request)?;
+        // 2. Perturbation mode: the same instant with perturbed settings (each with its own
+        // blur), rendered with the applied frame from one grid of sub-frames, scored by AP50.
+        let members = match (predicted, c.method.perturbations()) {
+            (Some(predicted), true) => perturbation::members(cx, perturbation, predicted, &sensor),
+            _ => Vec::new(),
+        };
+        let exposures: Vec<f64> = std::iter::once(decision.applied.exposure_s)
+            .chain(members.iter().map(|m| m.applied.exposure_s))
+            .collect();
+        let mut frames = sim.render_exposures(&camera, &request, &exposures)?.into_iter();
+        let frame = frames.next().ok_or_else(|| SourceError::OutOfRange {
+            reason: "the frame source returned no frame".into(),
+        })?;
+        let perturbed: Vec<Frame> = frames.collect();
         cx.watch.lap(|t| &mut t.render_ms);
-        // 2. Perturbation mode: re-render with perturbed settings (new blur), score by AP50.
         let mut ga_target = None;
-        if let (Some(predicted), true) = (predicted, c.method.perturbations()) {
-            let probe = Probe {
-                source: sim,
-                camera: &camera,
-                request,
-                sensor,
-                global_step: global,
-                scene_step: common,
-            };
-            let best = perturbation::search(cx, model, perturbation, &probe, predicted)?;
+        if !members.is_empty() {
+            let probe = Probe { sensor, global_step: global, scene_step: common };
+            let best = perturbation::search(cx, model, perturbation, &probe, &members, &perturbed)?;
             if step % c.ga_every == 0 {
-                ga_target = Some(best);
+                ga_target = best;
             }
             cx.watch.lap(|t| &mut t.perturbation_ga_ms);
         }

@@ -8,7 +8,7 @@ use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
 use joca_camera::DynamicSettings;
-use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
+use joca_core::{Frame, Rgb8Image, SeedStreams};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
 use joca_nn::joint::JointModel;
@@ -43,11 +43,8 @@ pub(super) fn ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainE
     Ok(Ga::new(ga_config, &mut streams.stream("perturbation-init")))
 }
 
-/// The frame being perturbed: its source, camera, request and the sensor's pixel pitch.
-pub(super) struct Probe<'a> {
-    pub(super) source: &'a dyn FrameSource,
-    pub(super) camera: &'a PinholeCamera,
-    pub(super) request: FrameRequest,
+/// The frame being perturbed: the sensor and the step's indices.
+pub(super) struct Probe {
     pub(super) sensor: SensorLimits,
     /// Global step index: seeds the GA's update.
     pub(super) global_step: u64,
@@ -55,55 +52,86 @@ pub(super) struct Probe<'a> {
     pub(super) scene_step: u64,
 }
 
-/// One perturbation search around `predicted` (NeuralAE's settings for the calibration pitch):
-/// scores every member and, unless the perturbations are fixed, tells the GA their fitness.
-/// Returns the best member's settings (equal fitness goes to the first member), for the
-/// calibration pitch.
+/// One member of a perturbation search: its settings for the calibration pitch (what l_GA
+/// compares NeuralAE's prediction with) and as applied to the sensor (Eq. 4, capped).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Member {
+    pub(super) perturbed: DynamicSettings,
+    pub(super) applied: DynamicSettings,
+}
+
+/// The members of one search around `predicted` (NeuralAE's settings for the calibration
+/// pitch): the GA's population, or the ablation's four fixed perturbations.
+pub(super) fn members(
+    cx: &Context,
+    ga: &Ga,
+    predicted: DynamicSettings,
+    sensor: &SensorLimits,
+) -> Vec<Member> {
+    let offsets: Vec<Vec<f64>> = if cx.config.method == Method::FixedPerturbation {
+        FIXED.iter().map(|p| p.to_vec()).collect()
+    } else {
+        ga.ask().to_vec()
+    };
+    offsets
+        .iter()
+        .map(|p| {
+            let perturbed = cx.ranges.clamp(DynamicSettings::new(
+                predicted.exposure_s + p[0] * cx.ranges.exposure_s.span(),
+                predicted.gain_db + p[1] * cx.ranges.gain_db.span(),
+            ));
+            Member { perturbed, applied: for_sensor(perturbed, sensor) }
+        })
+        .collect()
+}
+
+/// Scores the members' frames (`frames[i]` rendered with `members[i].applied`'s exposure, all of
+/// one instant): each is formed on the same noise sample, the frames go through the detector as
+/// one batch, and each is scored by AP50 (ties by fewer clipped pixels, unless switched off).
+/// Unless the perturbations are fixed, tells the GA their fitness. Returns the best member's
+/// settings (equal fitness goes to the first member), for the calibration pitch; `None` without
+/// members.
 pub(super) fn search(
     cx: &mut Context,
     model: &JointModel,
     ga: &mut Ga,
-    probe: &Probe<'_>,
-    predicted: DynamicSettings,
-) -> Result<DynamicSettings, TrainError> {
-    let fixed = cx.config.method == Method::FixedPerturbation;
-    let members: Vec<Vec<f64>> =
-        if fixed { FIXED.iter().map(|p| p.to_vec()).collect() } else { ga.ask().to_vec() };
-    let mut fitness = Vec::with_capacity(members.len());
-    let mut settings = Vec::with_capacity(members.len());
-    for p in &members {
-        let perturbed = cx.ranges.clamp(DynamicSettings::new(
-            predicted.exposure_s + p[0] * cx.ranges.exposure_s.span(),
-            predicted.gain_db + p[1] * cx.ranges.gain_db.span(),
-        ));
-        let applied = for_sensor(perturbed, &probe.sensor);
-        // Every member of a step on the same noise sample: they differ by their settings only.
-        let mut noise = cx.streams.indexed("perturbation-noise", probe.scene_step);
-        let joca_camera::Capture { frame, image } = cx.formation.capture(
-            probe.source,
-            probe.camera,
-            &probe.request,
-            applied,
-            probe.sensor.pixel_pitch_um,
-            &mut noise,
-        )?;
-        cx.watch.lap(|t| &mut t.perturbation_render_ms);
-        let mut one = TaskMetrics::default();
-        one.update(&frame.boxes, &frame.ignore, &model.detect(&image), frame.visible_180);
-        let tie_break = match cx.config.perturbation_tie_break {
-            TieBreak::Clipping => TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data())),
-            TieBreak::None => 0.0,
-        };
-        fitness.push(one.compute().ap50 + tie_break);
-        settings.push(perturbed);
-        cx.watch.lap(|t| &mut t.perturbation_detect_ms);
-    }
+    probe: &Probe,
+    members: &[Member],
+    frames: &[Frame],
+) -> Result<Option<DynamicSettings>, TrainError> {
+    let images: Vec<Rgb8Image> = members
+        .iter()
+        .zip(frames)
+        .map(|(m, frame)| {
+            // Every member of a step on the same noise sample: they differ by their settings
+            // only.
+            let mut noise = cx.streams.indexed("perturbation-noise", probe.scene_step);
+            cx.formation.form(&frame.hdr, m.applied, probe.sensor.pixel_pitch_um, &mut noise)
+        })
+        .collect();
+    cx.watch.lap(|t| &mut t.perturbation_render_ms);
+    let detections = model.detect_batch(&images.iter().collect::<Vec<_>>());
+    let fitness: Vec<f64> = frames
+        .iter()
+        .zip(&images)
+        .zip(&detections)
+        .map(|((frame, image), found)| {
+            let mut one = TaskMetrics::default();
+            one.update(&frame.boxes, &frame.ignore, found, frame.visible_180);
+            let tie_break = match cx.config.perturbation_tie_break {
+                TieBreak::Clipping => TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data())),
+                TieBreak::None => 0.0,
+            };
+            one.compute().ap50 + tie_break
+        })
+        .collect();
+    cx.watch.lap(|t| &mut t.perturbation_detect_ms);
     let best = (0..fitness.len())
         .max_by(|&a, &b| fitness[a].total_cmp(&fitness[b]).then(b.cmp(&a)))
         .unwrap_or(0);
-    if !fixed {
+    if cx.config.method != Method::FixedPerturbation {
         ga.tell(&fitness, &mut cx.streams.indexed("perturbation-ga", probe.global_step), |_| {})
             .map_err(ga_err)?;
     }
-    Ok(settings[best])
+    Ok(members.get(best).map(|m| m.perturbed))
 }

@@ -11,9 +11,9 @@ use std::time::Instant;
 pub struct StepBreakdown {
     /// NeuralAE forward (histograms, features, prediction).
     pub acc_predict_ms: f64,
-    /// Rendering the forward-mode frame (all its sub-frames).
+    /// Rendering the forward-mode frame and the perturbed frames (one grid of sub-frames).
     pub render_ms: f64,
-    /// Perturbation mode: capturing (rendering and forming) the perturbed frames.
+    /// Perturbation mode: forming the perturbed frames (8-bit, with noise).
     pub perturbation_render_ms: f64,
     /// Perturbation mode: detecting and scoring (AP50) the perturbed frames.
     pub perturbation_detect_ms: f64,
