@@ -479,8 +479,9 @@ impl ShutterGrid {
 
 impl FrameSource for Simulator {
     fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError> {
-        let mut frames = self.render_exposures(camera, request, &[request.exposure_s])?;
-        Ok(frames.remove(0))
+        self.render_exposures(camera, request, &[request.exposure_s])?
+            .pop()
+            .ok_or_else(|| SourceError::OutOfRange { reason: "no frame for the exposure".into() })
     }
 
     /// One grid for all the exposures, over the longest shutter: the renders of the instant are
