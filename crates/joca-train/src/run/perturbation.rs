@@ -1,7 +1,8 @@
 //! DF-Grad's perturbation mode (paper Sec. 5): each member `(p_e, p_g)` of a small GA offsets
-//! NeuralAE's prediction by a fraction of each range; the frame is rendered again with the
-//! perturbed exposure (so with its own motion blur, which no gradient can see), formed, detected
-//! and scored by AP50. The best member's settings become the target of the GA loss l_GA.
+//! NeuralAE's prediction by a fraction of each range; the instant is rendered with the
+//! perturbed exposure too (so with its own motion blur, which no gradient can see; the applied
+//! and perturbed shutters share one grid of sub-frames), formed, detected and scored by AP50.
+//! The best member's settings become the target of the GA loss l_GA.
 
 use super::config::{PerturbationMutation, TieBreak};
 use super::{Context, Method, RunConfig, ga_err};
