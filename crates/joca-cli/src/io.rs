@@ -42,20 +42,16 @@ pub fn read_rgb8(path: &Path) -> Result<Rgb8Image> {
     Ok(Rgb8Image::from_vec(w, h, rgb.into_raw())?)
 }
 
-/// Writes `bytes` to `path` through a temporary sibling and a rename, creating the parent
-/// directory: a failure (a full disk, a kill) leaves no file, or a truncated one, under `path`.
+/// Writes `bytes` to `path` through a temporary sibling and a rename
+/// (`joca_core::fs::write_atomic`), creating the parent directory: a failure (a full disk, a
+/// kill) leaves no file, or a truncated one, under `path`.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)
             .with_context(|| format!("cannot create directory {}", parent.display()))?;
     }
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.partial"));
-    let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written.with_context(|| format!("cannot write {}", path.display()))
+    joca_core::fs::write_atomic(path, bytes)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Writes an 8-bit RGB frame as PNG (atomically, see [`write_atomic`]).

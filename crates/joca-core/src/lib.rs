@@ -24,6 +24,7 @@
 
 mod boxes;
 mod frame;
+pub mod fs;
 mod image;
 pub mod rng;
 pub mod units;

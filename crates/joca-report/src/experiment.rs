@@ -104,7 +104,6 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
             group: cell.group.clone(),
             label: cell.label.clone(),
             cell: cell.id.clone(),
-            seed: cell.seed,
             results: run.results.clone(),
         });
         runs.push((cell.clone(), run));

@@ -32,6 +32,7 @@ pub use joca_record::{DesignSummary, RunResults, Showcase, ShowcaseFrame};
 pub use seeds::{mean_interval, t_975};
 pub use table::{Row, Table};
 
+use joca_core::units::linear_from_db;
 use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
@@ -197,7 +198,7 @@ pub fn write_figures(
                 // moves this by as much as the ambient light moves, the other way.
                 plot::Panel {
                     y_label: "exposure × gain, log10 (ms)".into(),
-                    series: series(|f| (f.exposure_ms * 10f64.powf(f.gain_db / 20.0)).log10()),
+                    series: series(|f| (f.exposure_ms * linear_from_db(f.gain_db)).log10()),
                 },
             ],
             (900, 1060),
@@ -303,7 +304,6 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
             group: r.scenario.name().to_owned(),
             label: r.method.name().to_owned(),
             cell: run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-            seed: r.seed,
             results: r.clone(),
         }],
     };

@@ -93,7 +93,9 @@ fn tables(rows: &[Row]) -> (Vec<Vec<String>>, Vec<Vec<String>>) {
             }
             let pairs: Vec<(&Row, &Row)> = ours
                 .iter()
-                .filter_map(|a| theirs.iter().find(|b| b.seed == a.seed).map(|b| (*a, *b)))
+                .filter_map(|a| {
+                    theirs.iter().find(|b| b.results.seed == a.results.seed).map(|b| (*a, *b))
+                })
                 .collect();
             if pairs.is_empty() {
                 continue;
@@ -189,7 +191,6 @@ mod tests {
                 group: "Calibrated".into(),
                 label: label.into(),
                 cell: format!("{label}-s{seed}"),
-                seed,
                 results,
             }
         };

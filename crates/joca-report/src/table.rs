@@ -15,8 +15,6 @@ pub struct Row {
     pub label: String,
     /// Cell id (the run directory's name), for the CSV.
     pub cell: String,
-    /// The run's seed.
-    pub seed: u64,
     /// The run's results.
     pub results: RunResults,
 }
@@ -227,7 +225,7 @@ impl Table {
                 csv_field(&r.group),
                 csv_field(&r.label),
                 csv_field(&r.cell),
-                r.seed,
+                r.results.seed,
                 csv_field(r.results.method.name()),
                 csv_field(&r.results.source),
                 d.x_m,
@@ -314,7 +312,6 @@ pub(crate) mod tests {
     #[allow(clippy::approx_constant)]
     fn table() -> Table {
         let row = |group: &str, label: &str, map, tp, o| Row {
-            seed: 0,
             group: group.into(),
             label: label.into(),
             cell: format!("{label}-{group}"),

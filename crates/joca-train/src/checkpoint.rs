@@ -91,11 +91,9 @@ pub fn check_resume<C: serde::Serialize>(
     }
 }
 
-/// Writes `text` to `path` atomically (temporary file and rename).
+/// Writes `text` to `path` atomically (`joca_core::fs::write_atomic`).
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), TrainError> {
-    let tmp = path.with_extension("partial");
-    std::fs::write(&tmp, text).map_err(|e| TrainError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| TrainError::io(path, e))
+    joca_core::fs::write_atomic(path, text.as_bytes()).map_err(|e| TrainError::io(path, e))
 }
 
 #[cfg(test)]

@@ -275,10 +275,11 @@ fn bench_render(repeats: usize) -> Result<()> {
             if threads == 1 {
                 one_thread = per_frame;
             }
-            // The reference-grid id pass alone (it runs beside the sub-frames in a frame).
+            // The reference-grid id pass alone (it runs beside the sub-frames in a frame, at the
+            // frame's time: the middle of the shutter).
             let t = Instant::now();
             for r in &requests {
-                black_box(sim.ground_truth(&camera, r.episode, r.time_s + 0.5 * exposure_s));
+                black_box(sim.ground_truth(&camera, r.episode, r.time_s));
             }
             let truth_ms = t.elapsed().as_secs_f64() * 1e3 / requests.len() as f64;
             println!(

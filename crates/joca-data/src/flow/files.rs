@@ -53,12 +53,7 @@ pub fn write_flo(path: &Path, flow: &Flow) -> Result<(), FlowFileError> {
         bytes.extend_from_slice(&v[0].to_le_bytes());
         bytes.extend_from_slice(&v[1].to_le_bytes());
     }
-    let tmp = path.with_extension("flo.partial");
-    std::fs::write(&tmp, &bytes).map_err(|e| err(path, format!("cannot write: {e}")))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        err(path, format!("cannot write: {e}"))
-    })
+    joca_core::fs::write_atomic(path, &bytes).map_err(|e| err(path, format!("cannot write: {e}")))
 }
 
 /// A flow field whose vectors may be unknown (`None`).

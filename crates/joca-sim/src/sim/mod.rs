@@ -267,21 +267,20 @@ impl Simulator {
         n | 1
     }
 
-    /// The frames of `shutters` (seconds, all centred on `grid`'s centre and at most its span)
-    /// integrated over `grid`: each rendered sub-frame is added to every frame whose shutter
-    /// overlaps its cell, weighted by the overlap (see [`ShutterGrid::weights`]). The middle cell
-    /// is `mid`, already rendered; a cell no shutter overlaps is not rendered.
+    /// The frames of shutters integrated over `grid`, one per row of `weights` (each shutter's
+    /// [`ShutterGrid::weights`]): each rendered sub-frame is added to every frame whose shutter
+    /// overlaps its cell, weighted by the overlap. The middle cell is `mid`, already rendered; a
+    /// cell no shutter overlaps is not rendered.
     fn integrate(
         &self,
         episode: &Episode,
         camera: &PinholeCamera,
         grid: &ShutterGrid,
-        shutters: &[f64],
+        weights: &[Vec<f32>],
         mid: &Target,
     ) -> Vec<Vec<f32>> {
         let (w, h) = (camera.width_px, camera.height_px);
         let objects = self.city.objects.len();
-        let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
         if grid.cells == 1 {
             return weights.iter().map(|_| mid.colour.clone()).collect();
         }
@@ -293,7 +292,7 @@ impl Simulator {
         let chunk_sums: Vec<Vec<Vec<f32>>> = cells
             .par_chunks(SUBFRAMES_PER_CHUNK)
             .map(|chunk| {
-                let mut sums = vec![vec![0.0f32; w * h * 3]; shutters.len()];
+                let mut sums = vec![vec![0.0f32; w * h * 3]; weights.len()];
                 let mut target = Target::new(w, h, objects);
                 for &k in chunk {
                     if weights.iter().all(|wk| wk[k] == 0.0) {
@@ -305,7 +304,7 @@ impl Simulator {
                         self.render_at(episode, camera, grid.time(k), &mut target);
                         &target.colour
                     };
-                    for (sum, wk) in sums.iter_mut().zip(&weights) {
+                    for (sum, wk) in sums.iter_mut().zip(weights) {
                         let a = wk[k];
                         if a != 0.0 {
                             sum.iter_mut().zip(colour).for_each(|(s, &v)| *s += a * v);
@@ -315,11 +314,17 @@ impl Simulator {
                 sums
             })
             .collect();
-        let mut out = vec![vec![0.0f32; w * h * 3]; shutters.len()];
-        for sums in &chunk_sums {
-            for (acc, sum) in out.iter_mut().zip(sums) {
-                acc.iter_mut().zip(sum).for_each(|(a, &s)| *a += s);
-            }
+        // The chunks' sums, added in chunk order for every value, over blocks of the image in
+        // parallel.
+        const BLOCK: usize = 4096;
+        let mut out = vec![vec![0.0f32; w * h * 3]; weights.len()];
+        for (j, acc) in out.iter_mut().enumerate() {
+            acc.par_chunks_mut(BLOCK).enumerate().for_each(|(b, block)| {
+                for sums in &chunk_sums {
+                    let part = &sums[j][b * BLOCK..b * BLOCK + block.len()];
+                    block.iter_mut().zip(part).for_each(|(a, &s)| *a += s);
+                }
+            });
         }
         out
     }
@@ -342,7 +347,8 @@ impl Simulator {
 
     /// Frames of one instant for several exposures on a given grid (the shared-grid renderer
     /// behind [`FrameSource::render_exposures`]; public so that a frame can be checked against a
-    /// render on a finer grid). Every shutter must fit in the grid's span.
+    /// render on a finer grid). The grid must be centred on `request.time_s` and every shutter
+    /// must fit in its span.
     pub fn render_on_grid(
         &self,
         camera: &PinholeCamera,
@@ -350,16 +356,42 @@ impl Simulator {
         exposures_s: &[f64],
         grid: &ShutterGrid,
     ) -> Result<Vec<Frame>, SourceError> {
+        self.render_instant(camera, request, exposures_s, Some(grid))
+    }
+
+    /// The frames of `request`'s instant for `exposures_s`: on `grid`, or on the grid of the
+    /// longest shutter.
+    fn render_instant(
+        &self,
+        camera: &PinholeCamera,
+        request: &FrameRequest,
+        exposures_s: &[f64],
+        grid: Option<&ShutterGrid>,
+    ) -> Result<Vec<Frame>, SourceError> {
         let shutters = self.check(request, exposures_s)?;
-        if shutters.iter().any(|&s| s > grid.span_s * (1.0 + 1e-9)) {
-            return Err(SourceError::OutOfRange {
-                reason: format!("a shutter is longer than the grid's {} s", grid.span_s),
-            });
+        if let Some(g) = grid {
+            let longest = shutters.iter().any(|&s| s > g.span_s * (1.0 + 1e-9));
+            if longest || g.centre_s != request.time_s {
+                return Err(SourceError::OutOfRange {
+                    reason: format!(
+                        "the grid ({} s centred on {} s) must be centred on the frame's time \
+                         ({} s) and cover every shutter",
+                        g.span_s, g.centre_s, request.time_s
+                    ),
+                });
+            }
         }
         let episode = self.episode(request.episode);
         let mut mid = Target::new(camera.width_px, camera.height_px, self.city.objects.len());
-        self.render_at(&episode, camera, grid.centre_s, &mut mid);
-        self.frames(&episode, camera, grid, &shutters, &mid)
+        self.render_at(&episode, camera, request.time_s, &mut mid);
+        let grid = match grid {
+            Some(g) => *g,
+            None => {
+                let longest = shutters.iter().copied().fold(0.0, f64::max);
+                self.grid_for(&episode, camera, request.time_s, longest, &mid)
+            }
+        };
+        self.frames(&episode, camera, &grid, &shutters, &mid)
     }
 
     /// Validates `request` and `exposures_s`; returns the shutter intervals (exposure × motion
@@ -400,18 +432,19 @@ impl Simulator {
     ) -> Result<Vec<Frame>, SourceError> {
         let (w, h) = (camera.width_px, camera.height_px);
         let t = grid.centre_s;
+        let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
         // Ground truth and the 180° count run beside the sub-frame renders.
         let (((boxes, ignore), visible_180), colours) = rayon::join(
             || (self.annotations(episode, camera, t), self.visible_180(episode, t)),
-            || self.integrate(episode, camera, grid, shutters, mid),
+            || self.integrate(episode, camera, grid, &weights, mid),
         );
         colours
             .into_iter()
-            .zip(shutters)
-            .map(|(colour, &s)| {
+            .zip(&weights)
+            .map(|(colour, wk)| {
                 let hdr = HdrImage::from_vec(w, h, colour)
                     .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
-                let subframes = grid.weights(s).iter().filter(|&&a| a > 0.0).count() as u32;
+                let subframes = wk.iter().filter(|&&a| a > 0.0).count() as u32;
                 Ok(Frame {
                     hdr,
                     boxes: boxes.clone(),
@@ -492,13 +525,7 @@ impl FrameSource for Simulator {
         request: &FrameRequest,
         exposures_s: &[f64],
     ) -> Result<Vec<Frame>, SourceError> {
-        let shutters = self.check(request, exposures_s)?;
-        let longest = shutters.iter().copied().fold(0.0, f64::max);
-        let episode = self.episode(request.episode);
-        let mut mid = Target::new(camera.width_px, camera.height_px, self.city.objects.len());
-        self.render_at(&episode, camera, request.time_s, &mut mid);
-        let grid = self.grid_for(&episode, camera, request.time_s, longest, &mid);
-        self.frames(&episode, camera, &grid, &shutters, &mid)
+        self.render_instant(camera, request, exposures_s, None)
     }
 
     fn frame_interval_s(&self) -> f64 {

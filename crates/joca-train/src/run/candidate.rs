@@ -58,9 +58,11 @@ fn stretches(cx: &mut Context, scenes: u64) -> Vec<Stretch> {
             let map_seed = train_map_seed(rng.random_range(0..c.train_maps));
             let episode: u64 = rng.random_range(0..1_000_000);
             let (first_step, last) = (s * k / n, (s + 1) * k / n);
-            let span = 59.0 - (last - first_step) as f64 * 0.1;
-            let t0 = rng.random_range(1.0..span.max(1.5));
             let town = simulator(&mut cx.sims, map_seed, &c, Some(illumination));
+            // From 1 s into the episode, with room for the stretch's frames before its end.
+            let sim = town.config();
+            let span = sim.episode_s - 1.0 - (last - first_step) as f64 * town.frame_interval_s();
+            let t0 = rng.random_range(1.0..span.max(1.5));
             Stretch { town: Some(town), illumination: Some(illumination), episode, t0, first_step }
         })
         .collect()

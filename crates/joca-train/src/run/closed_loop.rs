@@ -16,6 +16,7 @@ use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use crate::control::{ExposureControl, SensorLimits, controller};
 use joca_camera::{CameraDesign, Capture, DynamicSettings};
+use joca_core::units::linear_from_db;
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{BandScores, TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
@@ -216,8 +217,10 @@ pub(super) fn test(
     let mean = |f: fn(&LightSums) -> f64| -> BTreeMap<String, f64> {
         sums.iter().map(|(k, v)| (k.clone(), f(v) / v.frames)).collect()
     };
-    let (exposure, gain) = (mean(|v| v.exposure_ms), mean(|v| v.gain_db));
-    let settings = exposure.into_iter().map(|(k, e)| (k.clone(), (e, gain[&k]))).collect();
+    let settings = sums
+        .iter()
+        .map(|(k, v)| (k.clone(), (v.exposure_ms / v.frames, v.gain_db / v.frames)))
+        .collect();
     let exposure_gain = mean(|v| v.exposure_gain_ms);
     let mean_dn = mean(|v| v.mean_dn);
     if let Some(dir) = out {
@@ -256,7 +259,7 @@ impl LightSums {
         let exposure_ms = settings.exposure_s * 1e3;
         self.exposure_ms += exposure_ms;
         self.gain_db += settings.gain_db;
-        self.exposure_gain_ms += exposure_ms * 10f64.powf(settings.gain_db / 20.0);
+        self.exposure_gain_ms += exposure_ms * linear_from_db(settings.gain_db);
         self.mean_dn += mean_dn;
         self.frames += 1.0;
     }
@@ -359,7 +362,5 @@ fn write_png(path: &Path, image: &Rgb8Image) -> Result<(), TrainError> {
         image::ExtendedColorType::Rgb8,
     )
     .map_err(|e| TrainError::io(path, std::io::Error::other(e)))?;
-    let tmp = path.with_extension("png.partial");
-    std::fs::write(&tmp, &bytes).map_err(|e| TrainError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| TrainError::io(path, e))
+    joca_core::fs::write_atomic(path, &bytes).map_err(|e| TrainError::io(path, e))
 }

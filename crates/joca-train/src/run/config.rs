@@ -163,7 +163,7 @@ pub enum PerturbationMutation {
 }
 
 fn paper_acc_lr() -> f64 {
-    1e-5
+    joca_nn::AdamConfig::ACC.lr
 }
 
 /// How the perturbation search ranks members of equal AP50.
