@@ -56,6 +56,8 @@ enum Command {
     Flow(commands::flow::FlowArgs),
     /// Preview the real-image mode's flow-based motion blur on a folder of consecutive frames.
     Blur(commands::flow::BlurArgs),
+    /// Turn KITTI tracking or labelme labels and their frames into the folder format.
+    Import(commands::import::Args),
     /// Run or resume one experiment cell (used by `joca experiment` and its Slurm tasks).
     #[command(hide = true)]
     Cell(commands::experiment::CellArgs),
@@ -101,6 +103,7 @@ fn main() -> ExitCode {
         Command::Cell(args) => commands::experiment::run_cell(&args),
         Command::Flow(args) => commands::flow::run_flow(&args),
         Command::Blur(args) => commands::flow::run_blur(&args),
+        Command::Import(args) => commands::import::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

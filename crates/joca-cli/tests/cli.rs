@@ -875,3 +875,37 @@ fn eval_detector_scores_weights_and_names_a_missing_file() {
         stderr(&o)
     );
 }
+
+/// `joca import kitti` writes a folder the folder source reads; a bad label file stops it with
+/// the file, line and fault named, and writes nothing.
+#[test]
+fn import_writes_the_folder_format_or_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let images = dir.path().join("image_02/0003");
+    std::fs::create_dir_all(&images).unwrap();
+    for k in 0..2 {
+        image::RgbImage::from_pixel(40, 30, image::Rgb([90, 90, 90]))
+            .save(images.join(format!("{k:06}.png")))
+            .unwrap();
+    }
+    let labels = dir.path().join("0003.txt");
+    std::fs::write(&labels, "1 4 Cyclist 0 0 0 5 6 15 26 1 1 1 1 1 1 0\n").unwrap();
+    let out = dir.path().join("imported");
+    let (l, i, o) = (labels.to_str().unwrap(), images.to_str().unwrap(), out.to_str().unwrap());
+    let ok = joca(&["import", "kitti", "--labels", l, "--images", i, "--out", o]);
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    assert!(stdout(&ok).contains("wrote 2 frames with 1 objects"), "{}", stdout(&ok));
+    let coco: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("annotations.json")).unwrap())
+            .unwrap();
+    assert_eq!(coco["annotations"][0]["bbox"], serde_json::json!([5.0, 6.0, 10.0, 20.0]));
+    assert_eq!(coco["categories"][0]["joca_class"], "walker");
+
+    std::fs::write(&labels, "1 4 Scooter 0 0 0 5 6 15 26 1 1 1 1 1 1 0\n").unwrap();
+    let fresh = dir.path().join("never");
+    let bad =
+        joca(&["import", "kitti", "--labels", l, "--images", i, "--out", fresh.to_str().unwrap()]);
+    assert!(!bad.status.success());
+    assert!(stderr(&bad).contains("0003.txt:1: unknown type \"Scooter\""), "{}", stderr(&bad));
+    assert!(!fresh.exists(), "nothing is written for a refused import");
+}

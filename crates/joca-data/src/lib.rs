@@ -1,6 +1,7 @@
-//! Recorded sequences for joca's real-image mode: Dense Inverse Search optical flow
-//! ([`flow`]) and flow-based motion blur ([`blur`]). The folder and Waymo v2 sources are not
-//! built yet.
+//! Recorded sequences for joca's real-image mode: the folder format ([`folder`]) and Waymo v2
+//! parquet ([`waymo`]) sources, importers from KITTI tracking and labelme labels into the folder
+//! format ([`import`]), Dense Inverse Search optical flow ([`flow`]) and flow-based motion blur
+//! ([`blur`]).
 //!
 //! ```
 //! use joca_data::flow::{DisParams, DisPreset, Gray, dis};
@@ -21,4 +22,5 @@
 pub mod blur;
 pub mod flow;
 pub mod folder;
+pub mod import;
 pub mod waymo;

@@ -41,22 +41,27 @@ struct CocoCategory {
     joca_class: Option<String>,
 }
 
-/// Maps a category to a joca class (`Ok(None)`: ignored).
-fn class_of(c: &CocoCategory) -> Result<Option<Class>, String> {
-    let name = c.joca_class.as_deref().unwrap_or(&c.name).to_ascii_lowercase().replace(' ', "_");
-    Ok(match name.as_str() {
+/// The joca class a category or label name stands for: `Some(Some(class))`, `Some(None)` for
+/// `ignore`, `None` for a name joca does not know. Case and spaces do not matter.
+pub(crate) fn class_named(name: &str) -> Option<Option<Class>> {
+    Some(match name.to_ascii_lowercase().replace(' ', "_").as_str() {
         "vehicle" | "car" | "truck" | "bus" | "van" => Some(Class::Vehicle),
         "walker" | "pedestrian" | "person" | "cyclist" => Some(Class::Walker),
         "traffic_sign" | "sign" => Some(Class::TrafficSign),
         "ignore" => None,
-        _ => {
-            return Err(format!(
-                "category {} {:?} is not a joca class; name it vehicle, walker or traffic_sign \
-                    (or car, truck, bus, pedestrian, person, cyclist, sign), or add \
-                    \"joca_class\": \"vehicle\" | \"walker\" | \"traffic_sign\" | \"ignore\"",
-                c.id, c.name
-            ));
-        }
+        _ => return None,
+    })
+}
+
+/// Maps a category to a joca class (`Ok(None)`: ignored).
+fn class_of(c: &CocoCategory) -> Result<Option<Class>, String> {
+    class_named(c.joca_class.as_deref().unwrap_or(&c.name)).ok_or_else(|| {
+        format!(
+            "category {} {:?} is not a joca class; name it vehicle, walker or traffic_sign (or \
+                car, truck, bus, pedestrian, person, cyclist, sign), or add \"joca_class\": \
+                \"vehicle\" | \"walker\" | \"traffic_sign\" | \"ignore\"",
+            c.id, c.name
+        )
     })
 }
 
@@ -133,12 +138,19 @@ impl Recording {
                     ),
                 )
             })?;
-            if let Some(class) = class {
-                let [x, y, w, h] = a.bbox;
-                let list = if a.iscrowd == 0 { &mut boxes } else { &mut crowds };
-                list.entry(a.image_id)
+            let [x, y, w, h] = a.bbox;
+            let bbox = BBox::new(x, y, x + w, y + h);
+            match class {
+                Some(class) => {
+                    let list = if a.iscrowd == 0 { &mut boxes } else { &mut crowds };
+                    list.entry(a.image_id).or_default().push(Annotation::new(bbox, class));
+                }
+                // A region of an `ignore` category (KITTI's DontCare) is not scored for any
+                // class: an ignore region of each.
+                None => crowds
+                    .entry(a.image_id)
                     .or_default()
-                    .push(Annotation::new(BBox::new(x, y, x + w, y + h), class));
+                    .extend(Class::ALL.iter().map(|&c| Annotation::new(bbox, c))),
             }
         }
         let mut sequences: BTreeMap<String, Vec<RecordedFrame>> = BTreeMap::new();

@@ -21,6 +21,7 @@
 //! adds the sensor's noise as for simulated frames.
 
 mod coco;
+pub(crate) use coco::class_named;
 
 use crate::blur::{Linearize, motion_blur};
 use crate::flow::{DisParams, DisPreset, Gray, dis};
