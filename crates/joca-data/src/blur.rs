@@ -3,12 +3,19 @@
 //!
 //! A recorded frame is (nearly) sharp; the optical flow `v(x)` says how far the scene at `x`
 //! moves between consecutive frames. With exposure `E`, frame interval `Δt` and the scenario's
-//! blur factor `b`, the scene moves `d(x) = v(x) · E/Δt · b` while the shutter is open, and the
-//! blurred frame is the average over the shutter interval, centred on the frame time:
-//! `B(x) = ∫_{-1/2}^{1/2} I(x + t·d(x)) dt`. The integral is taken by the midpoint rule with
-//! `n = 2⌈|d|⌉ + 1` bilinear samples (two per pixel of travel), so long smears stay smooth and
-//! still pixels cost one sample. Blur is applied to linear intensities (calibrated DN), before
-//! image formation adds noise.
+//! blur factor `b`, the scene point at `x` moves `d(x) = v(x) · E/Δt · b` while the shutter is
+//! open, centred on the frame time: it passes `x + t·d(x)` for `t ∈ [−1/2, 1/2]`.
+//!
+//! The blur **scatters**: each pixel's light is spread along its own path, by the midpoint rule
+//! with `n = 2⌈|d|⌉ + 1` positions (two per pixel of travel) splatted bilinearly, each carrying
+//! `1/n` of the pixel; every output pixel is the light it received over the weight it received
+//! (a pixel nothing reaches keeps its value). A moving object so smears over the still
+//! background beside it, as a sensor sees it; gathering along each pixel's own flow instead
+//! would leave a still pixel next to a passing car untouched. Where the flow is uniform the two
+//! agree exactly (the splat weights of one shift sum to one at every pixel): the box filter
+//! `B(x) = ∫ I(x − t·d) dt` along the motion. Blur is applied to linear intensities
+//! (calibrated DN), before image formation adds noise. Rows are splatted in fixed bands into
+//! their own buffers, added in band order: the result does not depend on the thread count.
 
 use crate::flow::Flow;
 use joca_core::HdrImage;
@@ -19,47 +26,104 @@ pub fn samples_for(length: f32) -> usize {
     2 * length.ceil().max(0.0) as usize + 1
 }
 
-fn sample_rgb(image: &HdrImage, x: f32, y: f32) -> [f32; 3] {
-    let (w, h) = (image.width(), image.height());
-    let x = x.clamp(0.0, (w - 1) as f32);
-    let y = y.clamp(0.0, (h - 1) as f32);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (a, b, c, d) =
-        (image.pixel(x0, y0), image.pixel(x1, y0), image.pixel(x0, y1), image.pixel(x1, y1));
-    let mut out = [0.0; 3];
-    for k in 0..3 {
-        out[k] =
-            (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy;
-    }
-    out
-}
+/// Rows per band of the scatter (fixed, so the summation order is too).
+const BAND_ROWS: usize = 32;
 
 /// `image` blurred along `flow` scaled by `travel_per_flow` (= E/Δt × blur factor).
 pub fn motion_blur(image: &HdrImage, flow: &Flow, travel_per_flow: f32) -> HdrImage {
     let (w, h) = (image.width(), image.height());
     assert_eq!((flow.width(), flow.height()), (w, h), "motion_blur: flow and image differ in size");
-    let mut out = HdrImage::zeros(w, h);
-    out.data_mut().par_chunks_mut(w * 3).enumerate().for_each(|(y, row)| {
-        for x in 0..w {
-            let v = flow.at(x, y);
-            let d = [v[0] * travel_per_flow, v[1] * travel_per_flow];
-            let n = samples_for(d[0].hypot(d[1]));
-            let mut sum = [0.0f32; 3];
-            for k in 0..n {
-                let t = (k as f32 + 0.5) / n as f32 - 0.5;
-                let p = sample_rgb(image, x as f32 + t * d[0], y as f32 + t * d[1]);
-                for c in 0..3 {
-                    sum[c] += p[c];
+    let travel = |x: usize, y: usize| {
+        let v = flow.at(x, y);
+        [v[0] * travel_per_flow, v[1] * travel_per_flow]
+    };
+    // Each band splats into a buffer of its rows and the rows its paths reach: light and weight
+    // per pixel, [r, g, b, w].
+    let bands: Vec<(usize, Vec<[f32; 4]>)> = (0..h.div_ceil(BAND_ROWS))
+        .into_par_iter()
+        .map(|band| {
+            let rows = band * BAND_ROWS..((band + 1) * BAND_ROWS).min(h);
+            let reach = rows
+                .clone()
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .map(|(x, y)| travel(x, y)[1].abs())
+                .fold(0.0f32, f32::max);
+            let margin = (0.5 * reach).ceil() as usize + 1;
+            let top = rows.start.saturating_sub(margin);
+            let bottom = (rows.end + margin).min(h);
+            let mut acc = vec![[0.0f32; 4]; (bottom - top) * w];
+            for y in rows {
+                for x in 0..w {
+                    let d = travel(x, y);
+                    let n = samples_for(d[0].hypot(d[1]));
+                    let p = image.pixel(x, y);
+                    let share = 1.0 / n as f32;
+                    for k in 0..n {
+                        let t = (k as f32 + 0.5) / n as f32 - 0.5;
+                        splat(
+                            &mut acc,
+                            w,
+                            top,
+                            bottom,
+                            x as f32 + t * d[0],
+                            y as f32 + t * d[1],
+                            p,
+                            share,
+                        );
+                    }
                 }
             }
-            for c in 0..3 {
-                row[x * 3 + c] = sum[c] / n as f32;
+            (top, acc)
+        })
+        .collect();
+    let mut sum = vec![[0.0f32; 4]; w * h];
+    for (top, acc) in &bands {
+        for (s, a) in sum[top * w..top * w + acc.len()].iter_mut().zip(acc) {
+            for c in 0..4 {
+                s[c] += a[c];
             }
         }
-    });
+    }
+    let mut out = image.clone();
+    for (o, s) in out.data_mut().chunks_exact_mut(3).zip(&sum) {
+        if s[3] > 1e-6 {
+            for c in 0..3 {
+                o[c] = s[c] / s[3];
+            }
+        }
+    }
     out
+}
+
+/// Adds `p · share` (and the weight `share`) at `(x, y)` bilinearly into `acc`, which holds rows
+/// `top..bottom` of a `w`-wide image; what falls outside the image is lost.
+#[allow(clippy::too_many_arguments)]
+fn splat(
+    acc: &mut [[f32; 4]],
+    w: usize,
+    top: usize,
+    bottom: usize,
+    x: f32,
+    y: f32,
+    p: [f32; 3],
+    share: f32,
+) {
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    for (dy, wy) in [(0i64, 1.0 - fy), (1, fy)] {
+        for (dx, wx) in [(0i64, 1.0 - fx), (1, fx)] {
+            let (xi, yi) = (x0 as i64 + dx, y0 as i64 + dy);
+            let weight = wx * wy * share;
+            if weight <= 0.0 || xi < 0 || xi >= w as i64 || yi < top as i64 || yi >= bottom as i64 {
+                continue;
+            }
+            let a = &mut acc[(yi as usize - top) * w + xi as usize];
+            for c in 0..3 {
+                a[c] += weight * p[c];
+            }
+            a[3] += weight;
+        }
+    }
 }
 
 /// How 8-bit recorded values map to linear intensity (0–255 scale) before blur and formation.

@@ -7,9 +7,10 @@ use joca_data::blur::Linearize;
 use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use std::path::Path;
 
-/// Writes `n` frames of 200×100: a bright 40×20 "vehicle" moving 4 px per frame to the right
-/// over a textured background, and a 30×20 crowd region of cars at (120, 10); timestamps 0.1 s
-/// apart; exposures 5 ms.
+/// Writes `n` frames of 200×100: a bright 40×20 "vehicle" with two dark 4-px "windows" (so that
+/// optical flow can see it move; a uniform block is ill-posed for any flow method) moving 4 px
+/// per frame to the right over a textured background, and a 30×20 crowd region of cars at
+/// (120, 10); timestamps 0.1 s apart; exposures 5 ms.
 fn write_sequence(dir: &Path, n: usize, exposure: bool) {
     std::fs::create_dir_all(dir.join("frames")).unwrap();
     let mut images = Vec::new();
@@ -17,7 +18,10 @@ fn write_sequence(dir: &Path, n: usize, exposure: bool) {
     for k in 0..n {
         let x0 = 40 + 4 * k as u32;
         let img = image::RgbImage::from_fn(200, 100, |x, y| {
-            if (x0..x0 + 40).contains(&x) && (40..60).contains(&y) {
+            let window = (x0 + 6..x0 + 10).contains(&x) || (x0 + 30..x0 + 34).contains(&x);
+            if window && (42..50).contains(&y) {
+                image::Rgb([60, 70, 90])
+            } else if (x0..x0 + 40).contains(&x) && (40..60).contains(&y) {
                 image::Rgb([220, 200, 180])
             } else {
                 let v = (60.0 + 30.0 * ((x as f32 * 0.3).sin() + (y as f32 * 0.45).cos())) as u8;

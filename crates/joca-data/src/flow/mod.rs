@@ -15,7 +15,8 @@
 //! 3. **Densification.** A pixel's flow is the average of the flows of the patches covering it,
 //!    weighted by `1 / max(1, |I1(x + u_i) − I0(x)|)`.
 //! 4. **Variational refinement** (optional, [`variational`]): a few fixed-point iterations of a
-//!    robust brightness-constancy + smoothness energy, solved by SOR.
+//!    robust colour-constancy + gradient-constancy + smoothness energy with normalised data
+//!    terms (Brox et al., Zimmer et al.; DIS's weights), solved by red–black SOR.
 //!
 //! The result is computed down to `finest_scale` (1 = half resolution) and upsampled bilinearly.
 

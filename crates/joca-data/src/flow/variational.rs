@@ -1,125 +1,194 @@
-//! Variational refinement of a flow field, the last stage of DIS at each scale.
+//! Variational refinement of a flow field, the last stage of DIS at each scale (Brox et al.,
+//! "High accuracy optical flow estimation based on a theory for warping", ECCV 2004, with the
+//! data normalisation of Zimmer et al. and DIS's weights, as OpenCV's `VariationalRefinement`).
 //!
-//! Minimises, over an increment `du` of the flow `u`,
-//! `E = Σ ψ(I_z + I_x du + I_y dv) · δ + α Σ_{4-neighbours} |(u + du)(x) − (u + du)(n)|²`,
-//! where `I_z = I1(x + u) − I0(x)`, `I_x, I_y` average the gradients of `I0` and of the warped
-//! `I1`, intensities are scaled to [0, 1], and `ψ(r) = r² / √(r² + ε²)` (Charbonnier, applied as a
-//! weight fixed per outer iteration: lazy iteratively reweighted least squares). Each outer
-//! iteration re-warps `I1` and runs red–black SOR sweeps on the linear system.
+//! `I1` is warped by the incoming flow `u` once; an increment `(du, dv)` then minimises
+//! `E = Σ δ Ψ(E_I) + γ Ψ(E_G) + α Ψ(E_S)` with the robust penaliser `Ψ(s²) = √(s² + ε²)`:
+//! - colour constancy `E_I = (I_z + I_x du + I_y dv)² / (I_x² + I_y² + ζ²)`,
+//!   `I_z = I1(x + u) − I0(x)` (normalised by the local gradient, so that the term weighs
+//!   textured and flat regions alike);
+//! - gradient constancy `E_G = (I_xz + I_xx du + I_xy dv)² / (I_xx² + I_xy² + ζ²)
+//!   + (I_yz + I_xy du + I_yy dv)² / (I_yy² + I_xy² + ζ²)`, `I_xz = ∂_x I_z`, `I_yz = ∂_y I_z`;
+//! - smoothness `E_S = |∇(u + du)|² + |∇(v + dv)|²` (forward differences; the pair of a pixel
+//!   and its right or lower neighbour is weighted by the pixel's own penaliser weight).
+//!
+//! Spatial derivatives are taken on the average of `I0` and the warped `I1`, in 8-bit intensity
+//! units. Each fixed-point iteration evaluates the penaliser's derivative `Ψ'(s²) = 1 / (2√(s² +
+//! ε²))` of every term at the current increment (lazy iteratively reweighted least squares) and
+//! runs red–black SOR sweeps on the resulting linear system, each pixel's `du` and `dv` solved in
+//! turn; a small `ζ²` on the diagonal keeps the system regular where the image is flat.
 
 use super::{Flow, Gray};
 
 /// Weights of the refinement energy.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineParams {
-    /// Data-term weight δ.
+    /// Colour-constancy weight δ.
     pub delta: f32,
+    /// Gradient-constancy weight γ.
+    pub gamma: f32,
     /// Smoothness weight α.
     pub alpha: f32,
-    /// Charbonnier ε (intensity units of [0, 1]).
+    /// The penaliser's ε.
     pub epsilon: f32,
-    /// SOR sweeps per outer iteration.
+    /// The data terms' normalisation ζ (intensity units per pixel).
+    pub zeta: f32,
+    /// SOR sweeps per fixed-point iteration.
     pub sweeps: usize,
     /// SOR relaxation factor ω.
     pub omega: f32,
 }
 
 impl Default for RefineParams {
+    /// DIS's weights (the defaults of OpenCV's `DISOpticalFlow`): δ 5, γ 10, α 20, ε 0.001,
+    /// ζ 0.1, 5 sweeps, ω 1.6.
     fn default() -> Self {
-        Self { delta: 5.0, alpha: 20.0, epsilon: 0.001, sweeps: 5, omega: 1.6 }
+        Self {
+            delta: 5.0,
+            gamma: 10.0,
+            alpha: 20.0,
+            epsilon: 0.001,
+            zeta: 0.1,
+            sweeps: 5,
+            omega: 1.6,
+        }
     }
 }
 
-/// Refines `flow` (from `i0` to `i1`, same size as both) in place with `iterations` outer
-/// iterations.
+/// One pixel's linear system from the data terms: `A = [a11 a12; a12 a22]`, `b`.
+#[derive(Debug, Clone, Copy, Default)]
+struct System {
+    a11: f32,
+    a12: f32,
+    a22: f32,
+    b1: f32,
+    b2: f32,
+}
+
+/// The linearised data terms at one pixel.
+#[derive(Debug, Clone, Copy, Default)]
+struct Terms {
+    ix: f32,
+    iy: f32,
+    iz: f32,
+    ixx: f32,
+    ixy: f32,
+    iyy: f32,
+    ixz: f32,
+    iyz: f32,
+}
+
+impl Terms {
+    /// The data terms' system at increment `(du, dv)`.
+    fn system(&self, [du, dv]: [f32; 2], p: &RefineParams) -> System {
+        let (e2, z2) = (p.epsilon * p.epsilon, p.zeta * p.zeta);
+        let t = self;
+        // Colour constancy, normalised by the gradient.
+        let n = t.ix * t.ix + t.iy * t.iy + z2;
+        let r = t.iz + t.ix * du + t.iy * dv;
+        let wc = 0.5 * p.delta / (r * r / n + e2).sqrt() / n;
+        // Gradient constancy, each component normalised by its own gradient.
+        let (n1, n2) = (t.ixx * t.ixx + t.ixy * t.ixy + z2, t.iyy * t.iyy + t.ixy * t.ixy + z2);
+        let rx = t.ixz + t.ixx * du + t.ixy * dv;
+        let ry = t.iyz + t.ixy * du + t.iyy * dv;
+        let wg = 0.5 * p.gamma / (rx * rx / n1 + ry * ry / n2 + e2).sqrt();
+        System {
+            a11: wc * t.ix * t.ix + wg * (t.ixx * t.ixx / n1 + t.ixy * t.ixy / n2) + z2,
+            a12: wc * t.ix * t.iy + wg * (t.ixx * t.ixy / n1 + t.ixy * t.iyy / n2),
+            a22: wc * t.iy * t.iy + wg * (t.ixy * t.ixy / n1 + t.iyy * t.iyy / n2) + z2,
+            b1: -wc * t.iz * t.ix - wg * (t.ixx * t.ixz / n1 + t.ixy * t.iyz / n2),
+            b2: -wc * t.iz * t.iy - wg * (t.ixy * t.ixz / n1 + t.iyy * t.iyz / n2),
+        }
+    }
+}
+
+/// Refines `flow` (from `i0` to `i1`, same size as both) in place with `iterations`
+/// fixed-point iterations.
 pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iterations: usize) {
     let (w, h) = (i0.width(), i0.height());
     if w < 2 || h < 2 {
         return;
     }
-    let scale = 1.0 / 255.0;
-    let (g0x, g0y) = i0.gradients();
-    let (g1x, g1y) = i1.gradients();
     let n = w * h;
-    let mut ix = vec![0.0f32; n];
-    let mut iy = vec![0.0f32; n];
-    let mut iz = vec![0.0f32; n];
-    let mut psi = vec![0.0f32; n];
     let base: Vec<[f32; 2]> = flow.data.clone();
+    // I1 warped by the incoming flow, the average image, the temporal difference.
+    let warped: Vec<f32> = (0..n)
+        .map(|k| {
+            let u = base[k];
+            i1.sample((k % w) as f32 + u[0], (k / w) as f32 + u[1])
+        })
+        .collect();
+    let average = Gray::new(w, h, (0..n).map(|k| 0.5 * (i0.data()[k] + warped[k])).collect());
+    let iz = Gray::new(w, h, (0..n).map(|k| warped[k] - i0.data()[k]).collect());
+    let (ix, iy) = average.gradients();
+    let ((ixx, ixy), (_, iyy)) = (ix.gradients(), iy.gradients());
+    let (ixz, iyz) = iz.gradients();
+    let terms: Vec<Terms> = (0..n)
+        .map(|k| Terms {
+            ix: ix.data()[k],
+            iy: iy.data()[k],
+            iz: iz.data()[k],
+            ixx: ixx.data()[k],
+            ixy: ixy.data()[k],
+            iyy: iyy.data()[k],
+            ixz: ixz.data()[k],
+            iyz: iyz.data()[k],
+        })
+        .collect();
+    let mut du = vec![[0.0f32; 2]; n];
+    let mut systems = vec![System::default(); n];
+    let mut smooth = vec![0.0f32; n];
+    let e2 = p.epsilon * p.epsilon;
     for _ in 0..iterations {
-        // Linearise the data term around the current flow.
-        for y in 0..h {
-            for x in 0..w {
-                let k = y * w + x;
-                let u = flow.data[k];
-                let (sx, sy) = (x as f32 + u[0], y as f32 + u[1]);
-                ix[k] = 0.5 * (g0x.at(x, y) + g1x.sample(sx, sy)) * scale;
-                iy[k] = 0.5 * (g0y.at(x, y) + g1y.sample(sx, sy)) * scale;
-                iz[k] = (i1.sample(sx, sy) - i0.at(x, y)) * scale;
-            }
+        for k in 0..n {
+            systems[k] = terms[k].system(du[k], p);
+            let (x, y) = (k % w, k / w);
+            let f = |m: usize| [base[m][0] + du[m][0], base[m][1] + du[m][1]];
+            let here = f(k);
+            let right = if x + 1 < w { f(k + 1) } else { here };
+            let down = if y + 1 < h { f(k + w) } else { here };
+            let g2 = (right[0] - here[0]).powi(2)
+                + (right[1] - here[1]).powi(2)
+                + (down[0] - here[0]).powi(2)
+                + (down[1] - here[1]).powi(2);
+            smooth[k] = 0.5 * p.alpha / (g2 + e2).sqrt();
         }
-        let current: Vec<[f32; 2]> = flow.data.clone();
-        let mut du = vec![[0.0f32; 2]; n];
         for _ in 0..p.sweeps {
-            // Robust weight of the data term at the current increment.
-            for k in 0..n {
-                let r = iz[k] + ix[k] * du[k][0] + iy[k] * du[k][1];
-                psi[k] = p.delta / (r * r + p.epsilon * p.epsilon).sqrt();
-            }
             for colour in 0..2 {
                 for y in 0..h {
                     let start = (y + colour) % 2;
                     for x in (start..w).step_by(2) {
                         let k = y * w + x;
-                        let mut sum = [0.0f32; 2];
-                        let mut count = 0.0f32;
-                        let mut visit = |m: usize| {
-                            sum[0] += current[m][0] + du[m][0];
-                            sum[1] += current[m][1] + du[m][1];
-                            count += 1.0;
+                        // Σ_m w_km (u_m + du_m − u_k) and Σ_m w_km over the 4-neighbours.
+                        let (mut pull, mut weight) = ([0.0f32; 2], 0.0f32);
+                        let mut visit = |m: usize, wkm: f32| {
+                            pull[0] += wkm * (base[m][0] + du[m][0] - base[k][0]);
+                            pull[1] += wkm * (base[m][1] + du[m][1] - base[k][1]);
+                            weight += wkm;
                         };
                         if x > 0 {
-                            visit(k - 1);
+                            visit(k - 1, smooth[k - 1]);
                         }
                         if x + 1 < w {
-                            visit(k + 1);
+                            visit(k + 1, smooth[k]);
                         }
                         if y > 0 {
-                            visit(k - w);
+                            visit(k - w, smooth[k - w]);
                         }
                         if y + 1 < h {
-                            visit(k + w);
+                            visit(k + w, smooth[k]);
                         }
-                        let (a, u) = (p.alpha, current[k]);
-                        let d = psi[k];
-                        // ∂E/∂du = 0 and ∂E/∂dv = 0, each solved for its own unknown.
-                        let rhs_u =
-                            -d * ix[k] * (iz[k] + iy[k] * du[k][1]) + a * (sum[0] - count * u[0]);
-                        let new_u = rhs_u / (d * ix[k] * ix[k] + a * count);
+                        let s = systems[k];
+                        let new_u = (s.b1 + pull[0] - s.a12 * du[k][1]) / (s.a11 + weight);
                         du[k][0] += p.omega * (new_u - du[k][0]);
-                        let rhs_v =
-                            -d * iy[k] * (iz[k] + ix[k] * du[k][0]) + a * (sum[1] - count * u[1]);
-                        let new_v = rhs_v / (d * iy[k] * iy[k] + a * count);
+                        let new_v = (s.b2 + pull[1] - s.a12 * du[k][0]) / (s.a22 + weight);
                         du[k][1] += p.omega * (new_v - du[k][1]);
                     }
                 }
             }
         }
-        for k in 0..n {
-            flow.data[k][0] = current[k][0] + du[k][0];
-            flow.data[k][1] = current[k][1] + du[k][1];
-        }
     }
-    // A refinement that made the flow worse photometrically (rare, at occlusions) is undone.
-    let error = |f: &[[f32; 2]]| -> f64 {
-        (0..n)
-            .map(|k| {
-                let (x, y) = ((k % w) as f32, (k / w) as f32);
-                f64::from((i1.sample(x + f[k][0], y + f[k][1]) - i0.at(k % w, k / w)).abs())
-            })
-            .sum()
-    };
-    if error(&flow.data) > error(&base) {
-        flow.data = base;
+    for k in 0..n {
+        flow.data[k] = [base[k][0] + du[k][0], base[k][1] + du[k][1]];
     }
 }
