@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Real frames through joca, from data the package registries ship (nothing of it is committed):
 # - scikit-image's wheel (BSD-3): Middlebury's motorcycle stereo pair with dense ground-truth
-#   disparity. `joca flow --gt-disparity` must stay within END_POINT_ERROR_PX of it with every
-#   DIS preset (a guard against regressions; docs/results/*real-frames*.md has the measured
-#   values beside OpenCV's).
+#   disparity. `joca flow --gt-disparity` must stay below a bound per DIS preset (a guard against
+#   regressions, about 0.4 px above what joca measures; docs/results/*real-frames*.md has the
+#   measured values beside OpenCV's).
 # - labelme's sdist (GPL-3, read, not shipped): five consecutive real street frames with polygon
 #   labels. `joca import labelme` must turn them into the folder format with their 15 objects;
 #   DIS runs on the first two frames.
@@ -14,7 +14,7 @@ set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 joca="${1:-$repo/joca}"
 cache="${JOCA_REAL_DATA:-$HOME/.cache/joca-real-data}"
-END_POINT_ERROR_PX=6.0
+declare -A END_POINT_ERROR_PX=([ultrafast]=5.0 [fast]=4.0 [medium]=4.0)
 mkdir -p "$cache"
 work="$(mktemp -d /tmp/joca-real-data.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
@@ -53,8 +53,9 @@ for preset in ultrafast fast medium; do
     --out "$work/flow-$preset.png" --preset "$preset" --gt-disparity "$work/motorcycle_disp.npy")"
   epe="$(sed -n 's/.*end-point error \([0-9.]*\) px.*/\1/p' <<<"$out")"
   echo "real-data: motorcycle pair, DIS $preset: end-point error $epe px"
-  awk -v e="$epe" -v m="$END_POINT_ERROR_PX" 'BEGIN { exit !(e != "" && e < m) }' || {
-    echo "real-data: FAILED — $preset end-point error '$epe' px is not below $END_POINT_ERROR_PX px"
+  bound="${END_POINT_ERROR_PX[$preset]}"
+  awk -v e="$epe" -v m="$bound" 'BEGIN { exit !(e != "" && e < m) }' || {
+    echo "real-data: FAILED — $preset end-point error '$epe' px is not below $bound px"
     echo "$out"
     exit 1
   }
