@@ -397,7 +397,8 @@ pub fn objects_markdown(r: &RunResults) -> String {
             num(t.class_ap50[i])
         );
     }
-    if !r.test_bands.is_empty() {
+    // Recordings without depth have no object in any band: no table.
+    if r.test_bands.iter().any(|b| b.class_objects.iter().sum::<u64>() > 0) {
         md.push_str(
             "\n| distance (m) | vehicles | walkers | signs | AP50 | recall at IoU 0.5 \
                 |\n|---|---|---|---|---|---|\n",
