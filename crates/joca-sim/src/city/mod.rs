@@ -13,7 +13,7 @@ mod place;
 use crate::geometry::{Pose2, V3};
 use crate::objects::{Material, Motion, Object, Rgb, build};
 use ground::{asphalt, lane_marking, modulo, zebra, zone_table};
-pub use ground::{fast_floor, hash_unit};
+pub use ground::{fast_floor, ground_grain, hash_unit};
 use rand::Rng;
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -228,8 +228,13 @@ impl City {
     /// Diffuse reflectance of the ground at world `(x, y)`: asphalt with lane markings and
     /// zebra crossings, paved sidewalks, and planted block interiors.
     pub fn ground_albedo(&self, x: f32, y: f32) -> Rgb {
-        // Two octaves of value noise: coarse patches and fine grain, ±10 % overall.
-        let grain = 0.9 + 0.12 * hash_unit(x * 1.3, y * 1.3) + 0.08 * hash_unit(x * 9.0, y * 9.0);
+        self.ground_albedo_with(x, y, ground_grain(x, y))
+    }
+
+    /// [`City::ground_albedo`] given the point's [`ground_grain`] (which the renderer computes
+    /// for a whole row at once).
+    #[inline]
+    pub fn ground_albedo_with(&self, x: f32, y: f32, grain: f32) -> Rgb {
         match (Self::zone(&self.zones_x, x), Self::zone(&self.zones_y, y)) {
             (Zone::Road(_), Zone::Road(_)) => asphalt(grain),
             (Zone::Road(i), Zone::Walk) => {

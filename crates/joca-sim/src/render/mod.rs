@@ -218,6 +218,7 @@ fn ground_and_sky(
     let k = RADIANCE_SCALE_DN;
     // Rightward slope of each column's view ray, once per view rather than once per pixel.
     let slopes: Vec<f32> = (0..w).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx).collect();
+    let mut points = vec![(0.0f32, 0.0f32, 0.0f32); w];
     for y in 0..target.height {
         let b = (y as f32 + 0.5 - cam.cy) / cam.fy; // downward slope of the ray
         let row = y * w;
@@ -233,13 +234,12 @@ fn ground_and_sky(
             continue;
         }
         let inv_t = 1.0 / t;
-        for (x, &a) in slopes.iter().enumerate() {
+        ground_points(cam, t, &slopes, &mut points);
+        for (x, &(px, py, grain)) in points.iter().enumerate() {
             if target.inv_depth[row + x] >= inv_t {
                 continue; // an object is nearer than the ground here
             }
-            let px = cam.origin.x + t * (cam.forward.x + a * cam.right.x);
-            let py = cam.origin.y + t * (cam.forward.y + a * cam.right.y);
-            let albedo = city.ground_albedo(px, py);
+            let albedo = city.ground_albedo_with(px, py, grain);
             let (lamps, head) = if lights_on {
                 (city.lamp_irradiance(px, py), headlight(lamp, heading, V3::new(px, py, 0.0), None))
             } else {
@@ -257,6 +257,35 @@ fn ground_and_sky(
     }
 }
 
+/// Where the view rays of one image row meet the ground, at depth `t` (`slopes`: each column's
+/// rightward slope), and the ground's grain there: `(x, y, grain)` per column. The arithmetic
+/// per column is that of one pixel alone; vector units only do several columns at once (the
+/// AVX2 path gives the same bits as the portable one).
+#[allow(unsafe_code)] // calling a target-feature function once the CPU is known to have it
+fn ground_points(cam: &CameraFrame, t: f32, slopes: &[f32], out: &mut [(f32, f32, f32)]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { ground_points_avx2(cam, t, slopes, out) };
+    }
+    ground_points_portable(cam, t, slopes, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn ground_points_avx2(cam: &CameraFrame, t: f32, slopes: &[f32], out: &mut [(f32, f32, f32)]) {
+    ground_points_portable(cam, t, slopes, out);
+}
+
+#[inline(always)]
+fn ground_points_portable(cam: &CameraFrame, t: f32, slopes: &[f32], out: &mut [(f32, f32, f32)]) {
+    for (o, &a) in out.iter_mut().zip(slopes) {
+        let px = cam.origin.x + t * (cam.forward.x + a * cam.right.x);
+        let py = cam.origin.y + t * (cam.forward.y + a * cam.right.y);
+        *o = (px, py, crate::city::ground_grain(px, py));
+    }
+}
+
 /// The camera-facing faces of one box: corners, texture coordinates and rasterisation; `shade`
 /// gives each face's colouring from its index and outward normal.
 fn draw_faces(
@@ -266,6 +295,9 @@ fn draw_faces(
     id: u32,
     target: &mut Target,
 ) {
+    if misses_every_pixel_centre(cam, b, target) {
+        return;
+    }
     let (f, l) = b.axes();
     let up = V3::new(0.0, 0.0, 1.0);
     let h = b.half;
@@ -282,7 +314,6 @@ fn draw_faces(
         if (cam.origin - centre).dot(n) <= 0.0 {
             continue; // back face
         }
-        let shade = shade(face_index, n);
         // Corners counter-clockwise seen from outside, with texture coordinates in metres
         // (u along the face, v upwards from its bottom edge for side faces).
         let corners = [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
@@ -291,8 +322,37 @@ fn draw_faces(
             let c = cam.camera_from_world(p);
             Vertex { cam: c, u: (su + 1.0) * hu, v: (sv + 1.0) * hv }
         });
-        raster::draw_polygon(&verts, cam, &shade, id, target);
+        raster::draw_polygon(&verts, cam, &|| shade(face_index, n), id, target);
     }
+}
+
+/// Whether box `b`, seen from `cam`, certainly covers no pixel centre of `target` (most boxes of
+/// a city view are small or far). The box lies in the cube of half-size |half| around its
+/// centre; in front of the near plane, x/z and y/z over that cube are extreme at its corners,
+/// so the cube's screen extent bounds the box's. A box that reaches the near plane is never
+/// rejected here.
+fn misses_every_pixel_centre(cam: &CameraFrame, b: &OrientedBox, target: &Target) -> bool {
+    let c = cam.camera_from_world(b.centre);
+    // Slack for rounding: a rejected box must be clear of every centre by more than it.
+    let r = b.half.norm() * 1.001 + 1e-3;
+    if c.z - r <= NEAR_M {
+        return false;
+    }
+    let (near, far) = (1.0 / (c.z - r), 1.0 / (c.z + r));
+    let extent = |lo: f32, hi: f32, f: f32, centre: f32| {
+        let a = centre + f * (lo * near).min(lo * far);
+        let b = centre + f * (hi * near).max(hi * far);
+        (a, b)
+    };
+    let (x0, x1) = extent(c.x - r, c.x + r, cam.fx, cam.cx);
+    let (y0, y1) = extent(c.y - r, c.y + r, cam.fy, cam.cy);
+    // Pixel centres are at k + 0.5 for k in 0..size.
+    let none_in = |lo: f32, hi: f32, size: usize| {
+        let first = (lo - 0.5).ceil().max(0.0);
+        let last = (hi - 0.5).floor().min(size as f32 - 1.0);
+        first > last
+    };
+    none_in(x0, x1, target.width) || none_in(y0, y1, target.height)
 }
 
 /// What lights one box: the lamps' irradiance at its foot, computed once per box, and what each
@@ -370,6 +430,111 @@ fn shade_for(material: Material, face_index: usize, e: &Rgb, lights_on: bool) ->
                     inv_pitch_v: 1.0 / pitch_v_m,
                     seed: lit_seed.wrapping_add(face_index as u32 * 7919),
                 }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::Rng;
+
+    fn camera(rng: &mut impl Rng) -> PinholeCamera {
+        let (w, h) = (rng.random_range(40..200), rng.random_range(30..150));
+        let f = rng.random_range(20.0..400.0);
+        PinholeCamera {
+            width_px: w,
+            height_px: h,
+            fx_px: f,
+            fy_px: f,
+            cx_px: w as f64 / 2.0,
+            cy_px: h as f64 / 2.0,
+            mount_m: [1.5, 0.0, 1.4],
+        }
+    }
+
+    /// The box rejection is conservative: a rejected box, rasterised face by face, covers no
+    /// pixel centre. Boxes of 2 cm to 20 m, anywhere from beside the camera to 300 m away; the
+    /// test also asserts that both outcomes occur often, so neither branch is left untested.
+    #[test]
+    fn a_rejected_box_covers_no_pixel() {
+        let mut rng = joca_core::SeedStreams::new(7).stream("test");
+        let (mut rejected, mut drawn) = (0, 0);
+        for _ in 0..20_000 {
+            let pinhole = camera(&mut rng);
+            let ego = Pose2 { x: 0.0, y: 0.0, yaw: rng.random_range(-3.2..3.2) };
+            let cam = CameraFrame::new(&pinhole, ego);
+            let half = V3::new(
+                rng.random_range(0.01..10.0),
+                rng.random_range(0.01..10.0),
+                rng.random_range(0.01..5.0),
+            );
+            let range: f32 = rng.random_range(0.0f32..300.0).powi(2) / 300.0;
+            let bearing: f32 = rng.random_range(-3.2..3.2);
+            let centre = V3::new(range * bearing.cos(), range * bearing.sin(), half.z);
+            let b = OrientedBox { centre, half, yaw: rng.random_range(-3.2..3.2) };
+            let mut target = Target::ids_only(pinhole.width_px, pinhole.height_px, 1);
+            let rejects = misses_every_pixel_centre(&cam, &b, &target);
+            // Rasterise every face without the rejection.
+            let (f, l) = b.axes();
+            let up = V3::new(0.0, 0.0, 1.0);
+            let h = b.half;
+            for (n, hn, ua, hu, va, hv) in [
+                (f, h.x, -l, h.y, up, h.z),
+                (-f, h.x, l, h.y, up, h.z),
+                (l, h.y, f, h.x, up, h.z),
+                (-l, h.y, -f, h.x, up, h.z),
+                (up, h.z, f, h.x, l, h.y),
+                (-up, h.z, f, h.x, -l, h.y),
+            ] {
+                let c = b.centre + n * hn;
+                let verts =
+                    [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(su, sv)| {
+                        Vertex {
+                            cam: cam.camera_from_world(c + ua * (su * hu) + va * (sv * hv)),
+                            u: 0.0,
+                            v: 0.0,
+                        }
+                    });
+                raster::draw_polygon(&verts, &cam, &|| Shade::Constant([0.0; 3]), 1, &mut target);
+            }
+            if rejects {
+                rejected += 1;
+                assert_eq!(target.coverage[1], 0, "rejected box {b:?} covers pixels");
+            } else if target.coverage[1] > 0 {
+                drawn += 1;
+            }
+        }
+        assert!(rejected > 2_000 && drawn > 2_000, "rejected {rejected}, drawn {drawn}");
+    }
+
+    /// The vectorised ground row gives the bits of the portable one.
+    #[test]
+    fn ground_points_are_the_same_on_every_code_path() {
+        let mut rng = joca_core::SeedStreams::new(3).stream("test");
+        for _ in 0..50 {
+            let pinhole = camera(&mut rng);
+            let ego = Pose2 {
+                x: rng.random_range(-50.0..800.0),
+                y: rng.random_range(-50.0..800.0),
+                yaw: rng.random_range(-3.2..3.2),
+            };
+            let cam = CameraFrame::new(&pinhole, ego);
+            let slopes: Vec<f32> =
+                (0..pinhole.width_px).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx).collect();
+            let t = rng.random_range(1.0..600.0);
+            let (mut a, mut b) =
+                (vec![(0.0, 0.0, 0.0); slopes.len()], vec![(1.0, 1.0, 1.0); slopes.len()]);
+            ground_points(&cam, t, &slopes, &mut a);
+            ground_points_portable(&cam, t, &slopes, &mut b);
+            for (p, q) in a.iter().zip(&b) {
+                assert_eq!(
+                    (p.0.to_bits(), p.1.to_bits(), p.2.to_bits()),
+                    (q.0.to_bits(), q.1.to_bits(), q.2.to_bits())
+                );
+                // And the grain is the scalar per-point function's.
+                assert_eq!(q.2.to_bits(), crate::city::ground_grain(q.0, q.1).to_bits());
             }
         }
     }

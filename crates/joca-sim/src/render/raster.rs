@@ -23,7 +23,7 @@ pub(crate) enum Shade {
 }
 
 impl Shade {
-    #[inline]
+    #[inline(always)]
     fn at(&self, u: f32, v: f32) -> Rgb {
         match *self {
             Shade::Constant(c) => c,
@@ -104,7 +104,7 @@ fn cell_hash(x: i32, y: i32, seed: u32) -> f32 {
 pub(crate) fn draw_polygon(
     verts: &[Vertex],
     cam: &CameraFrame,
-    shade: &Shade,
+    shade: &dyn Fn() -> Shade,
     id: u32,
     target: &mut Target,
 ) {
@@ -183,12 +183,60 @@ impl Plane {
     }
 }
 
+/// A span's values at its first pixel and their steps to the next.
+#[derive(Clone, Copy)]
+struct Step {
+    inv_z: f32,
+    d_inv_z: f32,
+    u: f32,
+    du: f32,
+    v: f32,
+    dv: f32,
+}
+
+/// Depth-tests and fills one span: `colour_at(1/z, (u/z, v/z))` gives a visible pixel's colour.
+#[inline(always)]
+fn fill(
+    depth: &mut [f32],
+    ids: &mut [u32],
+    colour: &mut [f32],
+    id: u32,
+    s: Step,
+    colour_at: impl Fn(f32, (f32, f32)) -> Rgb,
+) {
+    let Step { mut inv_z, d_inv_z, mut u, du, mut v, dv } = s;
+    for ((d, i), rgb) in depth.iter_mut().zip(ids).zip(colour.chunks_exact_mut(3)) {
+        if inv_z > *d {
+            *d = inv_z;
+            *i = id;
+            rgb.copy_from_slice(&colour_at(inv_z, (u, v)));
+        }
+        inv_z += d_inv_z;
+        u += du;
+        v += dv;
+    }
+}
+
 /// Rasterises a convex polygon, sampling at pixel centres. Each row's covered span is solved
 /// from the edge inequalities (no per-pixel inside test), and 1/z, u/z, v/z are planes in
 /// screen space, so a pixel costs one reciprocal and a depth test. Set-up is in f64 so that
 /// polygons reaching far outside the image (close to the camera) stay watertight.
-fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
+fn convex(p: &[Projected], shade: &dyn Fn() -> Shade, id: u32, target: &mut Target) {
     let n = p.len();
+    // Most faces of a city view (~80 %) cover no pixel centre at all: small or far objects.
+    // They end here, before any set-up or shading.
+    let (w, h) = (target.width as f64, target.height as f64);
+    let (mut x_min, mut x_max) = (f64::INFINITY, f64::NEG_INFINITY);
+    let (mut y_min, mut y_max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in p {
+        (x_min, x_max) = (x_min.min(v.x), x_max.max(v.x));
+        (y_min, y_max) = (y_min.min(v.y), y_max.max(v.y));
+    }
+    let y0 = (y_min - 0.5).ceil().max(0.0);
+    let y1 = (y_max - 0.5).floor().min(h - 1.0);
+    if y0 > y1 || (x_min - 0.5).ceil().max(0.0) > (x_max - 0.5).floor().min(w - 1.0) {
+        return;
+    }
     // Signed double area, and the fan triangle with the largest area for the planes.
     let mut area = 0.0;
     let mut best = (0.0f64, 1usize);
@@ -213,6 +261,7 @@ fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
     }
     let tri = [&p[0], &p[best.1], &p[best.1 + 1]];
     let iz = Plane::through(tri, |v| v.inv_z, best.0);
+    let shade = &shade();
     let textured = !matches!(shade, Shade::Constant(_));
     let (uz, vz) = if textured {
         (Plane::through(tri, |v| v.u_over_z, best.0), Plane::through(tri, |v| v.v_over_z, best.0))
@@ -220,14 +269,6 @@ fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
         (Plane { a: 0.0, b: 0.0, c: 0.0 }, Plane { a: 0.0, b: 0.0, c: 0.0 })
     };
     let constant = if let Shade::Constant(c) = shade { *c } else { [0.0; 3] };
-    let (w, h) = (target.width as f64, target.height as f64);
-    let y_min = p.iter().map(|v| v.y).fold(f64::INFINITY, f64::min);
-    let y_max = p.iter().map(|v| v.y).fold(f64::NEG_INFINITY, f64::max);
-    let y0 = (y_min - 0.5).ceil().max(0.0);
-    let y1 = (y_max - 0.5).floor().min(h - 1.0);
-    if y0 > y1 {
-        return;
-    }
     let mut covered = 0u32;
     // An id-only target (the ground-truth pass) has no colour buffer.
     let with_colour = !target.colour.is_empty();
@@ -258,27 +299,39 @@ fn convex(p: &[Projected], shade: &Shade, id: u32, target: &mut Target) {
         let xc = x0 as f64 + 0.5;
         let mut inv_z = iz.at(xc, yc) as f32;
         let d_inv_z = iz.a as f32;
-        let (mut u, mut v) = (uz.at(xc, yc) as f32, vz.at(xc, yc) as f32);
+        let (u, v) = (uz.at(xc, yc) as f32, vz.at(xc, yc) as f32);
         let (du, dv) = (uz.a as f32, vz.a as f32);
-        let row = y * target.width;
-        for x in x0..=x1 {
-            let i = row + x;
-            if inv_z > target.inv_depth[i] {
-                target.inv_depth[i] = inv_z;
-                target.id[i] = id;
-                if with_colour {
-                    let rgb = if textured {
+        // The span's slices, taken once, so the pixel loop has no bounds checks.
+        let span = y * target.width + x0..y * target.width + x1 + 1;
+        let depth = &mut target.inv_depth[span.clone()];
+        let ids = &mut target.id[span.clone()];
+        if with_colour {
+            let colour = &mut target.colour[span.start * 3..span.end * 3];
+            let step = Step { inv_z, d_inv_z, u, du, v, dv };
+            // One loop per kind of shading, so that the pixel loop does not branch on it.
+            match *shade {
+                Shade::Constant(_) => fill(depth, ids, colour, id, step, |_, _| constant),
+                Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed } => {
+                    // Rebuilt here so that, inlined, `at` knows the variant.
+                    let f = Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed };
+                    fill(depth, ids, colour, id, step, |inv_z, (u, v)| {
                         let z = 1.0 / inv_z;
-                        shade.at(u * z, v * z)
-                    } else {
-                        constant
-                    };
-                    target.colour[i * 3..i * 3 + 3].copy_from_slice(&rgb);
+                        f.at(u * z, v * z)
+                    })
                 }
+                Shade::Sign { .. } => fill(depth, ids, colour, id, step, |inv_z, (u, v)| {
+                    let z = 1.0 / inv_z;
+                    shade.at(u * z, v * z)
+                }),
             }
-            inv_z += d_inv_z;
-            u += du;
-            v += dv;
+        } else {
+            for (d, i) in depth.iter_mut().zip(ids) {
+                if inv_z > *d {
+                    *d = inv_z;
+                    *i = id;
+                }
+                inv_z += d_inv_z;
+            }
         }
     }
     target.coverage[id as usize] += covered;

@@ -22,9 +22,9 @@ use std::sync::{Arc, Mutex};
 /// blur of the fastest points is rendered as discrete copies 1–2 px apart, which a detector sees
 /// as the same streak.
 pub const MAX_SUBFRAMES: usize = 31;
-/// Sub-frames accumulated per work unit; fixed so that the summation order, and so every bit of
-/// the result, does not depend on the thread count.
-const SUBFRAMES_PER_CHUNK: usize = 4;
+
+/// An instant's ground truth: boxes and ignore regions, and the 180° count.
+type Truth = ((Vec<joca_core::Annotation>, Vec<joca_core::Annotation>), u32);
 
 /// Which objects are reference objects (ground truth) and count towards the 180° total.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -268,9 +268,16 @@ impl Simulator {
     }
 
     /// The frames of shutters integrated over `grid`, one per row of `weights` (each shutter's
-    /// [`ShutterGrid::weights`]): each rendered sub-frame is added to every frame whose shutter
-    /// overlaps its cell, weighted by the overlap. The middle cell is `mid`, already rendered; a
-    /// cell no shutter overlaps is not rendered.
+    /// [`ShutterGrid::weights`]). The middle cell is `mid`, already rendered; the others are
+    /// rendered in parallel, each once, and a cell no shutter overlaps is not rendered.
+    ///
+    /// Shutters are centred on the grid, so a shutter's weights are one value over a symmetric
+    /// run of whole cells and one smaller value on the pair of cells just outside it (see
+    /// [`RingWeights`]). Each frame is therefore summed ring by ring from the middle outwards,
+    /// `((v₀ + v₋₁) + v₊₁) + …`, scaled once, plus its edge pair: the order of every addition
+    /// depends only on the grid and that shutter, not on the other shutters sharing the grid nor
+    /// on the thread count. Summing rings is also what makes many shutters cheap: the running
+    /// sum is shared, and each cell is read once.
     fn integrate(
         &self,
         episode: &Episode,
@@ -281,51 +288,74 @@ impl Simulator {
     ) -> Vec<Vec<f32>> {
         let (w, h) = (camera.width_px, camera.height_px);
         let objects = self.city.objects.len();
-        if grid.cells == 1 {
-            return weights.iter().map(|_| mid.colour.clone()).collect();
-        }
         let middle = grid.cells / 2;
-        let cells: Vec<usize> = (0..grid.cells).collect();
-        // Each chunk sums its sub-frames in order; chunks are then summed in order, so the
-        // result does not depend on how many threads did the work, nor (a zero weight adds
-        // nothing) on which other shutters share the grid.
-        let chunk_sums: Vec<Vec<Vec<f32>>> = cells
-            .par_chunks(SUBFRAMES_PER_CHUNK)
-            .map(|chunk| {
-                let mut sums = vec![vec![0.0f32; w * h * 3]; weights.len()];
-                let mut target = Target::new(w, h, objects);
-                for &k in chunk {
-                    if weights.iter().all(|wk| wk[k] == 0.0) {
+        let rings: Vec<RingWeights> = weights.iter().map(|wk| RingWeights::of(wk)).collect();
+        // Cells out to the outermost ring any shutter touches.
+        let reach = rings.iter().map(RingWeights::reach).max().unwrap_or(0);
+        let others: Vec<usize> =
+            (middle - reach..=middle + reach).filter(|&k| k != middle).collect();
+        let rendered: Vec<Vec<f32>> = others
+            .par_iter()
+            .map_init(
+                || Target::new(w, h, objects),
+                |target, &k| {
+                    self.render_at(episode, camera, grid.time(k), target);
+                    target.colour.clone()
+                },
+            )
+            .collect();
+        let cell = |k: usize| -> &[f32] {
+            if k == middle {
+                &mid.colour
+            } else {
+                let i = if k < middle { k - (middle - reach) } else { k - (middle - reach) - 1 };
+                &rendered[i]
+            }
+        };
+        // Over blocks of the image in parallel; within a block, rings in order.
+        const BLOCK: usize = 4096;
+        let mut out = vec![vec![0.0f32; w * h * 3]; weights.len()];
+        let mut blocks: Vec<Vec<&mut [f32]>> = Vec::new();
+        {
+            let mut iters: Vec<_> = out.iter_mut().map(|o| o.chunks_mut(BLOCK)).collect();
+            'blocks: loop {
+                let mut row = Vec::with_capacity(iters.len());
+                for it in &mut iters {
+                    match it.next() {
+                        Some(b) => row.push(b),
+                        None => break 'blocks,
+                    }
+                }
+                blocks.push(row);
+            }
+        }
+        blocks.into_par_iter().enumerate().for_each(|(b, mut frames)| {
+            let start = b * BLOCK;
+            let len = frames.first().map_or(0, |f| f.len());
+            let at = |k: usize| &cell(k)[start..start + len];
+            let mut acc: Vec<f32> = at(middle).to_vec();
+            for k in 0..=reach {
+                if k > 0 {
+                    let (lo, hi) = (at(middle - k), at(middle + k));
+                    for ((a, &l), &u) in acc.iter_mut().zip(lo).zip(hi) {
+                        *a = (*a + l) + u;
+                    }
+                }
+                for (frame, ring) in frames.iter_mut().zip(&rings) {
+                    if ring.full != k {
                         continue;
                     }
-                    let colour = if k == middle {
-                        &mid.colour
+                    if ring.edge == 0.0 {
+                        frame.iter_mut().zip(&acc).for_each(|(f, &a)| *f = ring.inner * a);
                     } else {
-                        self.render_at(episode, camera, grid.time(k), &mut target);
-                        &target.colour
-                    };
-                    for (sum, wk) in sums.iter_mut().zip(weights) {
-                        let a = wk[k];
-                        if a != 0.0 {
-                            sum.iter_mut().zip(colour).for_each(|(s, &v)| *s += a * v);
+                        let (lo, hi) = (at(middle - k - 1), at(middle + k + 1));
+                        for (((f, &a), &l), &u) in frame.iter_mut().zip(&acc).zip(lo).zip(hi) {
+                            *f = ring.inner * a + ring.edge * (l + u);
                         }
                     }
                 }
-                sums
-            })
-            .collect();
-        // The chunks' sums, added in chunk order for every value, over blocks of the image in
-        // parallel.
-        const BLOCK: usize = 4096;
-        let mut out = vec![vec![0.0f32; w * h * 3]; weights.len()];
-        for (j, acc) in out.iter_mut().enumerate() {
-            acc.par_chunks_mut(BLOCK).enumerate().for_each(|(b, block)| {
-                for sums in &chunk_sums {
-                    let part = &sums[j][b * BLOCK..b * BLOCK + block.len()];
-                    block.iter_mut().zip(part).for_each(|(a, &s)| *a += s);
-                }
-            });
-        }
+            }
+        });
         out
     }
 
@@ -383,7 +413,16 @@ impl Simulator {
         }
         let episode = self.episode(request.episode);
         let mut mid = Target::new(camera.width_px, camera.height_px, self.city.objects.len());
-        self.render_at(&episode, camera, request.time_s, &mut mid);
+        // Ground truth and the 180° count run beside the middle sub-frame, which the grid
+        // depends on; the other sub-frames then have every thread.
+        let truth = rayon::join(
+            || {
+                let t = request.time_s;
+                (self.annotations(&episode, camera, t), self.visible_180(&episode, t))
+            },
+            || self.render_at(&episode, camera, request.time_s, &mut mid),
+        )
+        .0;
         let grid = match grid {
             Some(g) => *g,
             None => {
@@ -391,7 +430,7 @@ impl Simulator {
                 self.grid_for(&episode, camera, request.time_s, longest, &mid)
             }
         };
-        self.frames(&episode, camera, &grid, &shutters, &mid)
+        self.frames(&episode, camera, &grid, &shutters, &mid, truth)
     }
 
     /// Validates `request` and `exposures_s`; returns the shutter intervals (exposure × motion
@@ -421,7 +460,8 @@ impl Simulator {
         Ok(exposures_s.iter().map(|&e| e * request.motion_scale).collect())
     }
 
-    /// The frames of `shutters` on `grid`, with the ground truth of the grid's centre.
+    /// The frames of `shutters` on `grid`, with `truth`, the ground truth and 180° count of the
+    /// grid's centre.
     fn frames(
         &self,
         episode: &Episode,
@@ -429,15 +469,12 @@ impl Simulator {
         grid: &ShutterGrid,
         shutters: &[f64],
         mid: &Target,
+        truth: Truth,
     ) -> Result<Vec<Frame>, SourceError> {
         let (w, h) = (camera.width_px, camera.height_px);
-        let t = grid.centre_s;
         let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
-        // Ground truth and the 180° count run beside the sub-frame renders.
-        let (((boxes, ignore), visible_180), colours) = rayon::join(
-            || (self.annotations(episode, camera, t), self.visible_180(episode, t)),
-            || self.integrate(episode, camera, grid, &weights, mid),
-        );
+        let ((boxes, ignore), visible_180) = truth;
+        let colours = self.integrate(episode, camera, grid, &weights, mid);
         colours
             .into_iter()
             .zip(&weights)
@@ -510,6 +547,46 @@ impl ShutterGrid {
     }
 }
 
+/// A centred shutter's [`ShutterGrid::weights`] in ring form: `inner` on every cell within
+/// `full` cells of the middle, `edge` on the two cells at `full + 1` (0 when the shutter ends
+/// on a cell boundary), nothing beyond.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct RingWeights {
+    full: usize,
+    inner: f32,
+    edge: f32,
+}
+
+impl RingWeights {
+    /// The ring form of `weights` (symmetric about the middle cell, as every centred shutter's
+    /// are: checked in debug builds).
+    fn of(weights: &[f32]) -> Self {
+        let m = weights.len() / 2;
+        let inner = weights[m];
+        let full = (1..=m).take_while(|&k| weights[m - k] == inner).count();
+        let edge = if full < m { weights[m - full - 1] } else { 0.0 };
+        let ring = Self { full, inner, edge };
+        debug_assert!(weights.iter().enumerate().all(|(k, &wk)| wk == ring.weight(k.abs_diff(m))));
+        ring
+    }
+
+    /// The weight of a cell `d` cells from the middle.
+    fn weight(&self, d: usize) -> f32 {
+        if d <= self.full {
+            self.inner
+        } else if d == self.full + 1 {
+            self.edge
+        } else {
+            0.0
+        }
+    }
+
+    /// The farthest ring with a non-zero weight.
+    fn reach(&self) -> usize {
+        if self.edge > 0.0 { self.full + 1 } else { self.full }
+    }
+}
+
 impl FrameSource for Simulator {
     fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError> {
         self.render_exposures(camera, request, &[request.exposure_s])?
@@ -530,5 +607,35 @@ impl FrameSource for Simulator {
 
     fn frame_interval_s(&self) -> f64 {
         self.config.frame_interval_s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ring form stands for exactly the grid's weights, for shutters from shorter than a
+    /// cell to the whole span, on odd grids of 1 to 31 cells.
+    #[test]
+    fn ring_weights_are_the_grid_weights() {
+        for cells in (1..=31).step_by(2) {
+            let grid = ShutterGrid::new(1.0, 0.04, cells);
+            for i in 0..=400 {
+                let shutter = 0.04 * f64::from(i) / 400.0;
+                let weights = grid.weights(shutter);
+                let ring = RingWeights::of(&weights);
+                let m = cells / 2;
+                for (k, &wk) in weights.iter().enumerate() {
+                    assert_eq!(
+                        wk.to_bits(),
+                        ring.weight(k.abs_diff(m)).to_bits(),
+                        "{cells} {i} {k}"
+                    );
+                }
+                assert!(ring.reach() <= m);
+                let total: f32 = weights.iter().sum();
+                assert!((total - 1.0).abs() < 1e-5, "weights sum to {total}");
+            }
+        }
     }
 }
