@@ -693,6 +693,36 @@ fn flow_and_blur_report_motion_and_refuse_bad_input() {
         .unwrap_or_else(|| panic!("{line}"));
     assert!(epe < 0.25, "{line}");
     assert!(line.contains("(6144 known pixels)"), "{line}");
+    // `bench flow` on the same pair and truth: every preset and thread count is timed and
+    // scored; without a Python that has OpenCV, the reference columns say so and stay empty.
+    let o = joca(&[
+        "bench",
+        "flow",
+        "--repeats",
+        "1",
+        "--pair",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--gt",
+        truth.to_str().unwrap(),
+        "--python",
+        "/nonexistent/python",
+    ]);
+    let table = stdout(&o);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        table.contains("(OpenCV reference not run: cannot start /nonexistent/python"),
+        "{table}"
+    );
+    let rows: Vec<&str> = table
+        .lines()
+        .filter(|l| ["ultrafast", "fast", "medium"].iter().any(|p| l.starts_with(p)))
+        .collect();
+    assert_eq!(rows.len(), 6, "{table}");
+    for row in rows {
+        let epe: f64 = row.split_whitespace().nth(5).and_then(|s| s.parse().ok()).unwrap();
+        assert!(epe < 0.25, "{row}");
+    }
     // A file that is not a .flo is named, and nothing is computed.
     let o = joca(&[&["flow"], &args[..], &["--gt", a.to_str().unwrap()]].concat());
     assert!(
