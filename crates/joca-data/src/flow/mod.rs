@@ -83,7 +83,8 @@ impl Flow {
     pub fn sample(&self, x: f32, y: f32) -> [f32; 2] {
         let x = x.clamp(0.0, (self.width - 1) as f32);
         let y = y.clamp(0.0, (self.height - 1) as f32);
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        // Non-negative after the clamp: truncation is the floor.
+        let (x0, y0) = (x as usize, y as usize);
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
         let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
         let mut out = [0.0; 2];
