@@ -93,6 +93,25 @@ impl Gray {
         (Gray::new(w, h, gx), Gray::new(w, h, gy))
     }
 
+    /// Horizontal and vertical derivatives by the 3×3 Sobel operator (smoothed across the
+    /// derivative's direction by [1 2 1]/4), replicated borders, scaled to intensity per pixel.
+    pub fn sobel(&self) -> (Gray, Gray) {
+        let (w, h) = (self.width, self.height);
+        let mut gx = vec![0.0; w * h];
+        let mut gy = vec![0.0; w * h];
+        for y in 0..h {
+            let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
+            for x in 0..w {
+                let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                let d = |yy: usize| self.at(xb, yy) - self.at(xa, yy);
+                gx[y * w + x] = (d(ya) + 2.0 * d(y) + d(yb)) / 8.0;
+                let e = |xx: usize| self.at(xx, yb) - self.at(xx, ya);
+                gy[y * w + x] = (e(xa) + 2.0 * e(x) + e(xb)) / 8.0;
+            }
+        }
+        (Gray::new(w, h, gx), Gray::new(w, h, gy))
+    }
+
     /// Smoothed with the binomial kernel [1 4 6 4 1]/16 in both directions and subsampled by 2
     /// (size rounded up): the next pyramid level.
     pub fn half(&self) -> Gray {

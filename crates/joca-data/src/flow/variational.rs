@@ -19,6 +19,7 @@
 //! turn; a small `ζ²` on the diagonal keeps the system regular where the image is flat.
 
 use super::{Flow, Gray};
+use rayon::prelude::*;
 
 /// Weights of the refinement energy.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -113,6 +114,7 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
     let base: Vec<[f32; 2]> = flow.data.clone();
     // I1 warped by the incoming flow, the average image, the temporal difference.
     let warped: Vec<f32> = (0..n)
+        .into_par_iter()
         .map(|k| {
             let u = base[k];
             i1.sample((k % w) as f32 + u[0], (k / w) as f32 + u[1])
@@ -140,30 +142,36 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
     let mut smooth = vec![0.0f32; n];
     let e2 = p.epsilon * p.epsilon;
     for _ in 0..iterations {
-        for k in 0..n {
-            systems[k] = terms[k].system(du[k], p);
-            let (x, y) = (k % w, k / w);
-            let f = |m: usize| [base[m][0] + du[m][0], base[m][1] + du[m][1]];
-            let here = f(k);
-            let right = if x + 1 < w { f(k + 1) } else { here };
-            let down = if y + 1 < h { f(k + w) } else { here };
-            let g2 = (right[0] - here[0]).powi(2)
-                + (right[1] - here[1]).powi(2)
-                + (down[0] - here[0]).powi(2)
-                + (down[1] - here[1]).powi(2);
-            smooth[k] = 0.5 * p.alpha / (g2 + e2).sqrt();
-        }
+        (systems.par_iter_mut(), smooth.par_iter_mut()).into_par_iter().enumerate().for_each(
+            |(k, (system, smooth))| {
+                *system = terms[k].system(du[k], p);
+                let (x, y) = (k % w, k / w);
+                let f = |m: usize| [base[m][0] + du[m][0], base[m][1] + du[m][1]];
+                let here = f(k);
+                let right = if x + 1 < w { f(k + 1) } else { here };
+                let down = if y + 1 < h { f(k + w) } else { here };
+                let g2 = (right[0] - here[0]).powi(2)
+                    + (right[1] - here[1]).powi(2)
+                    + (down[0] - here[0]).powi(2)
+                    + (down[1] - here[1]).powi(2);
+                *smooth = 0.5 * p.alpha / (g2 + e2).sqrt();
+            },
+        );
         for _ in 0..p.sweeps {
             for colour in 0..2 {
-                for y in 0..h {
+                // A pixel of one colour reads only pixels of the other, which this half-sweep
+                // does not write: rows update in parallel from a copy, with the same bits as
+                // the sequential sweep.
+                let other = du.clone();
+                du.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
                     let start = (y + colour) % 2;
                     for x in (start..w).step_by(2) {
                         let k = y * w + x;
                         // Σ_m w_km (u_m + du_m − u_k) and Σ_m w_km over the 4-neighbours.
                         let (mut pull, mut weight) = ([0.0f32; 2], 0.0f32);
                         let mut visit = |m: usize, wkm: f32| {
-                            pull[0] += wkm * (base[m][0] + du[m][0] - base[k][0]);
-                            pull[1] += wkm * (base[m][1] + du[m][1] - base[k][1]);
+                            pull[0] += wkm * (base[m][0] + other[m][0] - base[k][0]);
+                            pull[1] += wkm * (base[m][1] + other[m][1] - base[k][1]);
                             weight += wkm;
                         };
                         if x > 0 {
@@ -179,12 +187,13 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
                             visit(k + w, smooth[k]);
                         }
                         let s = systems[k];
-                        let new_u = (s.b1 + pull[0] - s.a12 * du[k][1]) / (s.a11 + weight);
-                        du[k][0] += p.omega * (new_u - du[k][0]);
-                        let new_v = (s.b2 + pull[1] - s.a12 * du[k][0]) / (s.a22 + weight);
-                        du[k][1] += p.omega * (new_v - du[k][1]);
+                        let d = &mut row[x];
+                        let new_u = (s.b1 + pull[0] - s.a12 * d[1]) / (s.a11 + weight);
+                        d[0] += p.omega * (new_u - d[0]);
+                        let new_v = (s.b2 + pull[1] - s.a12 * d[0]) / (s.a22 + weight);
+                        d[1] += p.omega * (new_v - d[1]);
                     }
-                }
+                });
             }
         }
     }
