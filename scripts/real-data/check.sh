@@ -2,7 +2,7 @@
 # Real frames through joca, from data the package registries ship (nothing of it is committed):
 # - scikit-image's wheel (BSD-3): Middlebury's motorcycle stereo pair with dense ground-truth
 #   disparity. `joca flow --gt-disparity` must stay below a bound per DIS preset (a guard against
-#   regressions, about 0.4 px above what joca measures; docs/results/*real-frames*.md has the
+#   regressions, about 0.4 px above what joca measures; docs/results/ has the
 #   measured values beside OpenCV's).
 # - labelme's sdist (GPL-3, read, not shipped): five consecutive real street frames with polygon
 #   labels. `joca import labelme` must turn them into the folder format with their 15 objects;

@@ -8,7 +8,7 @@
 //!    Lucas–Kanade: the template's Sobel gradients and 2×2 structure tensor are computed once,
 //!    each iteration only samples `I1` at the current estimate, the whole patch at one
 //!    sub-pixel offset (`u ← u − s·H⁻¹ Σ ∇T·(I1(x+u) − T)`, damped by `s` = 1/8 as OpenCV's
-//!    steps are: see [`STEP`]), until the patch distance stops falling. Patches are
+//!    steps are, by the Sobel scale), until the patch distance stops falling. Patches are
 //!    mean-normalised (robust to brightness changes); an estimate that moved more than a patch
 //!    side from its start is discarded. **Spatial propagation** (OpenCV's addition to the paper): a forward pass in
 //!    raster order starts each patch from the best of its own, its left and its upper
