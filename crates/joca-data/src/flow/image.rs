@@ -3,6 +3,8 @@
 
 use joca_core::Rgb8Image;
 
+use rayon::prelude::*;
+
 /// A single-channel f32 image, row-major (intensities 0–255 when made from 8-bit frames).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Gray {
@@ -79,37 +81,41 @@ impl Gray {
 
     /// Horizontal and vertical derivatives by central differences (one-sided at the borders).
     pub fn gradients(&self) -> (Gray, Gray) {
+        self.row_derivatives(|y, x, (xa, xb), (ya, yb)| {
+            (
+                (self.at(xb, y) - self.at(xa, y)) / (xb - xa).max(1) as f32,
+                (self.at(x, yb) - self.at(x, ya)) / (yb - ya).max(1) as f32,
+            )
+        })
+    }
+
+    /// Two derivative images from `f(y, x, (x − 1, x + 1), (y − 1, y + 1))` (neighbours clamped
+    /// to the image), rows in parallel.
+    fn row_derivatives(
+        &self,
+        f: impl Fn(usize, usize, (usize, usize), (usize, usize)) -> (f32, f32) + Sync,
+    ) -> (Gray, Gray) {
         let (w, h) = (self.width, self.height);
         let mut gx = vec![0.0; w * h];
         let mut gy = vec![0.0; w * h];
-        for y in 0..h {
+        gx.par_chunks_mut(w).zip(gy.par_chunks_mut(w)).enumerate().for_each(|(y, (rx, ry))| {
             let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
             for x in 0..w {
                 let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
-                gx[y * w + x] = (self.at(xb, y) - self.at(xa, y)) / (xb - xa).max(1) as f32;
-                gy[y * w + x] = (self.at(x, yb) - self.at(x, ya)) / (yb - ya).max(1) as f32;
+                (rx[x], ry[x]) = f(y, x, (xa, xb), (ya, yb));
             }
-        }
+        });
         (Gray::new(w, h, gx), Gray::new(w, h, gy))
     }
 
     /// Horizontal and vertical derivatives by the 3×3 Sobel operator (smoothed across the
     /// derivative's direction by [1 2 1]/4), replicated borders, scaled to intensity per pixel.
     pub fn sobel(&self) -> (Gray, Gray) {
-        let (w, h) = (self.width, self.height);
-        let mut gx = vec![0.0; w * h];
-        let mut gy = vec![0.0; w * h];
-        for y in 0..h {
-            let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
-            for x in 0..w {
-                let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
-                let d = |yy: usize| self.at(xb, yy) - self.at(xa, yy);
-                gx[y * w + x] = (d(ya) + 2.0 * d(y) + d(yb)) / 8.0;
-                let e = |xx: usize| self.at(xx, yb) - self.at(xx, ya);
-                gy[y * w + x] = (e(xa) + 2.0 * e(x) + e(xb)) / 8.0;
-            }
-        }
-        (Gray::new(w, h, gx), Gray::new(w, h, gy))
+        self.row_derivatives(|y, x, (xa, xb), (ya, yb)| {
+            let d = |yy: usize| self.at(xb, yy) - self.at(xa, yy);
+            let e = |xx: usize| self.at(xx, yb) - self.at(xx, ya);
+            ((d(ya) + 2.0 * d(y) + d(yb)) / 8.0, (e(xa) + 2.0 * e(x) + e(xb)) / 8.0)
+        })
     }
 
     /// Smoothed with the binomial kernel [1 4 6 4 1]/16 in both directions and subsampled by 2
@@ -121,21 +127,19 @@ impl Gray {
         let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
         // Horizontal pass at the kept columns only, then vertical at the kept rows.
         let mut tmp = vec![0.0; nw * h];
-        for y in 0..h {
-            for nx in 0..nw {
+        tmp.par_chunks_mut(nw).enumerate().for_each(|(y, row)| {
+            for (nx, t) in row.iter_mut().enumerate() {
                 let x = (2 * nx) as isize;
-                tmp[y * nw + nx] =
-                    (0..5).map(|k| K[k] * self.at(clamp(x + k as isize - 2, w), y)).sum();
+                *t = (0..5).map(|k| K[k] * self.at(clamp(x + k as isize - 2, w), y)).sum();
             }
-        }
+        });
         let mut out = vec![0.0; nw * nh];
-        for ny in 0..nh {
+        out.par_chunks_mut(nw).enumerate().for_each(|(ny, row)| {
             let y = (2 * ny) as isize;
-            for nx in 0..nw {
-                out[ny * nw + nx] =
-                    (0..5).map(|k| K[k] * tmp[clamp(y + k as isize - 2, h) * nw + nx]).sum();
+            for (nx, o) in row.iter_mut().enumerate() {
+                *o = (0..5).map(|k| K[k] * tmp[clamp(y + k as isize - 2, h) * nw + nx]).sum();
             }
-        }
+        });
         Gray::new(nw, nh, out)
     }
 }

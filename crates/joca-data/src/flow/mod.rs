@@ -102,6 +102,7 @@ impl Flow {
     pub fn resized(&self, width: usize, height: usize) -> Flow {
         let (sx, sy) = (self.width as f32 / width as f32, self.height as f32 / height as f32);
         let data = (0..width * height)
+            .into_par_iter()
             .map(|i| {
                 let (x, y) = ((i % width) as f32, (i / width) as f32);
                 let v = self.sample((x + 0.5) * sx - 0.5, (y + 0.5) * sy - 0.5);
@@ -463,22 +464,31 @@ fn scale_flow(i0: &Gray, i1: &Gray, init: &Flow, p: &DisParams) -> Flow {
         ys.iter().flat_map(|&y| xs.iter().map(move |&x| (x, y))).collect();
     let padded = Padded::new(i1, 2 * size);
     let patch_flows = search_patches(i0, &padded, (&gx, &gy), &xs, &ys, init, p);
-    // Densification: photometric-error-weighted average of the covering patches.
+    // Densification: photometric-error-weighted average of the covering patches. Bands of
+    // rows in parallel, each visiting the patches that reach into it in the global patch order,
+    // so every pixel sums its patches in the same order whatever the thread count.
+    const BAND: usize = 32;
     let mut acc = vec![[0.0f32; 3]; w * h];
-    let mut warped = vec![0.0f32; size * size];
-    for (&(px, py), u) in origins.iter().zip(&patch_flows) {
-        padded.patch(px as f32 + u[0], py as f32 + u[1], size, &mut warped);
-        for y in py..(py + size).min(h) {
-            for x in px..(px + size).min(w) {
-                let diff = (warped[(y - py) * size + x - px] - i0.at(x, y)).abs();
-                let weight = 1.0 / diff.max(1.0);
-                let a = &mut acc[y * w + x];
-                a[0] += weight * u[0];
-                a[1] += weight * u[1];
-                a[2] += weight;
+    acc.par_chunks_mut(BAND * w).enumerate().for_each(|(band, acc)| {
+        let (top, bottom) = (band * BAND, (band * BAND + BAND).min(h));
+        let mut warped = vec![0.0f32; size * size];
+        for (&(px, py), u) in origins.iter().zip(&patch_flows) {
+            if py >= bottom || py + size <= top {
+                continue;
+            }
+            padded.patch(px as f32 + u[0], py as f32 + u[1], size, &mut warped);
+            for y in py.max(top)..(py + size).min(bottom) {
+                for x in px..(px + size).min(w) {
+                    let diff = (warped[(y - py) * size + x - px] - i0.at(x, y)).abs();
+                    let weight = 1.0 / diff.max(1.0);
+                    let a = &mut acc[(y - top) * w + x];
+                    a[0] += weight * u[0];
+                    a[1] += weight * u[1];
+                    a[2] += weight;
+                }
             }
         }
-    }
+    });
     let data = acc
         .iter()
         .zip(init.data())

@@ -103,6 +103,21 @@ impl Terms {
     }
 }
 
+/// Adds neighbour `m`'s smoothness pull on pixel `k` with weight `wkm`: `w (u_m + du_m − u_k)`
+/// to the pull, `w` to the weight (`at` = incoming flow, increments, `k`). A function rather
+/// than a closure so that it is always inlined into the sweep.
+#[inline(always)]
+fn pull_towards(
+    (pull, weight): &mut ([f32; 2], f32),
+    (base, du, k): (&[[f32; 2]], &[[f32; 2]], usize),
+    m: usize,
+    wkm: f32,
+) {
+    pull[0] += wkm * (base[m][0] + du[m][0] - base[k][0]);
+    pull[1] += wkm * (base[m][1] + du[m][1] - base[k][1]);
+    *weight += wkm;
+}
+
 /// Refines `flow` (from `i0` to `i1`, same size as both) in place with `iterations`
 /// fixed-point iterations.
 pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iterations: usize) {
@@ -168,24 +183,21 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
                     for x in (start..w).step_by(2) {
                         let k = y * w + x;
                         // Σ_m w_km (u_m + du_m − u_k) and Σ_m w_km over the 4-neighbours.
-                        let (mut pull, mut weight) = ([0.0f32; 2], 0.0f32);
-                        let mut visit = |m: usize, wkm: f32| {
-                            pull[0] += wkm * (base[m][0] + other[m][0] - base[k][0]);
-                            pull[1] += wkm * (base[m][1] + other[m][1] - base[k][1]);
-                            weight += wkm;
-                        };
+                        let mut sums = ([0.0f32; 2], 0.0f32);
+                        let at = (&base[..], &other[..], k);
                         if x > 0 {
-                            visit(k - 1, smooth[k - 1]);
+                            pull_towards(&mut sums, at, k - 1, smooth[k - 1]);
                         }
                         if x + 1 < w {
-                            visit(k + 1, smooth[k]);
+                            pull_towards(&mut sums, at, k + 1, smooth[k]);
                         }
                         if y > 0 {
-                            visit(k - w, smooth[k - w]);
+                            pull_towards(&mut sums, at, k - w, smooth[k - w]);
                         }
                         if y + 1 < h {
-                            visit(k + w, smooth[k]);
+                            pull_towards(&mut sums, at, k + w, smooth[k]);
                         }
+                        let (pull, weight) = sums;
                         let s = systems[k];
                         let d = &mut row[x];
                         let new_u = (s.b1 + pull[0] - s.a12 * d[1]) / (s.a11 + weight);
