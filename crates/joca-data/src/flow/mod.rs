@@ -235,66 +235,92 @@ const MIN_DET: f32 = 1e-9;
 /// the structure tensor of the raw gradients (as OpenCV's DIS) for the inverse-compositional
 /// search.
 struct Template {
+    /// `I0` over the patch, row-major.
     t: Vec<f32>,
-    g: Vec<[f32; 2]>,
+    /// Its raw gradients.
+    gx: Vec<f32>,
+    gy: Vec<f32>,
+    /// Σ gx, Σ gy over the patch.
+    g_sum: [f32; 2],
     origin: (f32, f32),
     h: [f32; 3],
     det: f32,
     side: f32,
 }
 
+/// Lanes of the patch sums: eight running sums, added in a fixed order at the end, so the loop
+/// vectorises and its result does not depend on the machine.
+const LANES: usize = 8;
+
 impl Template {
     fn new(i0: &Gray, gx: &Gray, gy: &Gray, (px, py): (usize, usize), size: usize) -> Self {
         let n = size * size;
         let (w, h) = (i0.width(), i0.height());
-        let mut t = Vec::with_capacity(n);
-        let mut g = Vec::with_capacity(n);
+        let (mut t, mut tx, mut ty) =
+            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
         for j in 0..size {
             for i in 0..size {
                 let (x, y) = ((px + i).min(w - 1), (py + j).min(h - 1));
                 t.push(i0.at(x, y));
-                g.push([gx.at(x, y), gy.at(x, y)]);
+                tx.push(gx.at(x, y));
+                ty.push(gy.at(x, y));
             }
         }
-        // The structure tensor of the raw gradients; then the mean-normalised template and the
-        // correspondingly centred gradients, which make the update Σ ∇I·(r − r̄).
+        // The structure tensor of the raw gradients (as OpenCV's).
         let (mut hxx, mut hxy, mut hyy) = (0.0f32, 0.0f32, 0.0f32);
-        for v in &g {
-            hxx += v[0] * v[0];
-            hxy += v[0] * v[1];
-            hyy += v[1] * v[1];
+        for (&a, &b) in tx.iter().zip(&ty) {
+            hxx += a * a;
+            hxy += a * b;
+            hyy += b * b;
         }
-        let nf = n as f32;
-        let t_mean = t.iter().sum::<f32>() / nf;
-        let g_mean = g.iter().fold([0.0f32; 2], |a, v| [a[0] + v[0] / nf, a[1] + v[1] / nf]);
-        for v in &mut t {
-            *v -= t_mean;
-        }
-        for v in &mut g {
-            v[0] -= g_mean[0];
-            v[1] -= g_mean[1];
-        }
+        let g_sum = [tx.iter().sum(), ty.iter().sum()];
         let det = hxx * hyy - hxy * hxy;
         let det = if det.abs() < MIN_DET { MIN_DET } else { det };
         let origin = (px as f32, py as f32);
-        Self { t, g, origin, h: [hxx, hxy, hyy], det, side: size as f32 }
+        Self { t, gx: tx, gy: ty, g_sum, origin, h: [hxx, hxy, hyy], det, side: size as f32 }
     }
 
-    /// Mean-normalised residuals `I1(x + u) − T` into `out`; returns their sum of squares.
-    fn residuals(&self, i1: &Padded, u: [f32; 2], out: &mut Vec<f32>) -> f32 {
-        let size = self.side as usize;
-        out.resize(size * size, 0.0);
-        i1.patch(self.origin.0 + u[0], self.origin.1 + u[1], size, out);
-        let mean = out.iter().sum::<f32>() / out.len() as f32;
-        let mut ssd = 0.0;
-        for (v, t) in out.iter_mut().zip(&self.t) {
-            *v = *v - mean - t;
-            ssd += *v * *v;
+    /// With `d = I1(x + u) − I0(x)` over the patch (`warped` holds `I1(x + u)`): the
+    /// mean-normalised distance `Σ d² − (Σ d)²/n` and the update `Σ d ∇I − Σ d · Σ ∇I / n`,
+    /// i.e. the sums of the mean-normalised residual.
+    #[inline(always)]
+    fn distance(&self, warped: &[f32]) -> (f32, [f32; 2]) {
+        let mut acc = [[0.0f32; LANES]; 4];
+        let chunks = warped.len() / LANES * LANES;
+        for base in (0..chunks).step_by(LANES) {
+            let (w, t) = (&warped[base..base + LANES], &self.t[base..base + LANES]);
+            let (gx, gy) = (&self.gx[base..base + LANES], &self.gy[base..base + LANES]);
+            for l in 0..LANES {
+                let d = w[l] - t[l];
+                acc[0][l] += d;
+                acc[1][l] += d * d;
+                acc[2][l] += d * gx[l];
+                acc[3][l] += d * gy[l];
+            }
         }
-        ssd
+        let rest = warped[chunks..].iter().zip(&self.t[chunks..]);
+        for ((w, t), (gx, gy)) in rest.zip(self.gx[chunks..].iter().zip(&self.gy[chunks..])) {
+            let d = w - t;
+            acc[0][0] += d;
+            acc[1][0] += d * d;
+            acc[2][0] += d * gx;
+            acc[3][0] += d * gy;
+        }
+        let [sd, sd2, sx, sy] = acc.map(|a| a.iter().sum::<f32>());
+        let n = warped.len() as f32;
+        (sd2 - sd * sd / n, [sx - sd * self.g_sum[0] / n, sy - sd * self.g_sum[1] / n])
     }
 
-    /// The best start among `candidates` (least SSD, the first on ties), refined by up to
+    /// The warped patch at `u` into `buf` and its [`Template::distance`].
+    #[inline(always)]
+    fn at(&self, i1: &Padded, u: [f32; 2], buf: &mut Vec<f32>) -> (f32, [f32; 2]) {
+        let size = self.side as usize;
+        buf.resize(size * size, 0.0);
+        i1.patch(self.origin.0 + u[0], self.origin.1 + u[1], size, buf);
+        self.distance(buf)
+    }
+
+    /// The best start among `candidates` (least distance, the first on ties), refined by up to
     /// `iterations` damped inverse-compositional steps ([`STEP`]), stopping after the step
     /// taken where the patch distance stopped falling; the start itself if the result moved
     /// more than a patch side from it (OpenCV's rule: such jumps are mostly wrong).
@@ -303,12 +329,12 @@ impl Template {
         i1: &Padded,
         candidates: &[[f32; 2]],
         iterations: usize,
-        e: &mut Vec<f32>,
+        buf: &mut Vec<f32>,
     ) -> [f32; 2] {
         let mut start = candidates[0];
-        let mut start_ssd = self.residuals(i1, start, e);
+        let mut start_ssd = self.at(i1, start, buf).0;
         for &c in &candidates[1..] {
-            let ssd = self.residuals(i1, c, e);
+            let ssd = self.at(i1, c, buf).0;
             if ssd < start_ssd {
                 (start, start_ssd) = (c, ssd);
             }
@@ -317,12 +343,7 @@ impl Template {
         let mut u = start;
         let mut previous = f32::INFINITY;
         for _ in 0..iterations {
-            let ssd = self.residuals(i1, u, e);
-            let (mut bx, mut by) = (0.0f32, 0.0f32);
-            for (g, r) in self.g.iter().zip(e.iter()) {
-                bx += g[0] * r;
-                by += g[1] * r;
-            }
+            let (ssd, [bx, by]) = self.at(i1, u, buf);
             let dx = STEP * (hyy * bx - hxy * by) / self.det;
             let dy = STEP * (hxx * by - hxy * bx) / self.det;
             u = [u[0] - dx, u[1] - dy];
@@ -369,7 +390,12 @@ impl Padded {
         // Every read, at floor + size, must stay inside the padded image.
         let x = x.clamp(-b, (self.width + self.border - size - 1) as f32);
         let y = y.clamp(-b, (self.height + self.border - size - 1) as f32);
-        let (fx, fy) = (x.floor(), y.floor());
+        // floor without libm's call (|x| is far below 2³¹ here).
+        let floor = |v: f32| {
+            let t = v as i32 as f32;
+            if t > v { t - 1.0 } else { t }
+        };
+        let (fx, fy) = (floor(x), floor(y));
         let (ax, ay) = (x - fx, y - fy);
         let (w00, w01, w10, w11) =
             ((1.0 - ax) * (1.0 - ay), ax * (1.0 - ay), (1.0 - ax) * ay, ax * ay);
