@@ -6,13 +6,15 @@ use crate::geometry::V3;
 use crate::lighting::{Illumination, Lighting};
 use crate::render::{self, CameraFrame, Target, View};
 use joca_core::rng::SeedStreams;
+mod grid;
 mod truth;
+
+pub use grid::ShutterGrid;
 
 pub use truth::{REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, reference_camera};
 
 use joca_core::{Class, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError};
 use rand::Rng;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -267,98 +269,6 @@ impl Simulator {
         n | 1
     }
 
-    /// The frames of shutters integrated over `grid`, one per row of `weights` (each shutter's
-    /// [`ShutterGrid::weights`]). The middle cell is `mid`, already rendered; the others are
-    /// rendered in parallel, each once, and a cell no shutter overlaps is not rendered.
-    ///
-    /// Shutters are centred on the grid, so a shutter's weights are one value over a symmetric
-    /// run of whole cells and one smaller value on the pair of cells just outside it (see
-    /// [`RingWeights`]). Each frame is therefore summed ring by ring from the middle outwards,
-    /// `((v₀ + v₋₁) + v₊₁) + …`, scaled once, plus its edge pair: the order of every addition
-    /// depends only on the grid and that shutter, not on the other shutters sharing the grid nor
-    /// on the thread count. Summing rings is also what makes many shutters cheap: the running
-    /// sum is shared, and each cell is read once.
-    fn integrate(
-        &self,
-        episode: &Episode,
-        camera: &PinholeCamera,
-        grid: &ShutterGrid,
-        weights: &[Vec<f32>],
-        mid: &Target,
-    ) -> Vec<Vec<f32>> {
-        let (w, h) = (camera.width_px, camera.height_px);
-        let objects = self.city.objects.len();
-        let middle = grid.cells / 2;
-        let rings: Vec<RingWeights> = weights.iter().map(|wk| RingWeights::of(wk)).collect();
-        // Cells out to the outermost ring any shutter touches.
-        let reach = rings.iter().map(RingWeights::reach).max().unwrap_or(0);
-        let others: Vec<usize> =
-            (middle - reach..=middle + reach).filter(|&k| k != middle).collect();
-        let rendered: Vec<Vec<f32>> = others
-            .par_iter()
-            .map_init(
-                || Target::new(w, h, objects),
-                |target, &k| {
-                    self.render_at(episode, camera, grid.time(k), target);
-                    target.colour.clone()
-                },
-            )
-            .collect();
-        let cell = |k: usize| -> &[f32] {
-            if k == middle {
-                &mid.colour
-            } else {
-                let i = if k < middle { k - (middle - reach) } else { k - (middle - reach) - 1 };
-                &rendered[i]
-            }
-        };
-        // Over blocks of the image in parallel; within a block, rings in order.
-        const BLOCK: usize = 4096;
-        let mut out = vec![vec![0.0f32; w * h * 3]; weights.len()];
-        let mut blocks: Vec<Vec<&mut [f32]>> = Vec::new();
-        {
-            let mut iters: Vec<_> = out.iter_mut().map(|o| o.chunks_mut(BLOCK)).collect();
-            'blocks: loop {
-                let mut row = Vec::with_capacity(iters.len());
-                for it in &mut iters {
-                    match it.next() {
-                        Some(b) => row.push(b),
-                        None => break 'blocks,
-                    }
-                }
-                blocks.push(row);
-            }
-        }
-        blocks.into_par_iter().enumerate().for_each(|(b, mut frames)| {
-            let start = b * BLOCK;
-            let len = frames.first().map_or(0, |f| f.len());
-            let at = |k: usize| &cell(k)[start..start + len];
-            let mut acc: Vec<f32> = at(middle).to_vec();
-            for k in 0..=reach {
-                if k > 0 {
-                    let (lo, hi) = (at(middle - k), at(middle + k));
-                    for ((a, &l), &u) in acc.iter_mut().zip(lo).zip(hi) {
-                        *a = (*a + l) + u;
-                    }
-                }
-                for (frame, ring) in frames.iter_mut().zip(&rings) {
-                    if ring.full != k {
-                        continue;
-                    }
-                    if ring.edge == 0.0 {
-                        frame.iter_mut().zip(&acc).for_each(|(f, &a)| *f = ring.inner * a);
-                    } else {
-                        let (lo, hi) = (at(middle - k - 1), at(middle + k + 1));
-                        for (((f, &a), &l), &u) in frame.iter_mut().zip(&acc).zip(lo).zip(hi) {
-                            *f = ring.inner * a + ring.edge * (l + u);
-                        }
-                    }
-                }
-            }
-        });
-        out
-    }
-
     /// The grid of sub-frames for shutters up to `longest_s` centred on `request.time_s`: about
     /// one cell per pixel of the largest image-space travel over the longest shutter, odd, at
     /// most [`MAX_SUBFRAMES`]. `mid` is the view at the centre.
@@ -494,99 +404,6 @@ impl Simulator {
     }
 }
 
-/// The sub-frame grid of one frame: `cells` equal cells over `span_s` seconds centred on
-/// `centre_s` (the frame's time). A shutter of `s ≤ span_s` seconds is open over
-/// `[centre − s/2, centre + s/2]`: shorter shutters nest in longer ones and share their renders,
-/// ground truth and 180° count. Each cell is rendered at its centre and stands for the scene
-/// over the whole cell (a box filter in time).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ShutterGrid {
-    /// The frame's time, seconds: the middle of every shutter.
-    pub centre_s: f64,
-    /// The longest shutter the grid covers, seconds.
-    pub span_s: f64,
-    /// Number of cells (odd, so that the middle one is rendered at the centre).
-    pub cells: usize,
-}
-
-impl ShutterGrid {
-    /// A grid of `cells` (made odd, at least 1) over `span_s` centred on `centre_s`.
-    pub fn new(centre_s: f64, span_s: f64, cells: usize) -> Self {
-        Self { centre_s, span_s: span_s.max(0.0), cells: cells.max(1) | 1 }
-    }
-
-    fn step_s(&self) -> f64 {
-        self.span_s / self.cells as f64
-    }
-
-    /// The time cell `k` is rendered at.
-    pub fn time(&self, k: usize) -> f64 {
-        self.centre_s + (k as f64 - (self.cells / 2) as f64) * self.step_s()
-    }
-
-    /// Each cell's share of a shutter of `shutter_s` seconds centred on the grid: the overlap of
-    /// the cell with the open shutter over the shutter's length (they sum to 1). A shutter
-    /// shorter than a cell is the middle cell alone, a sharp frame.
-    pub fn weights(&self, shutter_s: f64) -> Vec<f32> {
-        let mut out = vec![0.0f32; self.cells];
-        let middle = self.cells / 2;
-        let step = self.step_s();
-        if !(shutter_s > 0.0 && step > 0.0) || shutter_s <= step {
-            out[middle] = 1.0;
-            return out;
-        }
-        // In units of cells, from the centre: the shutter covers [−r, r], cell k covers
-        // [k − m − 1/2, k − m + 1/2].
-        let r = 0.5 * shutter_s.min(self.span_s) / step;
-        for (k, o) in out.iter_mut().enumerate() {
-            let c = k as f64 - middle as f64;
-            let overlap = ((c + 0.5).min(r) - (c - 0.5).max(-r)).max(0.0);
-            *o = (overlap / (2.0 * r)) as f32;
-        }
-        out
-    }
-}
-
-/// A centred shutter's [`ShutterGrid::weights`] in ring form: `inner` on every cell within
-/// `full` cells of the middle, `edge` on the two cells at `full + 1` (0 when the shutter ends
-/// on a cell boundary), nothing beyond.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct RingWeights {
-    full: usize,
-    inner: f32,
-    edge: f32,
-}
-
-impl RingWeights {
-    /// The ring form of `weights` (symmetric about the middle cell, as every centred shutter's
-    /// are: checked in debug builds).
-    fn of(weights: &[f32]) -> Self {
-        let m = weights.len() / 2;
-        let inner = weights[m];
-        let full = (1..=m).take_while(|&k| weights[m - k] == inner).count();
-        let edge = if full < m { weights[m - full - 1] } else { 0.0 };
-        let ring = Self { full, inner, edge };
-        debug_assert!(weights.iter().enumerate().all(|(k, &wk)| wk == ring.weight(k.abs_diff(m))));
-        ring
-    }
-
-    /// The weight of a cell `d` cells from the middle.
-    fn weight(&self, d: usize) -> f32 {
-        if d <= self.full {
-            self.inner
-        } else if d == self.full + 1 {
-            self.edge
-        } else {
-            0.0
-        }
-    }
-
-    /// The farthest ring with a non-zero weight.
-    fn reach(&self) -> usize {
-        if self.edge > 0.0 { self.full + 1 } else { self.full }
-    }
-}
-
 impl FrameSource for Simulator {
     fn render(&self, camera: &PinholeCamera, request: &FrameRequest) -> Result<Frame, SourceError> {
         self.render_exposures(camera, request, &[request.exposure_s])?
@@ -607,35 +424,5 @@ impl FrameSource for Simulator {
 
     fn frame_interval_s(&self) -> f64 {
         self.config.frame_interval_s
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The ring form stands for exactly the grid's weights, for shutters from shorter than a
-    /// cell to the whole span, on odd grids of 1 to 31 cells.
-    #[test]
-    fn ring_weights_are_the_grid_weights() {
-        for cells in (1..=31).step_by(2) {
-            let grid = ShutterGrid::new(1.0, 0.04, cells);
-            for i in 0..=400 {
-                let shutter = 0.04 * f64::from(i) / 400.0;
-                let weights = grid.weights(shutter);
-                let ring = RingWeights::of(&weights);
-                let m = cells / 2;
-                for (k, &wk) in weights.iter().enumerate() {
-                    assert_eq!(
-                        wk.to_bits(),
-                        ring.weight(k.abs_diff(m)).to_bits(),
-                        "{cells} {i} {k}"
-                    );
-                }
-                assert!(ring.reach() <= m);
-                let total: f32 = weights.iter().sum();
-                assert!((total - 1.0).abs() < 1e-5, "weights sum to {total}");
-            }
-        }
     }
 }

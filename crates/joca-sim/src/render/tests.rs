@@ -1,0 +1,101 @@
+//! The rasteriser's shortcuts against the full computation.
+
+use super::*;
+use rand::Rng;
+
+fn camera(rng: &mut impl Rng) -> PinholeCamera {
+    let (w, h) = (rng.random_range(40..200), rng.random_range(30..150));
+    let f = rng.random_range(20.0..400.0);
+    PinholeCamera {
+        width_px: w,
+        height_px: h,
+        fx_px: f,
+        fy_px: f,
+        cx_px: w as f64 / 2.0,
+        cy_px: h as f64 / 2.0,
+        mount_m: [1.5, 0.0, 1.4],
+    }
+}
+
+/// The box rejection is conservative: a rejected box, rasterised face by face, covers no
+/// pixel centre. Boxes of 2 cm to 20 m, anywhere from beside the camera to 300 m away; the
+/// test also asserts that both outcomes occur often, so neither branch is left untested.
+#[test]
+fn a_rejected_box_covers_no_pixel() {
+    let mut rng = joca_core::SeedStreams::new(7).stream("test");
+    let (mut rejected, mut drawn) = (0, 0);
+    for _ in 0..20_000 {
+        let pinhole = camera(&mut rng);
+        let ego = Pose2 { x: 0.0, y: 0.0, yaw: rng.random_range(-3.2..3.2) };
+        let cam = CameraFrame::new(&pinhole, ego);
+        let half = V3::new(
+            rng.random_range(0.01..10.0),
+            rng.random_range(0.01..10.0),
+            rng.random_range(0.01..5.0),
+        );
+        let range: f32 = rng.random_range(0.0f32..300.0).powi(2) / 300.0;
+        let bearing: f32 = rng.random_range(-3.2..3.2);
+        let centre = V3::new(range * bearing.cos(), range * bearing.sin(), half.z);
+        let b = OrientedBox { centre, half, yaw: rng.random_range(-3.2..3.2) };
+        let mut target = Target::ids_only(pinhole.width_px, pinhole.height_px, 1);
+        let rejects = misses_every_pixel_centre(&cam, &b, &target);
+        // Rasterise every face without the rejection.
+        let (f, l) = b.axes();
+        let up = V3::new(0.0, 0.0, 1.0);
+        let h = b.half;
+        for (n, hn, ua, hu, va, hv) in [
+            (f, h.x, -l, h.y, up, h.z),
+            (-f, h.x, l, h.y, up, h.z),
+            (l, h.y, f, h.x, up, h.z),
+            (-l, h.y, -f, h.x, up, h.z),
+            (up, h.z, f, h.x, l, h.y),
+            (-up, h.z, f, h.x, -l, h.y),
+        ] {
+            let c = b.centre + n * hn;
+            let verts =
+                [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(su, sv)| Vertex {
+                    cam: cam.camera_from_world(c + ua * (su * hu) + va * (sv * hv)),
+                    u: 0.0,
+                    v: 0.0,
+                });
+            raster::draw_polygon(&verts, &cam, &|| Shade::Constant([0.0; 3]), 1, &mut target);
+        }
+        if rejects {
+            rejected += 1;
+            assert_eq!(target.coverage[1], 0, "rejected box {b:?} covers pixels");
+        } else if target.coverage[1] > 0 {
+            drawn += 1;
+        }
+    }
+    assert!(rejected > 2_000 && drawn > 2_000, "rejected {rejected}, drawn {drawn}");
+}
+
+/// The vectorised ground row gives the bits of the portable one.
+#[test]
+fn ground_points_are_the_same_on_every_code_path() {
+    let mut rng = joca_core::SeedStreams::new(3).stream("test");
+    for _ in 0..50 {
+        let pinhole = camera(&mut rng);
+        let ego = Pose2 {
+            x: rng.random_range(-50.0..800.0),
+            y: rng.random_range(-50.0..800.0),
+            yaw: rng.random_range(-3.2..3.2),
+        };
+        let cam = CameraFrame::new(&pinhole, ego);
+        let slopes: Vec<f32> =
+            (0..pinhole.width_px).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx).collect();
+        let t = rng.random_range(1.0..600.0);
+        let (mut a, mut b) =
+            (vec![(0.0, 0.0, 0.0); slopes.len()], vec![(1.0, 1.0, 1.0); slopes.len()]);
+        ground_points(&cam, t, &slopes, &mut a);
+        ground_points_portable(&cam, t, &slopes, &mut b);
+        for (p, q) in a.iter().zip(&b) {
+            assert_eq!(
+                (p.0.to_bits(), p.1.to_bits(), p.2.to_bits()),
+                (q.0.to_bits(), q.1.to_bits(), q.2.to_bits())
+            );
+            // And the grain is the scalar per-point function's.
+            assert_eq!(q.2.to_bits(), crate::city::ground_grain(q.0, q.1).to_bits());
+        }
+    }
+}
