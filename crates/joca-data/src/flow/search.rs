@@ -265,3 +265,59 @@ pub(super) fn search_patches(
     });
     flows
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(w: usize, h: usize) -> Gray {
+        let v = |x: f32, y: f32| 128.0 + 60.0 * (0.37 * x).sin() * (0.23 * y + 0.5).cos() + 0.7 * x;
+        Gray::new(w, h, (0..w * h).map(|i| v((i % w) as f32, (i / w) as f32)).collect())
+    }
+
+    /// The whole-patch sampler against per-pixel bilinear sampling with clamped coordinates
+    /// (the unshortened computation), at offsets inside the image and reaching into the border.
+    #[test]
+    fn a_patch_equals_its_pixels_sampled_one_by_one() {
+        let img = image(40, 30);
+        let padded = Padded::new(&img, 16);
+        let mut out = vec![0.0; 64];
+        for &(x, y) in &[(3.25f32, 4.5f32), (0.0, 0.0), (-5.7, 2.1), (35.4, 25.9), (31.999, -0.001)]
+        {
+            padded.patch(x, y, 8, &mut out);
+            for j in 0..8 {
+                for i in 0..8 {
+                    let want = img.sample(x + i as f32, y + j as f32);
+                    let got = out[j * 8 + i];
+                    assert!((got - want).abs() < 1e-3, "({x}, {y}) + ({i}, {j}): {got} vs {want}");
+                }
+            }
+        }
+    }
+
+    /// The one-pass distance and update against the two-pass mean-normalised residual:
+    /// `Σ (r − r̄)²` and `Σ (r − r̄) ∇I` with `r = I1(x + u) − I0(x)`.
+    #[test]
+    fn the_one_pass_sums_equal_the_mean_normalised_residual() {
+        let (i0, i1) = (image(40, 30), image(40, 30));
+        let (gx, gy) = i0.sobel();
+        let t = Template::new(&i0, &gx, &gy, (10, 7), 8);
+        let padded = Padded::new(&i1, 16);
+        let mut buf = Vec::new();
+        for u in [[0.3f32, -0.6f32], [2.5, 1.25], [-1.0, 0.0]] {
+            let (ssd, [bx, by]) = t.at(&padded, u, &mut buf);
+            let r: Vec<f32> = (0..64)
+                .map(|k| {
+                    i1.sample(10.0 + (k % 8) as f32 + u[0], 7.0 + (k / 8) as f32 + u[1]) - t.t[k]
+                })
+                .collect();
+            let mean = r.iter().sum::<f32>() / 64.0;
+            let want_ssd: f32 = r.iter().map(|v| (v - mean).powi(2)).sum();
+            let want_bx: f32 = r.iter().zip(&t.gx).map(|(v, g)| (v - mean) * g).sum();
+            let want_by: f32 = r.iter().zip(&t.gy).map(|(v, g)| (v - mean) * g).sum();
+            let close = |a: f32, b: f32| (a - b).abs() <= 1e-3 * b.abs().max(1.0);
+            assert!(close(ssd, want_ssd), "{ssd} vs {want_ssd}");
+            assert!(close(bx, want_bx) && close(by, want_by), "{bx} {by} vs {want_bx} {want_by}");
+        }
+    }
+}
