@@ -28,4 +28,4 @@ pub use joca_metrics::{BandScores, TaskScores};
 pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
 pub use method::{Method, Scenario};
 pub use results::{DesignSummary, RunResults, Validated};
-pub use showcase::{Showcase, ShowcaseFrame};
+pub use showcase::{LightStep, Showcase, ShowcaseFrame};

@@ -37,3 +37,91 @@ pub struct Showcase {
     /// Frames in order.
     pub frames: Vec<ShowcaseFrame>,
 }
+
+/// How the exposure controller answered the largest rise of ambient light in a showcase (the
+/// tunnel exit): see [`Showcase::light_step`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightStep {
+    /// Time of the first frame in the brighter light, s.
+    pub time_s: f64,
+    /// Ambient after the step over ambient before it.
+    pub rise: f64,
+    /// Exposure × linear gain of the last frame before the step over the smallest exposure ×
+    /// gain within the window after it (from the step's first frame on): how far the controller
+    /// took the light back.
+    pub fall: f64,
+    /// The window, s.
+    pub window_s: f64,
+}
+
+impl ShowcaseFrame {
+    /// Exposure × linear gain, ms.
+    pub fn exposure_gain_ms(&self) -> f64 {
+        self.exposure_ms * 10f64.powf(self.gain_db / 20.0)
+    }
+}
+
+impl Showcase {
+    /// The controller's answer to the largest frame-to-frame rise of ambient light, if some
+    /// frame is at least `min_rise` times brighter than the one before it: the fall of exposure
+    /// × gain within `window_s` seconds (closed loop, a frame's settings come from the frame
+    /// before it, so the step's own frame still has the old settings).
+    pub fn light_step(&self, min_rise: f64, window_s: f64) -> Option<LightStep> {
+        let ratio = |k: usize| {
+            f64::from(self.frames[k].ambient) / f64::from(self.frames[k - 1].ambient).max(1e-12)
+        };
+        let k = (1..self.frames.len()).max_by(|&a, &b| ratio(a).total_cmp(&ratio(b)))?;
+        let rise = ratio(k);
+        if rise < min_rise {
+            return None;
+        }
+        let start = self.frames[k].time_s;
+        let before = self.frames[k - 1].exposure_gain_ms();
+        let least = self.frames[k..]
+            .iter()
+            .take_while(|f| f.time_s <= start + window_s + 1e-9)
+            .map(ShowcaseFrame::exposure_gain_ms)
+            .fold(f64::INFINITY, f64::min);
+        Some(LightStep { time_s: start, rise, fall: before / least, window_s })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(k: usize, ambient: f32, exposure_ms: f64, gain_db: f64) -> ShowcaseFrame {
+        ShowcaseFrame {
+            frame: k,
+            time_s: 0.1 * k as f64,
+            ambient,
+            exposure_ms,
+            gain_db,
+            boxes: Vec::new(),
+            detections: Vec::new(),
+            image: None,
+        }
+    }
+
+    /// A 500× step at frame 3; the controller keeps the old settings one frame, then drops to
+    /// 10 ms and 0 dB (from 50 ms and 20 dB: 50× less), then creeps back up: the fall within
+    /// 1 s is 50×, within 0.05 s (the step's own frame only) 1×.
+    #[test]
+    fn the_light_step_is_found_and_its_fall_measured() {
+        let mut frames: Vec<ShowcaseFrame> = (0..3).map(|k| frame(k, 0.002, 50.0, 20.0)).collect();
+        frames.push(frame(3, 1.0, 50.0, 20.0));
+        frames.push(frame(4, 1.0, 10.0, 0.0));
+        frames.extend((5..20).map(|k| frame(k, 1.0, 12.0, 0.0)));
+        let s = Showcase {
+            name: "tunnel".into(),
+            illumination: "tunnel".into(),
+            size_px: (8, 6),
+            frames,
+        };
+        let step = s.light_step(10.0, 1.0).unwrap();
+        assert!((step.rise - 500.0).abs() < 1e-3 && (step.time_s - 0.3).abs() < 1e-9);
+        assert!((step.fall - 50.0).abs() < 1e-9, "{step:?}");
+        assert!((s.light_step(10.0, 0.05).unwrap().fall - 1.0).abs() < 1e-12);
+        assert!(s.light_step(1000.0, 1.0).is_none());
+    }
+}

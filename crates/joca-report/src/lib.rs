@@ -331,6 +331,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     md.push_str(&table.markdown());
     let _ = writeln!(md, "\nAP50 {:.3}.\n", r.test.ap50);
     md.push_str(&settings_markdown(r));
+    md.push_str(&light_step_markdown(&run.showcases));
     md.push_str(&objects_markdown(r));
     md.push_str(&fitness_markdown(&run));
     md.push_str(&figures_markdown(&figures));
@@ -374,6 +375,23 @@ pub fn settings_markdown(r: &RunResults) -> String {
         let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} | {cell} | {relative} | {mean} |");
     }
     md.push('\n');
+    md
+}
+
+/// The controller's answer to the tunnel exit (the largest step of ambient light in the
+/// showcases, if one is ≥ 10×): how far exposure × gain fell within 1 s. A controller that keeps
+/// the image level takes back about as much as the light rose, or until its range ends.
+pub fn light_step_markdown(showcases: &[Showcase]) -> String {
+    let steps = showcases.iter().filter_map(|s| Some((s, s.light_step(10.0, 1.0)?)));
+    let mut md = String::new();
+    for (s, step) in steps {
+        let _ = writeln!(
+            md,
+            "After the light step of the `{}` sequence (ambient ×{:.0} at {:.1} s), exposure × \
+                gain fell {:.1}× within {} s.\n",
+            s.name, step.rise, step.time_s, step.fall, step.window_s
+        );
+    }
     md
 }
 
