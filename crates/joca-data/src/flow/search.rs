@@ -224,7 +224,7 @@ pub(super) fn search_patches(
         .iter()
         .flat_map(|&y| xs.iter().map(move |&x| init.sample(x as f32 + half, y as f32 + half)))
         .collect();
-    let forward_iterations = p.search_iterations.div_ceil(2);
+    let forward_iterations = p.search_iterations / 2;
     let backward_iterations = p.search_iterations / 2;
     flows.par_chunks_mut(STRIPE_ROWS * nx).enumerate().for_each(|(stripe, chunk)| {
         let rows = chunk.len() / nx;
