@@ -118,26 +118,19 @@ impl Gray {
         })
     }
 
-    /// Smoothed with the binomial kernel [1 4 6 4 1]/16 in both directions and subsampled by 2
-    /// (size rounded up): the next pyramid level.
+    /// The next pyramid level: the mean of each 2×2 block, size halved and rounded down (as
+    /// OpenCV's `INTER_AREA` halving, which its DIS uses; here in f32, without rounding to 8
+    /// bits). On the motorcycle pair it lowered DIS's end-point errors against the 5-tap binomial
+    /// pyramid used before (medium 2.648 → 2.624 px), and on the built-in pair too.
     pub fn half(&self) -> Gray {
         let (w, h) = (self.width, self.height);
-        const K: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
-        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
-        let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
-        // Horizontal pass at the kept columns only, then vertical at the kept rows.
-        let mut tmp = vec![0.0; nw * h];
-        tmp.par_chunks_mut(nw).enumerate().for_each(|(y, row)| {
-            for (nx, t) in row.iter_mut().enumerate() {
-                let x = (2 * nx) as isize;
-                *t = (0..5).map(|k| K[k] * self.at(clamp(x + k as isize - 2, w), y)).sum();
-            }
-        });
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
         let mut out = vec![0.0; nw * nh];
         out.par_chunks_mut(nw).enumerate().for_each(|(ny, row)| {
-            let y = (2 * ny) as isize;
             for (nx, o) in row.iter_mut().enumerate() {
-                *o = (0..5).map(|k| K[k] * tmp[clamp(y + k as isize - 2, h) * nw + nx]).sum();
+                let (x, y) = ((2 * nx).min(w - 1), (2 * ny).min(h - 1));
+                let (x1, y1) = ((x + 1).min(w - 1), (y + 1).min(h - 1));
+                *o = 0.25 * ((self.at(x, y) + self.at(x1, y)) + (self.at(x, y1) + self.at(x1, y1)));
             }
         });
         Gray::new(nw, nh, out)
@@ -175,11 +168,15 @@ mod tests {
     }
 
     #[test]
-    fn halving_keeps_a_constant_and_rounds_the_size_up() {
+    fn halving_averages_two_by_two_blocks_and_rounds_the_size_down() {
         let img = Gray::new(7, 5, vec![42.0; 35]);
         let half = img.half();
-        assert_eq!((half.width(), half.height()), (4, 3));
+        assert_eq!((half.width(), half.height()), (3, 2));
         assert!(half.data().iter().all(|&v| (v - 42.0).abs() < 1e-4));
         assert_eq!(pyramid(&img, 3).len(), 3);
+        // f(x, y) = x + 10 y: the block at (2, 0)–(3, 1) averages to 2.5 + 5.
+        let ramp =
+            Gray::new(7, 5, (0..35).map(|i| (i % 7) as f32 + 10.0 * (i / 7) as f32).collect());
+        assert!((ramp.half().at(1, 0) - 7.5).abs() < 1e-5);
     }
 }
