@@ -14,7 +14,7 @@ set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 joca="${1:-$repo/joca}"
 cache="${JOCA_REAL_DATA:-$HOME/.cache/joca-real-data}"
-declare -A END_POINT_ERROR_PX=([ultrafast]=3.9 [fast]=3.7 [medium]=3.05)
+declare -A END_POINT_ERROR_PX=([ultrafast]=3.9 [fast]=3.6 [medium]=3.05)
 mkdir -p "$cache"
 work="$(mktemp -d /tmp/joca-real-data.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
