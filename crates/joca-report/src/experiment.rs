@@ -47,6 +47,33 @@ fn one() -> u64 {
     1
 }
 
+/// The runs a group's figures show: one per method, its lowest finished seed, in table order.
+/// With several seeds a figure of every run repeats each legend entry once per seed and reuses
+/// colours; the other seeds' figures are in their own cells' reports. Labels name the seed when
+/// the experiment has more than one.
+fn figure_members<'a, R>(runs: &'a [(CellSpec, R)], group: &str) -> Vec<(String, &'a R)> {
+    let in_group: Vec<&(CellSpec, R)> = runs.iter().filter(|(c, _)| c.group == group).collect();
+    let several = in_group
+        .iter()
+        .any(|(c, _)| in_group.iter().any(|(o, _)| o.label == c.label && o.seed != c.seed));
+    let mut members: Vec<(String, &R)> = Vec::new();
+    let mut shown: Vec<(&str, u64)> = Vec::new();
+    for (c, _) in &in_group {
+        match shown.iter_mut().find(|(l, _)| *l == c.label) {
+            Some((_, seed)) => *seed = (*seed).min(c.seed),
+            None => shown.push((&c.label, c.seed)),
+        }
+    }
+    for (label, seed) in shown {
+        if let Some((c, r)) = in_group.iter().find(|(c, _)| c.label == label && c.seed == seed) {
+            let name =
+                if several { format!("{}, seed {}", c.label, c.seed) } else { c.label.clone() };
+            members.push((name, r));
+        }
+    }
+    members
+}
+
 /// Where a cell stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CellState {
@@ -137,11 +164,7 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     );
     let mut figures: Vec<Figure> = Vec::new();
     for group in table.groups() {
-        let members: Vec<(String, &RunData)> = runs
-            .iter()
-            .filter(|(c, _)| c.group == group)
-            .map(|(c, r)| (c.label.clone(), r))
-            .collect();
+        let members = figure_members(&runs, &group);
         let prefix = format!("{}-", slug(&group));
         let group_figures = write_figures(exp_dir, &prefix, &group, &members)?;
         let _ = writeln!(md, "## {group}\n");
@@ -164,4 +187,33 @@ fn slug(s: &str) -> String {
     s.chars()
         .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(label: &str, group: &str, seed: u64) -> (CellSpec, u64) {
+        let id = format!("{label}-{group}-s{seed}");
+        (CellSpec { id: id.clone(), label: label.into(), group: group.into(), dir: id, seed }, seed)
+    }
+
+    #[test]
+    fn figures_show_each_method_once_at_its_lowest_finished_seed() {
+        // Seed 0 of "b" has not finished; the calibrated group's figures show a/0 and b/1.
+        let runs = vec![
+            cell("a", "cal", 2),
+            cell("a", "cal", 0),
+            cell("b", "cal", 1),
+            cell("b", "cal", 2),
+            cell("a", "blur", 0),
+        ];
+        let shown: Vec<(String, u64)> =
+            figure_members(&runs, "cal").into_iter().map(|(l, r)| (l, *r)).collect();
+        assert_eq!(shown, vec![("a, seed 0".to_owned(), 0), ("b, seed 1".to_owned(), 1)]);
+        // One seed: labels as the table's.
+        let one = vec![cell("a", "cal", 0), cell("b", "cal", 0)];
+        let shown: Vec<String> = figure_members(&one, "cal").into_iter().map(|(l, _)| l).collect();
+        assert_eq!(shown, vec!["a".to_owned(), "b".to_owned()]);
+    }
 }
