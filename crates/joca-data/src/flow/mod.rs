@@ -100,17 +100,37 @@ impl Flow {
         out
     }
 
-    /// This field resampled to `width × height` (pixel centres aligned), vectors scaled with it.
+    /// This field resampled to `width × height` (pixel centres aligned), vectors scaled with it:
+    /// [`Flow::sample`] at every output pixel's centre, with the source columns and weights of
+    /// each output column computed once for all rows.
     pub fn resized(&self, width: usize, height: usize) -> Flow {
         let (sx, sy) = (self.width as f32 / width as f32, self.height as f32 / height as f32);
-        let data = (0..width * height)
-            .into_par_iter()
-            .map(|i| {
-                let (x, y) = ((i % width) as f32, (i / width) as f32);
-                let v = self.sample((x + 0.5) * sx - 0.5, (y + 0.5) * sy - 0.5);
-                [v[0] / sx, v[1] / sy]
-            })
-            .collect();
+        // Source coordinate of a target pixel centre, clamped as `sample` clamps: the two
+        // neighbours and the weight of the second.
+        let taps = |t: usize, scale: f32, n: usize| {
+            let v = ((t as f32 + 0.5) * scale - 0.5).clamp(0.0, (n - 1) as f32);
+            // Non-negative after the clamp: truncation is the floor.
+            let a = v as usize;
+            (a, (a + 1).min(n - 1), v - a as f32)
+        };
+        let columns: Vec<(usize, usize, f32)> =
+            (0..width).map(|x| taps(x, sx, self.width)).collect();
+        let mut data = vec![[0.0f32; 2]; width * height];
+        data.par_chunks_mut(width.max(1)).enumerate().for_each(|(y, row)| {
+            let (y0, y1, fy) = taps(y, sy, self.height);
+            let (top, bottom) = (
+                &self.data[y0 * self.width..][..self.width],
+                &self.data[y1 * self.width..][..self.width],
+            );
+            for (out, &(x0, x1, fx)) in row.iter_mut().zip(&columns) {
+                for c in 0..2 {
+                    let t = top[x0][c] * (1.0 - fx) + top[x1][c] * fx;
+                    let b = bottom[x0][c] * (1.0 - fx) + bottom[x1][c] * fx;
+                    out[c] = t * (1.0 - fy) + b * fy;
+                }
+                *out = [out[0] / sx, out[1] / sy];
+            }
+        });
         Flow::new(width, height, data)
     }
 
@@ -305,6 +325,31 @@ mod tests {
         let f = Flow::new(4, 3, vec![[1.0, -2.0]; 12]);
         let g = f.resized(8, 6);
         assert!(g.data().iter().all(|v| (v[0] - 2.0).abs() < 1e-6 && (v[1] + 4.0).abs() < 1e-6));
+    }
+
+    /// The row-wise resize against `sample` at every target pixel centre (the definition),
+    /// up and down, bit for bit.
+    #[test]
+    fn resizing_equals_sampling_at_the_pixel_centres() {
+        let (w, h) = (13, 9);
+        let f = Flow::new(
+            w,
+            h,
+            (0..w * h)
+                .map(|k| [((k * 7) % 11) as f32 - 3.5, ((k * 5) % 13) as f32 * 0.25])
+                .collect(),
+        );
+        for (tw, th) in [(52, 36), (6, 4), (13, 9), (27, 5)] {
+            let g = f.resized(tw, th);
+            let (sx, sy) = (w as f32 / tw as f32, h as f32 / th as f32);
+            for y in 0..th {
+                for x in 0..tw {
+                    let v = f.sample((x as f32 + 0.5) * sx - 0.5, (y as f32 + 0.5) * sy - 0.5);
+                    let want = [v[0] / sx, v[1] / sy];
+                    assert_eq!(g.at(x, y), want, "{tw}×{th} at ({x}, {y})");
+                }
+            }
+        }
     }
 
     #[test]

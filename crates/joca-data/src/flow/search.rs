@@ -40,6 +40,7 @@ pub(super) struct Template {
 const LANES: usize = 8;
 
 impl Template {
+    #[inline(always)]
     fn new(i0: &Gray, gx: &Gray, gy: &Gray, (px, py): (usize, usize), size: usize) -> Self {
         let n = size * size;
         let (w, h) = (i0.width(), i0.height());
@@ -93,8 +94,14 @@ impl Template {
             acc[2][0] += d * gx;
             acc[3][0] += d * gy;
         }
+        self.finish(acc, warped.len())
+    }
+
+    /// The distance and update from the lane sums of `n` pixels.
+    #[inline(always)]
+    fn finish(&self, acc: [[f32; LANES]; 4], n: usize) -> (f32, [f32; 2]) {
         let [sd, sd2, sx, sy] = acc.map(|a| a.iter().sum::<f32>());
-        let n = warped.len() as f32;
+        let n = n as f32;
         (sd2 - sd * sd / n, [sx - sd * self.g_sum[0] / n, sy - sd * self.g_sum[1] / n])
     }
 
@@ -107,11 +114,83 @@ impl Template {
         self.distance(buf)
     }
 
+    /// [`Template::at`] for an 8×8 patch in AVX2, sampling and summing a patch row (eight
+    /// pixels, the eight lanes) per instruction: the same operations in the same order per
+    /// pixel and lane as the portable code, so the same bits.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, and the template must be 8×8.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[allow(unsafe_code)]
+    unsafe fn at8_avx2(&self, i1: &Padded, u: [f32; 2]) -> (f32, [f32; 2]) {
+        use std::arch::x86_64::*;
+        debug_assert!(self.t.len() == 64 && self.gx.len() == 64 && self.gy.len() == 64);
+        let (start, [w00, w01, w10, w11]) = i1.place(self.origin.0 + u[0], self.origin.1 + u[1], 8);
+        let (w00, w01) = (_mm256_set1_ps(w00), _mm256_set1_ps(w01));
+        let (w10, w11) = (_mm256_set1_ps(w10), _mm256_set1_ps(w11));
+        let mut acc = [_mm256_setzero_ps(); 4];
+        // Rows start..start + 9 · stride, nine samples each, lie inside the padded image
+        // (`Padded::place` clamps for it); the template rows are 8 of its 64 values.
+        let data = &i1.data[start..start + 8 * i1.stride + 9];
+        for j in 0..8 {
+            let (top, bottom) = (&data[j * i1.stride..][..9], &data[(j + 1) * i1.stride..][..9]);
+            // SAFETY: each load reads 8 floats inside a slice of 9 (offsets 0 and 1), or 8
+            // floats of a 64-float template row j.
+            let (t0, t1, b0, b1, t, gx, gy) = unsafe {
+                (
+                    _mm256_loadu_ps(top.as_ptr()),
+                    _mm256_loadu_ps(top.as_ptr().add(1)),
+                    _mm256_loadu_ps(bottom.as_ptr()),
+                    _mm256_loadu_ps(bottom.as_ptr().add(1)),
+                    _mm256_loadu_ps(self.t[8 * j..][..8].as_ptr()),
+                    _mm256_loadu_ps(self.gx[8 * j..][..8].as_ptr()),
+                    _mm256_loadu_ps(self.gy[8 * j..][..8].as_ptr()),
+                )
+            };
+            let warped = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(w00, t0), _mm256_mul_ps(w01, t1)),
+                _mm256_add_ps(_mm256_mul_ps(w10, b0), _mm256_mul_ps(w11, b1)),
+            );
+            let d = _mm256_sub_ps(warped, t);
+            acc[0] = _mm256_add_ps(acc[0], d);
+            acc[1] = _mm256_add_ps(acc[1], _mm256_mul_ps(d, d));
+            acc[2] = _mm256_add_ps(acc[2], _mm256_mul_ps(d, gx));
+            acc[3] = _mm256_add_ps(acc[3], _mm256_mul_ps(d, gy));
+        }
+        let mut lanes = [[0.0f32; LANES]; 4];
+        for (out, a) in lanes.iter_mut().zip(acc) {
+            // SAFETY: `out` holds 8 floats.
+            unsafe { _mm256_storeu_ps(out.as_mut_ptr(), a) };
+        }
+        self.finish(lanes, 64)
+    }
+
+    /// The patch distance and update at `u`, with the AVX2 kernel when `AVX2` (set only on
+    /// the AVX2 path, once the CPU is known to have it) and the patch is 8×8.
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    fn eval<const AVX2: bool>(
+        &self,
+        i1: &Padded,
+        u: [f32; 2],
+        buf: &mut Vec<f32>,
+    ) -> (f32, [f32; 2]) {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && self.t.len() == 64 {
+            // SAFETY: AVX2 is only set by `Stripe::search_avx2`, called after the CPU check;
+            // the template is 8×8.
+            return unsafe { self.at8_avx2(i1, u) };
+        }
+        self.at(i1, u, buf)
+    }
+
     /// The best start among `candidates` (least distance, the first on ties), refined by up to
     /// `iterations` damped inverse-compositional steps ([`STEP`]), stopping after the step
     /// taken where the patch distance stopped falling; the start itself if the result moved
     /// more than a patch side from it (OpenCV's rule: such jumps are mostly wrong).
-    fn search(
+    #[inline(always)]
+    fn search<const AVX2: bool>(
         &self,
         i1: &Padded,
         candidates: &[[f32; 2]],
@@ -119,9 +198,9 @@ impl Template {
         buf: &mut Vec<f32>,
     ) -> [f32; 2] {
         let mut start = candidates[0];
-        let mut start_ssd = self.at(i1, start, buf).0;
+        let mut start_ssd = self.eval::<AVX2>(i1, start, buf).0;
         for &c in &candidates[1..] {
-            let ssd = self.at(i1, c, buf).0;
+            let ssd = self.eval::<AVX2>(i1, c, buf).0;
             if ssd < start_ssd {
                 (start, start_ssd) = (c, ssd);
             }
@@ -130,7 +209,7 @@ impl Template {
         let mut u = start;
         let mut previous = f32::INFINITY;
         for _ in 0..iterations {
-            let (ssd, [bx, by]) = self.at(i1, u, buf);
+            let (ssd, [bx, by]) = self.eval::<AVX2>(i1, u, buf);
             let dx = STEP * (hyy * bx - hxy * by) / self.det;
             let dy = STEP * (hxx * by - hxy * bx) / self.det;
             u = [u[0] - dx, u[1] - dy];
@@ -170,9 +249,13 @@ impl Padded {
         Self { data, stride, border, width: w, height: h }
     }
 
-    /// The bilinear samples of the `size × size` patch whose top-left pixel lands at `(x, y)`
-    /// (image coordinates), row-major into `out`.
-    pub(super) fn patch(&self, x: f32, y: f32, size: usize, out: &mut [f32]) {
+    /// Where the `size × size` patch whose top-left pixel lands at `(x, y)` (image
+    /// coordinates) is read: the index of its top-left sample in `data` and the bilinear
+    /// weights `(w00, w01, w10, w11)` every pixel of it shares. A patch reaching past the
+    /// border is moved back inside it, so rows `start + j · stride` hold `size + 1` samples for
+    /// `j ≤ size`.
+    #[inline(always)]
+    fn place(&self, x: f32, y: f32, size: usize) -> (usize, [f32; 4]) {
         let b = self.border as f32;
         // Every read, at floor + size, must stay inside the padded image.
         let x = x.clamp(-b, (self.width + self.border - size - 1) as f32);
@@ -184,13 +267,20 @@ impl Padded {
         };
         let (fx, fy) = (floor(x), floor(y));
         let (ax, ay) = (x - fx, y - fy);
-        let (w00, w01, w10, w11) =
-            ((1.0 - ax) * (1.0 - ay), ax * (1.0 - ay), (1.0 - ax) * ay, ax * ay);
+        let weights = [(1.0 - ax) * (1.0 - ay), ax * (1.0 - ay), (1.0 - ax) * ay, ax * ay];
         let x0 = (fx as isize + self.border as isize) as usize;
         let y0 = (fy as isize + self.border as isize) as usize;
+        (y0 * self.stride + x0, weights)
+    }
+
+    /// The bilinear samples of the `size × size` patch whose top-left pixel lands at `(x, y)`
+    /// (image coordinates), row-major into `out`.
+    #[inline(always)]
+    pub(super) fn patch(&self, x: f32, y: f32, size: usize, out: &mut [f32]) {
+        let (start, [w00, w01, w10, w11]) = self.place(x, y, size);
         for (j, row) in out.chunks_exact_mut(size).enumerate() {
-            let top = &self.data[(y0 + j) * self.stride + x0..][..size + 1];
-            let bottom = &self.data[(y0 + j + 1) * self.stride + x0..][..size + 1];
+            let top = &self.data[start + j * self.stride..][..size + 1];
+            let bottom = &self.data[start + (j + 1) * self.stride..][..size + 1];
             for (i, o) in row.iter_mut().enumerate() {
                 *o = (w00 * top[i] + w01 * top[i + 1]) + (w10 * bottom[i] + w11 * bottom[i + 1]);
             }
@@ -202,6 +292,93 @@ impl Padded {
 /// stripes run in parallel; the partition is fixed, so the flow does not depend on the thread
 /// count.
 const STRIPE_ROWS: usize = 8;
+
+/// What the patch search of one stripe reads.
+struct Stripe<'a> {
+    i0: &'a Gray,
+    i1: &'a Padded,
+    gx: &'a Gray,
+    gy: &'a Gray,
+    xs: &'a [usize],
+    ys: &'a [usize],
+    size: usize,
+    /// Search iterations of the forward and the backward pass.
+    iterations: (usize, usize),
+}
+
+impl Stripe<'_> {
+    /// The forward and backward passes over the stripe of patch rows from `row0` (`chunk`: their
+    /// flows, updated in place). With AVX2 where the CPU has it: the code is the portable code
+    /// compiled for wider vectors, and the arithmetic per patch is unchanged (Rust does not fuse
+    /// or reorder floating-point operations), so both paths give the same bits.
+    #[allow(unsafe_code)] // calling a target-feature function once the CPU is known to have it
+    fn search(&self, row0: usize, chunk: &mut [[f32; 2]]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            return unsafe { self.search_avx2(row0, chunk) };
+        }
+        self.search_portable::<false>(row0, chunk);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn search_avx2(&self, row0: usize, chunk: &mut [[f32; 2]]) {
+        self.search_portable::<true>(row0, chunk);
+    }
+
+    #[inline(always)]
+    fn search_portable<const AVX2: bool>(&self, row0: usize, chunk: &mut [[f32; 2]]) {
+        let (nx, size) = (self.xs.len(), self.size);
+        let rows = chunk.len() / nx;
+        let (forward_iterations, backward_iterations) = self.iterations;
+        let templates: Vec<Template> = (0..rows * nx)
+            .map(|k| {
+                let origin = (self.xs[k % nx], self.ys[row0 + k / nx]);
+                Template::new(self.i0, self.gx, self.gy, origin, size)
+            })
+            .collect();
+        let i1 = self.i1;
+        let mut e = Vec::with_capacity(size * size);
+        let mut candidates = Vec::with_capacity(3);
+        for r in 0..rows {
+            for c in 0..nx {
+                candidates.clear();
+                candidates.push(chunk[r * nx + c]);
+                if c > 0 {
+                    candidates.push(chunk[r * nx + c - 1]);
+                }
+                if r > 0 {
+                    candidates.push(chunk[(r - 1) * nx + c]);
+                }
+                chunk[r * nx + c] = templates[r * nx + c].search::<AVX2>(
+                    i1,
+                    &candidates,
+                    forward_iterations,
+                    &mut e,
+                );
+            }
+        }
+        for r in (0..rows).rev() {
+            for c in (0..nx).rev() {
+                candidates.clear();
+                candidates.push(chunk[r * nx + c]);
+                if c + 1 < nx {
+                    candidates.push(chunk[r * nx + c + 1]);
+                }
+                if r + 1 < rows {
+                    candidates.push(chunk[(r + 1) * nx + c]);
+                }
+                chunk[r * nx + c] = templates[r * nx + c].search::<AVX2>(
+                    i1,
+                    &candidates,
+                    backward_iterations,
+                    &mut e,
+                );
+            }
+        }
+    }
+}
 
 /// The patch search of one scale with spatial propagation (as OpenCV's DIS): a forward pass in
 /// raster order, each patch starting from the best of its own estimate and its left and upper
@@ -224,45 +401,20 @@ pub(super) fn search_patches(
         .iter()
         .flat_map(|&y| xs.iter().map(move |&x| init.sample(x as f32 + half, y as f32 + half)))
         .collect();
-    let forward_iterations = p.search_iterations / 2;
-    let backward_iterations = p.search_iterations / 2;
-    flows.par_chunks_mut(STRIPE_ROWS * nx).enumerate().for_each(|(stripe, chunk)| {
-        let rows = chunk.len() / nx;
-        let row0 = stripe * STRIPE_ROWS;
-        let templates: Vec<Template> = (0..rows * nx)
-            .map(|k| Template::new(i0, gx, gy, (xs[k % nx], ys[row0 + k / nx]), size))
-            .collect();
-        let mut e = Vec::with_capacity(size * size);
-        let mut candidates = Vec::with_capacity(3);
-        for r in 0..rows {
-            for c in 0..nx {
-                candidates.clear();
-                candidates.push(chunk[r * nx + c]);
-                if c > 0 {
-                    candidates.push(chunk[r * nx + c - 1]);
-                }
-                if r > 0 {
-                    candidates.push(chunk[(r - 1) * nx + c]);
-                }
-                chunk[r * nx + c] =
-                    templates[r * nx + c].search(i1, &candidates, forward_iterations, &mut e);
-            }
-        }
-        for r in (0..rows).rev() {
-            for c in (0..nx).rev() {
-                candidates.clear();
-                candidates.push(chunk[r * nx + c]);
-                if c + 1 < nx {
-                    candidates.push(chunk[r * nx + c + 1]);
-                }
-                if r + 1 < rows {
-                    candidates.push(chunk[(r + 1) * nx + c]);
-                }
-                chunk[r * nx + c] =
-                    templates[r * nx + c].search(i1, &candidates, backward_iterations, &mut e);
-            }
-        }
-    });
+    let stripe = Stripe {
+        i0,
+        i1,
+        gx,
+        gy,
+        xs,
+        ys,
+        size,
+        iterations: (p.search_iterations / 2, p.search_iterations / 2),
+    };
+    flows
+        .par_chunks_mut(STRIPE_ROWS * nx)
+        .enumerate()
+        .for_each(|(k, chunk)| stripe.search(k * STRIPE_ROWS, chunk));
     flows
 }
 
@@ -319,5 +471,55 @@ mod tests {
             assert!(close(ssd, want_ssd), "{ssd} vs {want_ssd}");
             assert!(close(bx, want_bx) && close(by, want_by), "{bx} {by} vs {want_bx} {want_by}");
         }
+    }
+
+    /// The AVX2 kernel against the portable patch sampling and sums, bit for bit, at offsets
+    /// inside the image and reaching past its border (where the patch is moved back); and
+    /// the AVX2 stripe search against the portable one.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    #[allow(unsafe_code)]
+    fn the_avx2_kernel_gives_the_portable_bits() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: this CPU has no AVX2");
+            return;
+        }
+        let (i0, i1) = (image(40, 30), image(40, 30));
+        let (gx, gy) = i0.sobel();
+        let padded = Padded::new(&i1, 16);
+        let mut buf = Vec::new();
+        for origin in [(10, 7), (0, 0), (32, 22)] {
+            let t = Template::new(&i0, &gx, &gy, origin, 8);
+            for u in [[0.3f32, -0.6f32], [2.5, 1.25], [-1.0, 0.0], [-30.2, 4.7], [19.9, 30.1]] {
+                let (a, [ax, ay]) = t.at(&padded, u, &mut buf);
+                // SAFETY: the CPU has AVX2 (checked above); the template is 8×8.
+                let (b, [bx, by]) = unsafe { t.at8_avx2(&padded, u) };
+                assert_eq!(
+                    [a.to_bits(), ax.to_bits(), ay.to_bits()],
+                    [b.to_bits(), bx.to_bits(), by.to_bits()],
+                    "{origin:?} + {u:?}"
+                );
+            }
+        }
+        let (xs, ys) =
+            ((0..=32).step_by(3).collect::<Vec<_>>(), (0..=22).step_by(3).collect::<Vec<_>>());
+        let stripe = Stripe {
+            i0: &i0,
+            i1: &padded,
+            gx: &gx,
+            gy: &gy,
+            xs: &xs,
+            ys: &ys,
+            size: 8,
+            iterations: (6, 6),
+        };
+        let start: Vec<[f32; 2]> =
+            (0..xs.len() * ys.len()).map(|k| [0.1 * (k % 5) as f32, -0.2]).collect();
+        let (mut portable, mut avx2) = (start.clone(), start);
+        stripe.search_portable::<false>(0, &mut portable);
+        // SAFETY: the CPU has AVX2 (checked above).
+        unsafe { stripe.search_avx2(0, &mut avx2) };
+        let bits = |v: &[[f32; 2]]| v.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&portable), bits(&avx2));
     }
 }
