@@ -465,6 +465,11 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         e.contains("perturbation_mutation") && e.contains("`paper`") && e.contains("`additive`"),
         "{e}"
     );
+    // So does an unknown scoring precision.
+    std::fs::write(&cfg, "[run]\nscoring_precision = \"fp16\"\n").unwrap();
+    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let e = stderr(&o);
+    assert!(e.contains("scoring_precision") && e.contains("`fp32`") && e.contains("`bf16`"), "{e}");
     // A reference range of zero (or less) names the field and the allowed range.
     std::fs::write(
         &cfg,

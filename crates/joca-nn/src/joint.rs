@@ -343,6 +343,15 @@ impl JointModel {
     pub fn detect_batch(&self, frames: &[&Rgb8Image]) -> Vec<Vec<Detection>> {
         self.det.detect_batch(frames)
     }
+
+    /// [`JointModel::detect_batch`] with the detector's convolutions in `precision`.
+    pub fn detect_batch_in(
+        &self,
+        frames: &[&Rgb8Image],
+        precision: crate::detector::Precision,
+    ) -> Vec<Vec<Detection>> {
+        self.det.detect_batch_in(frames, precision)
+    }
 }
 
 /// DF-Grad's GA supervision loss (paper Sec. 5): the L1 distance between NeuralAE's prediction

@@ -39,6 +39,10 @@ pub struct RunResults {
     /// The test frames' source: `sim` (or empty, in older runs), `folder:DIR` or `waymo:DIR`.
     #[serde(default)]
     pub source: String,
+    /// What the perturbed frames were scored in during training: `fp32` or `bf16`
+    /// (`run.scoring_precision`, float32 on a CPU without native bfloat16). Empty in older runs.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub scoring_precision: String,
     /// The best designs of training, re-scored on the validation town; the tested design is the
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

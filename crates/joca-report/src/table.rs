@@ -305,6 +305,7 @@ pub(crate) mod tests {
             validation: Vec::new(),
             render_scale: 0.08,
             source: "sim".into(),
+            scoring_precision: "fp32".into(),
         }
     }
 

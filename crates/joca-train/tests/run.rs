@@ -29,6 +29,7 @@ fn tiny(method: Method) -> RunConfig {
         perturbation_population: 4,
         perturbation_mutation: PerturbationMutation::Additive,
         perturbation_tie_break: Default::default(),
+        scoring_precision: Default::default(),
         acc_lr: 1e-5,
         clip_gradient: Default::default(),
         ga_every: 2,

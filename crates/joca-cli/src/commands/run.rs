@@ -109,6 +109,15 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         cfg.render_scale,
         out.display()
     );
+    let scoring = cfg.scoring_precision.on_this_cpu();
+    if scoring != cfg.scoring_precision {
+        println!(
+            "scoring_precision: bf16 asked for, but this CPU has no native bfloat16 (AVX-512 \
+                BF16): the perturbed frames are scored in fp32"
+        );
+    } else if scoring == joca_nn::detector::Precision::Bf16 {
+        println!("scoring_precision: the perturbed frames are scored in bf16 (native on this CPU)");
+    }
     let started = Instant::now();
     let generations = cfg.generations;
     // Steps counted from this process's start, so the ETA of a resumed run is right too.

@@ -207,11 +207,21 @@ impl DetectorModel {
     /// normalisation is per frame, so each frame's detections do not depend on the others).
     /// Panics if the frames differ in size.
     pub fn detect_batch(&self, frames: &[&Rgb8Image]) -> Vec<Vec<Detection>> {
+        self.detect_batch_in(frames, Precision::Fp32)
+    }
+
+    /// [`DetectorModel::detect_batch`] with the convolutions in `precision` (weights and
+    /// outputs stay float32; see [`Precision`]).
+    pub fn detect_batch_in(
+        &self,
+        frames: &[&Rgb8Image],
+        precision: Precision,
+    ) -> Vec<Vec<Detection>> {
         if frames.is_empty() {
             return Vec::new();
         }
         let _guard = tch::no_grad_guard();
-        let out = self.net.forward(&batch_tensor(frames, self.device, Precision::Fp32));
+        let out = self.net.forward(&batch_tensor(frames, self.device, precision));
         let (w, h) = (frames[0].width(), frames[0].height());
         (0..frames.len() as i64)
             .map(|i| {

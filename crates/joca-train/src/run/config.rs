@@ -5,7 +5,7 @@ use crate::TrainError;
 use joca_camera::Calibration;
 use joca_data::blur::Linearize;
 use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
-use joca_nn::detector::DetectorConfig;
+use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
 use joca_sim::VisibilityRules;
@@ -70,6 +70,13 @@ pub struct RunConfig {
     /// saturates) or `straight-through`.
     #[serde(default)]
     pub clip_gradient: ClipGradient,
+    /// What the perturbation search runs the detector in when it scores the perturbed frames:
+    /// `fp32` (default) or `bf16` (bfloat16 convolutions, float32 weights and outputs). `bf16`
+    /// applies only on a CPU with native bfloat16 (AVX-512 BF16) and is float32 elsewhere; the
+    /// run's header and `results.json` (`scoring_precision`) say which ran. Training and the
+    /// test always run in float32.
+    #[serde(default)]
+    pub scoring_precision: Precision,
     /// NeuralAE's Adam learning rate (paper: 1e-5).
     #[serde(default = "paper_acc_lr")]
     pub acc_lr: f64,

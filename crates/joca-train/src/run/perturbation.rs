@@ -12,6 +12,7 @@ use joca_camera::DynamicSettings;
 use joca_core::{Frame, Rgb8Image, SeedStreams};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
+use joca_nn::detector::Precision;
 use joca_nn::joint::JointModel;
 
 /// The perturbations of the `fixed-perturbation` ablation: ±2.5 % of each range, four signs.
@@ -86,6 +87,38 @@ pub(super) fn members(
         .collect()
 }
 
+/// Each perturbed frame's fitness: its AP50, plus the tie-break.
+fn score(
+    tie_break: TieBreak,
+    model: &JointModel,
+    frames: &[Frame],
+    images: &[&Rgb8Image],
+    precision: Precision,
+) -> Vec<f64> {
+    let detections = model.detect_batch_in(images, precision);
+    frames
+        .iter()
+        .zip(images)
+        .zip(&detections)
+        .map(|((frame, image), found)| {
+            let mut one = TaskMetrics::default();
+            one.update(&frame.boxes, &frame.ignore, found, frame.visible_180);
+            let tie = match tie_break {
+                TieBreak::Clipping => TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data())),
+                TieBreak::None => 0.0,
+            };
+            one.compute().ap50 + tie
+        })
+        .collect()
+}
+
+/// The member of highest fitness, the first on ties.
+fn best_member(fitness: &[f64]) -> usize {
+    (0..fitness.len())
+        .max_by(|&a, &b| fitness[a].total_cmp(&fitness[b]).then(b.cmp(&a)))
+        .unwrap_or(0)
+}
+
 /// Scores the members' frames (`frames[i]` rendered with `members[i].applied`'s exposure, all of
 /// one instant): each is formed on the same noise sample, the frames go through the detector as
 /// one batch, and each is scored by AP50 (ties by fewer clipped pixels, unless switched off).
@@ -111,25 +144,17 @@ pub(super) fn search(
         })
         .collect();
     cx.watch.lap(|t| &mut t.perturbation_render_ms);
-    let detections = model.detect_batch(&images.iter().collect::<Vec<_>>());
-    let fitness: Vec<f64> = frames
-        .iter()
-        .zip(&images)
-        .zip(&detections)
-        .map(|((frame, image), found)| {
-            let mut one = TaskMetrics::default();
-            one.update(&frame.boxes, &frame.ignore, found, frame.visible_180);
-            let tie_break = match cx.config.perturbation_tie_break {
-                TieBreak::Clipping => TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data())),
-                TieBreak::None => 0.0,
-            };
-            one.compute().ap50 + tie_break
-        })
-        .collect();
+    let refs: Vec<&Rgb8Image> = images.iter().collect();
+    let precision = cx.config.scoring_precision.on_this_cpu();
+    let fitness = score(cx.config.perturbation_tie_break, model, frames, &refs, precision);
     cx.watch.lap(|t| &mut t.perturbation_detect_ms);
-    let best = (0..fitness.len())
-        .max_by(|&a, &b| fitness[a].total_cmp(&fitness[b]).then(b.cmp(&a)))
-        .unwrap_or(0);
+    let best = best_member(&fitness);
+    // `joca bench step` only: would the other precision have chosen the same member?
+    if let Some(other) = cx.watch.check_precision {
+        let tie = cx.config.perturbation_tie_break;
+        let same = best_member(&score(tie, model, frames, &refs, other)) == best;
+        cx.watch.count_check(same);
+    }
     if cx.config.method != Method::FixedPerturbation {
         ga.tell(&fitness, &mut cx.streams.indexed("perturbation-ga", probe.global_step), |_| {})
             .map_err(ga_err)?;

@@ -2,6 +2,7 @@
 
 use super::{RunConfig, TrainError, candidate, perturbation, setup};
 use joca_camera::CameraDesign;
+use joca_nn::detector::Precision;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -33,6 +34,11 @@ pub struct StepBreakdown {
     pub decode_ms: f64,
     /// Steps measured.
     pub steps: usize,
+    /// Perturbation searches scored a second time in another precision (`bench_step`'s
+    /// `check`).
+    pub searches_checked: usize,
+    /// Of those, the searches where both precisions chose the same member.
+    pub searches_agreeing: usize,
 }
 
 impl StepBreakdown {
@@ -78,18 +84,30 @@ pub(super) struct Stopwatch {
     clock: Instant,
     /// The sums so far; `None` when not measuring.
     pub(super) breakdown: Option<StepBreakdown>,
+    /// When measuring: also score each perturbation search in this precision (untimed) and
+    /// count whether it chooses the same member.
+    pub(super) check_precision: Option<Precision>,
 }
 
 impl Default for Stopwatch {
     fn default() -> Self {
-        Self { clock: Instant::now(), breakdown: None }
+        Self { clock: Instant::now(), breakdown: None, check_precision: None }
     }
 }
 
 impl Stopwatch {
     /// A stopwatch that records.
     pub(super) fn measuring() -> Self {
-        Self { clock: Instant::now(), breakdown: Some(StepBreakdown::default()) }
+        Self { breakdown: Some(StepBreakdown::default()), ..Self::default() }
+    }
+
+    /// Counts one checked perturbation search, and restarts (the check is not timed).
+    pub(super) fn count_check(&mut self, same: bool) {
+        if let Some(t) = self.breakdown.as_mut() {
+            t.searches_checked += 1;
+            t.searches_agreeing += usize::from(same);
+        }
+        self.restart();
     }
 
     /// Adds the time since the last lap to `part`, and restarts.
@@ -121,10 +139,14 @@ impl Stopwatch {
 
 /// Times `steps` training steps of `config`'s method on `design` (one candidate after a warm-up
 /// candidate), returning the mean time per step by part.
+///
+/// With `check`, every perturbation search is also scored in that precision (untimed), and the
+/// breakdown counts how often both precisions choose the same member.
 pub fn bench_step(
     config: &RunConfig,
     design: &CameraDesign,
     steps: usize,
+    check: Option<Precision>,
 ) -> Result<StepBreakdown, TrainError> {
     let mut config = config.clone();
     config.steps_per_candidate = steps.max(2);
@@ -133,7 +155,7 @@ pub fn bench_step(
     let mut perturbation = perturbation::ga(&config, &cx.streams)?;
     let train = candidate::train;
     train(&mut cx, &mut model, &mut perturbation, design, (0, 0), &mut |_, _| {})?; // warm-up
-    cx.watch = Stopwatch::measuring();
+    cx.watch = Stopwatch { check_precision: check, ..Stopwatch::measuring() };
     train(&mut cx, &mut model, &mut perturbation, design, (1, 1), &mut |_, _| {})?;
     let t = cx.watch.breakdown.unwrap_or_default();
     Ok(t.scaled(1.0 / t.steps.max(1) as f64))

@@ -329,13 +329,15 @@ fn bench_detector(
 }
 
 fn bench_step(steps: usize, preset: &str) -> Result<()> {
+    use joca_nn::detector::Precision;
     use joca_train::{FixedCamera, Method, RunConfig};
     let mut cfg: RunConfig = crate::config::load(preset, None, "run")?;
     cfg.method = Method::Joca;
     crate::commands::run::resolve_weights(&mut cfg);
     let design = FixedCamera::Flir.design();
     let (w, h) = design.resolution(cfg.render_scale);
-    let b = joca_train::bench_step(&cfg, &design, steps)?;
+    cfg.scoring_precision = Precision::Fp32;
+    let b = joca_train::bench_step(&cfg, &design, steps, None)?;
     let total = b.total_ms();
     println!(
         "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (render scale {}), {} threads, mean \
@@ -361,20 +363,33 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     println!("{:<46} {:>9.1}", "total per step", total);
     // One detector training step on a frame of the same size, same threads, same run.
     let engine = joca_nn::Engine::cpu(cfg.threads);
-    let detector_ms = joca_nn::detector::time_training(
-        &engine,
-        cfg.detector,
-        h,
-        w,
-        steps,
-        1,
-        joca_nn::detector::Precision::Fp32,
-    );
+    let detector_ms =
+        joca_nn::detector::time_training(&engine, cfg.detector, h, w, steps, 1, Precision::Fp32);
     println!(
         "{:<46} {:>9.1}",
         format!("detector training step alone (best of {steps})"),
         detector_ms
     );
     println!("{:<46} {:>9.2}x", "step / detector training step", total / detector_ms);
+    // The perturbed frames scored in bfloat16 where the CPU has it natively, with every search
+    // also scored in float32 (untimed) to count how often the two choose the same member.
+    if !Precision::native_bf16() {
+        println!("(scoring_precision = \"bf16\" not timed: this CPU has no native bfloat16)");
+        return Ok(());
+    }
+    cfg.scoring_precision = Precision::Bf16;
+    let checked = 4 * steps;
+    let b = joca_train::bench_step(&cfg, &design, checked, Some(Precision::Fp32))?;
+    println!(
+        "\nwith scoring_precision = \"bf16\" (native here), mean of {} steps, same run",
+        b.steps
+    );
+    println!("{:<46} {:>9.1}", "detect + AP50 of the perturbed frames", b.perturbation_detect_ms);
+    println!("{:<46} {:>9.1}", "total per step", b.total_ms());
+    println!("{:<46} {:>9.2}x", "step / detector training step", b.total_ms() / detector_ms);
+    println!(
+        "{:<46} {:>5} of {}",
+        "searches choosing the fp32 member", b.searches_agreeing, b.searches_checked
+    );
     Ok(())
 }
