@@ -54,7 +54,7 @@ pub fn run(args: &Args) -> Result<()> {
             render scale {} (test {}), {} threads; run directory {}",
         cfg.steps,
         cfg.batch,
-        format!("{precision:?}").to_lowercase(),
+        precision.name(),
         cfg.data.frames_per_design,
         cfg.train_scale(),
         cfg.render_scale,

@@ -85,12 +85,7 @@ impl Flow {
 
     /// Bilinear sample at (x, y), borders replicated.
     pub fn sample(&self, x: f32, y: f32) -> [f32; 2] {
-        let x = x.clamp(0.0, (self.width - 1) as f32);
-        let y = y.clamp(0.0, (self.height - 1) as f32);
-        // Non-negative after the clamp: truncation is the floor.
-        let (x0, y0) = (x as usize, y as usize);
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let ((x0, x1, fx), (y0, y1, fy)) = (tap(x, self.width), tap(y, self.height));
         let mut out = [0.0; 2];
         for (c, o) in out.iter_mut().enumerate() {
             let top = self.at(x0, y0)[c] * (1.0 - fx) + self.at(x1, y0)[c] * fx;
@@ -105,14 +100,8 @@ impl Flow {
     /// each output column computed once for all rows.
     pub fn resized(&self, width: usize, height: usize) -> Flow {
         let (sx, sy) = (self.width as f32 / width as f32, self.height as f32 / height as f32);
-        // Source coordinate of a target pixel centre, clamped as `sample` clamps: the two
-        // neighbours and the weight of the second.
-        let taps = |t: usize, scale: f32, n: usize| {
-            let v = ((t as f32 + 0.5) * scale - 0.5).clamp(0.0, (n - 1) as f32);
-            // Non-negative after the clamp: truncation is the floor.
-            let a = v as usize;
-            (a, (a + 1).min(n - 1), v - a as f32)
-        };
+        // The source taps of a target pixel centre, as `sample` takes them.
+        let taps = |t: usize, scale: f32, n: usize| tap((t as f32 + 0.5) * scale - 0.5, n);
         let columns: Vec<(usize, usize, f32)> =
             (0..width).map(|x| taps(x, sx, self.width)).collect();
         let mut data = vec![[0.0f32; 2]; width * height];
@@ -150,6 +139,15 @@ impl Flow {
             .sum::<f64>()
             / self.data.len().max(1) as f64
     }
+}
+
+/// The two samples a coordinate `v` falls between along an axis of `n` samples (borders
+/// replicated) and the weight of the second: `(floor, floor + 1, fraction)`, clamped.
+fn tap(v: f32, n: usize) -> (usize, usize, f32) {
+    let v = v.clamp(0.0, (n - 1) as f32);
+    // Non-negative after the clamp: truncation is the floor.
+    let a = v as usize;
+    (a, (a + 1).min(n - 1), v - a as f32)
 }
 
 /// OpenCV's presets of `DISOpticalFlow`.

@@ -308,9 +308,10 @@ struct Stripe<'a> {
 
 impl Stripe<'_> {
     /// The forward and backward passes over the stripe of patch rows from `row0` (`chunk`: their
-    /// flows, updated in place). With AVX2 where the CPU has it: the code is the portable code
-    /// compiled for wider vectors, and the arithmetic per patch is unchanged (Rust does not fuse
-    /// or reorder floating-point operations), so both paths give the same bits.
+    /// flows, updated in place). With AVX2 where the CPU has it: the portable code compiled for
+    /// wider vectors, with 8×8 patches through [`Template::at8_avx2`]; the arithmetic per patch
+    /// is unchanged (Rust does not fuse or reorder floating-point operations), so both paths
+    /// give the same bits.
     #[allow(unsafe_code)] // calling a target-feature function once the CPU is known to have it
     fn search(&self, row0: usize, chunk: &mut [[f32; 2]]) {
         #[cfg(target_arch = "x86_64")]
@@ -384,7 +385,6 @@ impl Stripe<'_> {
 /// raster order, each patch starting from the best of its own estimate and its left and upper
 /// neighbours', then a backward pass from the right and lower neighbours', each pass with half
 /// the iterations.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn search_patches(
     i0: &Gray,
     i1: &Padded,

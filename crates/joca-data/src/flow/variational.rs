@@ -78,15 +78,16 @@ struct Terms {
     ixz: f32,
     iyz: f32,
     /// `1 / (I_x² + I_y² + ζ²)`, `1 / (I_xx² + I_xy² + ζ²)`, `1 / (I_yy² + I_xy² + ζ²)`: the
-    /// normalisations, fixed for the refinement (set by [`Terms::new`]).
+    /// normalisations, fixed for the refinement (set by [`Terms::normalised`]).
     inv_n: f32,
     inv_n1: f32,
     inv_n2: f32,
 }
 
 impl Terms {
-    /// The terms with their normalisations for `ζ² = z2`.
-    fn new(t: Terms, z2: f32) -> Self {
+    /// These terms with their normalisations for `ζ² = z2` set.
+    fn normalised(self, z2: f32) -> Self {
+        let t = self;
         Self {
             inv_n: 1.0 / (t.ix * t.ix + t.iy * t.iy + z2),
             inv_n1: 1.0 / (t.ixx * t.ixx + t.ixy * t.ixy + z2),
@@ -144,18 +145,24 @@ impl Packed {
         (s, (w - s).div_ceil(2))
     }
 
+    /// A plane of zeros for a `w × h` image.
+    fn zeros(w: usize, h: usize) -> Self {
+        let stride = Self::stride(w);
+        Self { width: w, height: h, stride, data: vec![0.0; stride * (h + 2)] }
+    }
+
     /// The plane of colour `c` with pixel `k = y·w + x` set to `f(k)`, zero elsewhere.
     fn from_fn(w: usize, h: usize, c: usize, f: impl Fn(usize) -> f32) -> Self {
-        let stride = Self::stride(w);
-        let mut data = vec![0.0f32; stride * (h + 2)];
+        let mut plane = Self::zeros(w, h);
+        let stride = plane.stride;
         for y in 0..h {
             let (s, count) = Self::span(w, y, c);
-            let row = &mut data[(y + 1) * stride + 1..][..count];
+            let row = &mut plane.data[(y + 1) * stride + 1..][..count];
             for (i, d) in row.iter_mut().enumerate() {
                 *d = f(y * w + 2 * i + s);
             }
         }
-        Self { width: w, height: h, stride, data }
+        plane
     }
 
     /// `count` values of buffer row `row` (image row `row − 1`) from buffer column `col`.
@@ -192,27 +199,22 @@ struct Coefficients {
 }
 
 impl Coefficients {
-    fn new(
-        w: usize,
-        h: usize,
-        c: usize,
-        system: &[System],
-        smooth: &[f32],
-        base: &[[f32; 2]],
-    ) -> Self {
-        let blank = || Packed {
-            width: w,
-            height: h,
-            stride: Packed::stride(w),
-            data: vec![0.0; Packed::stride(w) * (h + 2)],
-        };
-        let mut co = Self {
+    /// Planes for a `w × h` image, to be set by [`Coefficients::fill`].
+    fn zeros(w: usize, h: usize) -> Self {
+        let blank = || Packed::zeros(w, h);
+        Self {
             weights: [(); 4].map(|()| blank()),
             a12: blank(),
             k: [blank(), blank()],
             inv: [blank(), blank()],
-        };
-        let stride = Packed::stride(w);
+        }
+    }
+
+    /// Sets every pixel of colour `c` from the iteration's systems, smoothness weights and the
+    /// incoming flow (the borders stay zero).
+    fn fill(&mut self, c: usize, system: &[System], smooth: &[f32], base: &[[f32; 2]]) {
+        let co = self;
+        let (w, h, stride) = (co.a12.width, co.a12.height, co.a12.stride);
         for y in 0..h {
             let (s, count) = Packed::span(w, y, c);
             for i in 0..count {
@@ -236,7 +238,6 @@ impl Coefficients {
                 co.inv[1].data[at] = 1.0 / (sy.a22 + total);
             }
         }
-        co
     }
 }
 
@@ -298,20 +299,18 @@ fn data_terms(i0: &Gray, i1: &Gray, base: &[[f32; 2]], p: &RefineParams) -> Vec<
     let z2 = p.zeta * p.zeta;
     (0..n)
         .map(|k| {
-            Terms::new(
-                Terms {
-                    ix: ix.data()[k],
-                    iy: iy.data()[k],
-                    iz: iz.data()[k],
-                    ixx: ixx.data()[k],
-                    ixy: ixy.data()[k],
-                    iyy: iyy.data()[k],
-                    ixz: ixz.data()[k],
-                    iyz: iyz.data()[k],
-                    ..Terms::default()
-                },
-                z2,
-            )
+            Terms {
+                ix: ix.data()[k],
+                iy: iy.data()[k],
+                iz: iz.data()[k],
+                ixx: ixx.data()[k],
+                ixy: ixy.data()[k],
+                iyy: iyy.data()[k],
+                ixz: ixz.data()[k],
+                iyz: iyz.data()[k],
+                ..Terms::default()
+            }
+            .normalised(z2)
         })
         .collect()
 }
@@ -336,6 +335,7 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
     let mut system = vec![System::default(); n];
     let mut smooth = vec![0.0f32; n];
     let mut current = base.clone();
+    let mut coefficients = [(); 2].map(|()| Coefficients::zeros(w, h));
     let e2 = p.epsilon * p.epsilon;
     for _ in 0..iterations {
         for (c, (u, v)) in state.iter().enumerate() {
@@ -356,7 +356,9 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
                 *smooth = 0.5 * p.alpha / (g2 + e2).sqrt();
             },
         );
-        let coefficients = [0, 1].map(|c| Coefficients::new(w, h, c, &system, &smooth, &base));
+        for (c, co) in coefficients.iter_mut().enumerate() {
+            co.fill(c, &system, &smooth, &base);
+        }
         for _ in 0..p.sweeps {
             for (c, co) in coefficients.iter().enumerate() {
                 let [(u0, v0), (u1, v1)] = &mut state;

@@ -124,6 +124,14 @@ impl Precision {
         if self == Precision::Bf16 && !Self::native_bf16() { Precision::Fp32 } else { self }
     }
 
+    /// The name a configuration uses: `fp32` or `bf16`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Fp32 => "fp32",
+            Self::Bf16 => "bf16",
+        }
+    }
+
     /// The tensor type of activations.
     pub fn kind(self) -> Kind {
         match self {

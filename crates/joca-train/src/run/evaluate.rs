@@ -128,7 +128,7 @@ pub(super) fn test_design(
         } else {
             config.source.to_string()
         },
-        scoring_precision: format!("{:?}", config.scoring_precision.on_this_cpu()).to_lowercase(),
+        scoring_precision: config.scoring_precision.on_this_cpu().name().to_owned(),
         validation,
     })
 }
