@@ -102,6 +102,12 @@ fn quiet_on_closed_pipe() {}
 fn main() -> ExitCode {
     keep_freed_memory();
     quiet_on_closed_pipe();
+    // SAFETY: first thing in main, before any other thread exists and before libtorch runs.
+    #[allow(unsafe_code)]
+    if let Err(err) = unsafe { joca_nn::kernels::select_from_env() } {
+        eprintln!("error: {err}");
+        return ExitCode::FAILURE;
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => commands::run::run(&args),

@@ -21,6 +21,9 @@ pub enum NnError {
         /// Its value.
         value: f64,
     },
+    /// A setting (an environment variable) has a value joca does not accept.
+    #[error("{0}")]
+    Config(String),
     /// A training batch cannot be formed.
     #[error("training batch: {0}")]
     Batch(String),

@@ -6,6 +6,7 @@
 //! of framework types.
 //!
 //! - [`Engine`] fixes the device and the thread count that every reproducible run records.
+//! - [`kernels`] — which of libtorch's CPU code paths run (AVX2 by default, on every machine).
 //! - [`detector`] — the CenterNet-style detector, its loss and decoding.
 //! - [`acc`] — NeuralAE, the adaptive camera control network.
 //! - [`formation`] — image formation on tensors (Eq. 2–3), differentiable in exposure and gain.
@@ -28,6 +29,7 @@ pub mod detector;
 mod error;
 pub mod formation;
 pub mod joint;
+pub mod kernels;
 mod optim;
 mod weights;
 

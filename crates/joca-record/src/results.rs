@@ -43,6 +43,10 @@ pub struct RunResults {
     /// (`run.scoring_precision`, float32 on a CPU without native bfloat16). Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub scoring_precision: String,
+    /// Which of libtorch's CPU kernels ran: `avx2` (the same numbers on every CPU with AVX2) or
+    /// `native` (`JOCA_CPU_KERNELS`). Empty in older runs.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub cpu_kernels: String,
     /// The best designs of training, re-scored on the validation town; the tested design is the
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

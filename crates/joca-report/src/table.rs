@@ -306,6 +306,7 @@ pub(crate) mod tests {
             render_scale: 0.08,
             source: "sim".into(),
             scoring_precision: "fp32".into(),
+            cpu_kernels: "avx2".into(),
         }
     }
 

@@ -109,11 +109,24 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         cfg.render_scale,
         out.display()
     );
+    let kernels = joca_nn::kernels::chosen();
+    println!(
+        "cpu kernels: {} ({})",
+        kernels.name(),
+        match kernels {
+            joca_nn::kernels::CpuKernels::Avx2 =>
+                "libtorch's AVX2 paths: the same numbers on every CPU with AVX2; \
+                 JOCA_CPU_KERNELS=native for the widest",
+            joca_nn::kernels::CpuKernels::Native =>
+                "libtorch's widest paths for this CPU: numbers depend on the CPU",
+        }
+    );
     let scoring = cfg.scoring_precision.on_this_cpu();
     if scoring != cfg.scoring_precision {
         println!(
-            "scoring_precision: bf16 asked for, but this CPU has no native bfloat16 (AVX-512 \
-                BF16): the perturbed frames are scored in fp32"
+            "scoring_precision: bf16 asked for, but libtorch computes it natively only on a CPU \
+                with AVX-512 BF16 and with JOCA_CPU_KERNELS=native: the perturbed frames are \
+                scored in fp32"
         );
     } else if scoring == joca_nn::detector::Precision::Bf16 {
         println!("scoring_precision: the perturbed frames are scored in bf16 (native on this CPU)");

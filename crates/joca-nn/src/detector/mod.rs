@@ -104,13 +104,15 @@ pub enum Precision {
 }
 
 impl Precision {
-    /// Whether this CPU computes bfloat16 natively (AVX-512 BF16). Without it libtorch emulates
-    /// bfloat16, and a training step took 17× the float32 time on a 2-core AVX2 EPYC
+    /// Whether libtorch computes bfloat16 natively here: the CPU has AVX-512 BF16 and the
+    /// process runs libtorch's native kernels ([`crate::kernels`]; the AVX2 paths emulate
+    /// bfloat16). Emulated, a training step took 17× the float32 time on a 2-core AVX2 EPYC
     /// (`joca bench detector`).
     pub fn native_bf16() -> bool {
         #[cfg(target_arch = "x86_64")]
         {
             std::arch::is_x86_feature_detected!("avx512bf16")
+                && crate::kernels::chosen() == crate::kernels::CpuKernels::Native
         }
         #[cfg(not(target_arch = "x86_64"))]
         {

@@ -129,6 +129,7 @@ pub(super) fn test_design(
             config.source.to_string()
         },
         scoring_precision: config.scoring_precision.on_this_cpu().name().to_owned(),
+        cpu_kernels: joca_nn::kernels::chosen().name().to_owned(),
         validation,
     })
 }

@@ -69,6 +69,12 @@ pub struct Args {
 
 /// Runs `joca bench`.
 pub fn run(args: &Args) -> Result<()> {
+    if matches!(args.target, Target::Detector | Target::Step) {
+        println!(
+            "libtorch CPU kernels: {} (JOCA_CPU_KERNELS; the PyTorch reference inherits them)",
+            joca_nn::kernels::chosen().name()
+        );
+    }
     match args.target {
         Target::Formation => bench_formation(args.repeats.max(1)),
         Target::Render => bench_render(args.repeats.max(1)),
@@ -374,7 +380,10 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     // The perturbed frames scored in bfloat16 where the CPU has it natively, with every search
     // also scored in float32 (untimed) to count how often the two choose the same member.
     if !Precision::native_bf16() {
-        println!("(scoring_precision = \"bf16\" not timed: this CPU has no native bfloat16)");
+        println!(
+            "(scoring_precision = \"bf16\" not timed: native bfloat16 needs AVX-512 BF16 and \
+             JOCA_CPU_KERNELS=native)"
+        );
         return Ok(());
     }
     cfg.scoring_precision = Precision::Bf16;

@@ -1,0 +1,126 @@
+//! Which of libtorch's CPU code paths a process runs, so that a run's numbers do not depend on
+//! the machine it happened to land on.
+//!
+//! libtorch picks its kernels by what the CPU has: ATen's vectorised operators by its "CPU
+//! capability" (AVX2 or AVX-512), oneDNN's convolutions by the widest instruction set, and MKL's
+//! matrix products likewise. Each path rounds differently, so the same configuration, seed and
+//! thread count gave different detectors, and through the genetic algorithm different designs,
+//! on an AVX-512 machine and on an AVX2 one. By default joca therefore pins all three to their
+//! AVX2 paths (`ATEN_CPU_CAPABILITY=avx2`, `DNNL_MAX_CPU_ISA=AVX2`, `MKL_CBWR=AVX2`), which every
+//! x86-64 CPU with AVX2 and FMA runs. `JOCA_CPU_KERNELS=native` lets libtorch use the widest
+//! units instead (faster on AVX-512 machines, and needed for native bfloat16), at the price of
+//! machine-dependent numbers. Where the CPU lacks AVX2 or FMA, the choice is `native` whatever
+//! was asked, and the run says so.
+//!
+//! The variables are read by libtorch when it first computes, so [`select_from_env`] runs first
+//! thing in `main`; child processes (`joca cell`, the Python references of `joca bench`) inherit
+//! them.
+
+use std::sync::OnceLock;
+
+use crate::NnError;
+
+/// The environment variable that chooses the kernels: `avx2` (the default) or `native`.
+pub const ENV: &str = "JOCA_CPU_KERNELS";
+
+/// libtorch's variables and the values that pin each library to its AVX2 path.
+pub const AVX2_PINS: [(&str, &str); 3] =
+    [("ATEN_CPU_CAPABILITY", "avx2"), ("DNNL_MAX_CPU_ISA", "AVX2"), ("MKL_CBWR", "AVX2")];
+
+/// Which CPU kernels libtorch runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CpuKernels {
+    /// The AVX2 paths of ATen, oneDNN and MKL, whatever wider units the CPU has: the same
+    /// numbers on every CPU with AVX2 and FMA.
+    Avx2,
+    /// The widest paths the CPU has: numbers depend on the CPU.
+    Native,
+}
+
+static CHOSEN: OnceLock<CpuKernels> = OnceLock::new();
+
+impl CpuKernels {
+    /// The name `JOCA_CPU_KERNELS`, run headers and `results.json` use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Avx2 => "avx2",
+            Self::Native => "native",
+        }
+    }
+
+    /// The kernels `JOCA_CPU_KERNELS` asks for (unset or empty: `avx2`).
+    pub fn parse(value: Option<&str>) -> Result<Self, NnError> {
+        match value.map(str::trim) {
+            None | Some("") | Some("avx2") => Ok(Self::Avx2),
+            Some("native") => Ok(Self::Native),
+            Some(other) => Err(NnError::Config(format!(
+                "environment variable {ENV} = {other:?}: allowed values are \"avx2\" (the \
+                 default: the same numbers on every CPU with AVX2) and \"native\""
+            ))),
+        }
+    }
+
+    /// What runs on a CPU that has (`true`) or lacks AVX2 and FMA: the AVX2 paths need them.
+    pub fn on_cpu(self, has_avx2_fma: bool) -> Self {
+        if has_avx2_fma { self } else { Self::Native }
+    }
+}
+
+/// Whether this CPU has AVX2 and FMA.
+pub fn cpu_has_avx2_fma() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Reads [`ENV`], sets libtorch's variables for the choice, and returns what will run.
+///
+/// # Safety
+/// Changes the process environment: call it before any other thread exists and before
+/// libtorch computes anything (first thing in `main`).
+#[allow(unsafe_code)]
+pub unsafe fn select_from_env() -> Result<CpuKernels, NnError> {
+    let asked = CpuKernels::parse(std::env::var(ENV).ok().as_deref())?;
+    let chosen = asked.on_cpu(cpu_has_avx2_fma());
+    if chosen == CpuKernels::Avx2 {
+        for (key, value) in AVX2_PINS {
+            // SAFETY: the caller guarantees no other thread reads or writes the environment.
+            unsafe { std::env::set_var(key, value) };
+        }
+    }
+    let _ = CHOSEN.set(chosen);
+    Ok(chosen)
+}
+
+/// The kernels this process runs: what [`select_from_env`] chose, `native` if it never ran
+/// (library use, unit tests).
+pub fn chosen() -> CpuKernels {
+    CHOSEN.get().copied().unwrap_or(CpuKernels::Native)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_is_avx2_and_bad_values_name_the_variable() {
+        assert_eq!(CpuKernels::parse(None).unwrap(), CpuKernels::Avx2);
+        assert_eq!(CpuKernels::parse(Some("")).unwrap(), CpuKernels::Avx2);
+        assert_eq!(CpuKernels::parse(Some(" native ")).unwrap(), CpuKernels::Native);
+        let err = CpuKernels::parse(Some("avx512")).unwrap_err().to_string();
+        assert!(err.contains("JOCA_CPU_KERNELS") && err.contains("\"avx512\""), "{err}");
+        assert!(err.contains("\"avx2\"") && err.contains("\"native\""), "{err}");
+    }
+
+    #[test]
+    fn without_avx2_the_native_paths_run() {
+        assert_eq!(CpuKernels::Avx2.on_cpu(false), CpuKernels::Native);
+        assert_eq!(CpuKernels::Avx2.on_cpu(true), CpuKernels::Avx2);
+        assert_eq!(CpuKernels::Native.on_cpu(true), CpuKernels::Native);
+    }
+}
