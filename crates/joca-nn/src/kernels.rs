@@ -10,7 +10,7 @@
 //! x86-64 CPU with AVX2 and FMA runs. `JOCA_CPU_KERNELS=native` lets libtorch use the widest
 //! units instead (faster on AVX-512 machines, and needed for native bfloat16), at the price of
 //! machine-dependent numbers. Where the CPU lacks AVX2 or FMA, the choice is `native` whatever
-//! was asked, and the run says so.
+//! was asked, and the run's header and `results.json` say `native`.
 //!
 //! The variables are read by libtorch when it first computes, so [`select_from_env`] runs first
 //! thing in `main`; child processes (`joca cell`, the Python references of `joca bench`) inherit
