@@ -4,15 +4,21 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-fn joca(args: &[&str], kernels: Option<&str>) -> Output {
+/// The `joca` binary with libtorch's kernel variables cleared and `JOCA_CPU_KERNELS` set to
+/// `kernels` (unset: the default).
+fn command(kernels: Option<&str>) -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_joca"));
-    cmd.args(args).env_remove("ATEN_CPU_CAPABILITY").env_remove("DNNL_MAX_CPU_ISA");
-    cmd.env_remove("MKL_CBWR");
-    match kernels {
-        Some(k) => cmd.env("JOCA_CPU_KERNELS", k),
-        None => cmd.env_remove("JOCA_CPU_KERNELS"),
-    };
-    cmd.output().expect("joca runs")
+    for key in ["JOCA_CPU_KERNELS", "ATEN_CPU_CAPABILITY", "DNNL_MAX_CPU_ISA", "MKL_CBWR"] {
+        cmd.env_remove(key);
+    }
+    if let Some(k) = kernels {
+        cmd.env("JOCA_CPU_KERNELS", k);
+    }
+    cmd
+}
+
+fn joca(args: &[&str], kernels: Option<&str>) -> Output {
+    command(kernels).args(args).output().expect("joca runs")
 }
 
 fn fixture(name: &str) -> std::path::PathBuf {
@@ -123,12 +129,9 @@ fn pinned_kernels_give_the_reference_machines_training() {
     )
     .unwrap();
     let out = dir.path().join("run");
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_joca"));
+    let mut cmd = command(None);
     // The preset's detector weights are relative to the repository root.
     cmd.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."));
-    for key in ["JOCA_CPU_KERNELS", "ATEN_CPU_CAPABILITY", "DNNL_MAX_CPU_ISA", "MKL_CBWR"] {
-        cmd.env_remove(key);
-    }
     let o = cmd
         .args(["run", "--preset", "quick", "--config", config.to_str().unwrap(), "--out"])
         .arg(&out)
