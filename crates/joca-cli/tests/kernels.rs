@@ -1,11 +1,12 @@
-//! libtorch's CPU kernels: `JOCA_CPU_KERNELS` and the same numbers on every machine.
+//! libtorch's CPU kernels: `JOCA_CPU_KERNELS`, and inference that gives the same bits on
+//! machines of different instruction sets when it is `avx2`.
 #![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
 
 use std::path::Path;
 use std::process::{Command, Output};
 
 /// The `joca` binary with libtorch's kernel variables cleared and `JOCA_CPU_KERNELS` set to
-/// `kernels` (unset: the default).
+/// `kernels`.
 fn command(kernels: Option<&str>) -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_joca"));
     for key in ["JOCA_CPU_KERNELS", "ATEN_CPU_CAPABILITY", "DNNL_MAX_CPU_ISA", "MKL_CBWR"] {
@@ -44,13 +45,16 @@ fn a_bad_value_names_the_variable_and_the_allowed_values() {
         "{err}"
     );
     assert!(joca(&["sensors"], Some("native")).status.success());
+    assert!(joca(&["sensors"], Some("avx2")).status.success());
 }
 
-/// The shipped detector on two rendered frames, with the default (AVX2-pinned) kernels and two
-/// threads, against the detections written on the reference machine (a 2-core AMD EPYC with
-/// AVX2 only; `fixtures/pinned-kernels/README.md`), bit for bit. On an AVX2-only CPU this holds
-/// by construction; on a CPU with AVX-512 it is the check that the pins reach every kernel the
-/// detector uses.
+/// The shipped detector on two rendered frames, with `JOCA_CPU_KERNELS=avx2` and two threads,
+/// against the detections written on the reference machine (a 2-core AMD EPYC with AVX2 only;
+/// `fixtures/pinned-kernels/README.md`), bit for bit. On an AVX2-only CPU this holds by
+/// construction; on a CPU with AVX-512 it is the check that the pins reach every kernel the
+/// detector's inference uses (it passed on a 2-core Intel Xeon with AVX-512 BF16 and AMX).
+/// Training has no such test: it differs between those two machines whatever the pins
+/// (docs/results/2026-11-24-avx512-cross-machine-check.md).
 #[test]
 #[ignore = "cross-machine check: run it on a CPU with AVX-512 (scripts/test -- --ignored \
             pinned_kernels); on an AVX2-only CPU it passes by construction"]
@@ -97,7 +101,7 @@ fn pinned_kernels_give_the_reference_machines_detections() {
             "--threads",
             "2",
         ],
-        None,
+        Some("avx2"),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let got: serde_json::Value =
@@ -108,41 +112,5 @@ fn pinned_kernels_give_the_reference_machines_detections() {
     assert_eq!(got.len(), want.len(), "number of detections");
     for (i, (g, w)) in got.iter().zip(want).enumerate() {
         assert_eq!(g, w, "detection {i} differs from the reference machine's");
-    }
-}
-
-/// A joint run of 1 generation × 2 candidates × 3 steps on two threads (the quick preset
-/// otherwise), with the default (AVX2-pinned) kernels: the trained NeuralAE and detector weights
-/// against the reference machine's, bit for bit. NeuralAE's matrix products go through MKL,
-/// whose default dispatch gave other weights than its pinned path even on the reference machine;
-/// this is the check that the pins also hold training to one path across machines.
-#[test]
-#[ignore = "cross-machine check: run it on a CPU with AVX-512 (scripts/test -- --ignored \
-            pinned_kernels); on an AVX2-only CPU it passes by construction"]
-fn pinned_kernels_give_the_reference_machines_training() {
-    let dir = tempfile::tempdir().unwrap();
-    let config = dir.path().join("tiny.toml");
-    std::fs::write(
-        &config,
-        "[run]\nthreads = 2\ngenerations = 1\npopulation = 2\nsteps_per_candidate = 3\n\
-         test_episodes = 1\ntest_frames_per_episode = 2\n",
-    )
-    .unwrap();
-    let out = dir.path().join("run");
-    let mut cmd = command(None);
-    // The preset's detector weights are relative to the repository root.
-    cmd.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."));
-    let o = cmd
-        .args(["run", "--preset", "quick", "--config", config.to_str().unwrap(), "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    for (file, want) in [
-        ("acc.safetensors", 0x202f_46c9_0382_e672u64),
-        ("detector.safetensors", 0x98e5_892d_b957_6090),
-    ] {
-        let got = fnv(&std::fs::read(out.join("checkpoint").join(file)).unwrap());
-        assert_eq!(got, want, "trained {file} differs from the reference machine's");
     }
 }

@@ -1,16 +1,19 @@
-//! Which of libtorch's CPU code paths a process runs, so that a run's numbers do not depend on
-//! the machine it happened to land on.
+//! Which of libtorch's CPU code paths a process runs.
 //!
 //! libtorch picks its kernels by what the CPU has: ATen's vectorised operators by its "CPU
 //! capability" (AVX2 or AVX-512), oneDNN's convolutions by the widest instruction set, and MKL's
 //! matrix products likewise. Each path rounds differently, so the same configuration, seed and
-//! thread count gave different detectors, and through the genetic algorithm different designs,
-//! on an AVX-512 machine and on an AVX2 one. By default joca therefore pins all three to their
-//! AVX2 paths (`ATEN_CPU_CAPABILITY=avx2`, `DNNL_MAX_CPU_ISA=AVX2`, `MKL_CBWR=AVX2`), which every
-//! x86-64 CPU with AVX2 and FMA runs. `JOCA_CPU_KERNELS=native` lets libtorch use the widest
-//! units instead (faster on AVX-512 machines, and needed for native bfloat16), at the price of
-//! machine-dependent numbers. Where the CPU lacks AVX2 or FMA, the choice is `native` whatever
-//! was asked, and the run's header and `results.json` say `native`.
+//! thread count give different detectors, and through the genetic algorithm different designs,
+//! on different machine types. By default (`native`) libtorch uses the widest units the CPU has.
+//! `JOCA_CPU_KERNELS=avx2` pins the three libraries to their AVX2 paths
+//! (`ATEN_CPU_CAPABILITY=avx2`, `DNNL_MAX_CPU_ISA=AVX2`, `MKL_CBWR=AVX2`). That makes inference
+//! (`joca detect`, the test of a trained checkpoint) give the same bits on the machines it was
+//! checked on (an AVX2-only AMD EPYC and an AVX-512/AMX Intel Xeon), but it does NOT make
+//! training reproducible across machine types: MKL runs its AVX2 branch only on Intel CPUs (its
+//! generic reproducible branch elsewhere), and oneDNN sizes its backward-pass blocks by the
+//! caches. Training is reproducible per machine type, with either setting. Where the CPU lacks
+//! AVX2 or FMA, the choice is `native` whatever was asked, and the run's header and
+//! `results.json` say `native`.
 //!
 //! The variables are read by libtorch when it first computes, so [`select_from_env`] runs first
 //! thing in `main`; child processes (`joca cell`, the Python references of `joca bench`) inherit
@@ -20,7 +23,7 @@ use std::sync::OnceLock;
 
 use crate::NnError;
 
-/// The environment variable that chooses the kernels: `avx2` (the default) or `native`.
+/// The environment variable that chooses the kernels: `native` (the default) or `avx2`.
 pub const ENV: &str = "JOCA_CPU_KERNELS";
 
 /// libtorch's variables and the values that pin each library to its AVX2 path.
@@ -31,9 +34,9 @@ pub const AVX2_PINS: [(&str, &str); 3] =
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CpuKernels {
     /// The AVX2 paths of ATen, oneDNN and MKL, whatever wider units the CPU has: the same
-    /// numbers on every CPU with AVX2 and FMA.
+    /// inference on the machine types checked, training still machine-dependent.
     Avx2,
-    /// The widest paths the CPU has: numbers depend on the CPU.
+    /// The widest paths the CPU has (the default): numbers depend on the machine type.
     Native,
 }
 
@@ -48,14 +51,15 @@ impl CpuKernels {
         }
     }
 
-    /// The kernels `JOCA_CPU_KERNELS` asks for (unset or empty: `avx2`).
+    /// The kernels `JOCA_CPU_KERNELS` asks for (unset or empty: `native`).
     pub fn parse(value: Option<&str>) -> Result<Self, NnError> {
         match value.map(str::trim) {
-            None | Some("") | Some("avx2") => Ok(Self::Avx2),
-            Some("native") => Ok(Self::Native),
+            None | Some("") | Some("native") => Ok(Self::Native),
+            Some("avx2") => Ok(Self::Avx2),
             Some(other) => Err(NnError::Config(format!(
-                "environment variable {ENV} = {other:?}: allowed values are \"avx2\" (the \
-                 default: the same numbers on every CPU with AVX2) and \"native\""
+                "environment variable {ENV} = {other:?}: allowed values are \"native\" (the \
+                 default: libtorch's widest kernels for this CPU) and \"avx2\" (libtorch \
+                 pinned to its AVX2 paths)"
             ))),
         }
     }
@@ -75,6 +79,30 @@ pub fn cpu_has_avx2_fma() -> bool {
     #[cfg(not(target_arch = "x86_64"))]
     {
         false
+    }
+}
+
+/// The CPU's widest vector units as libtorch sees them, e.g. `AVX-512, AVX-512 BF16` or
+/// `AVX2, FMA`.
+pub fn vector_units() -> String {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let has = [
+            (std::arch::is_x86_feature_detected!("avx512f"), "AVX-512"),
+            (std::arch::is_x86_feature_detected!("avx512bf16"), "AVX-512 BF16"),
+        ];
+        let wide: Vec<&str> = has.iter().filter(|h| h.0).map(|h| h.1).collect();
+        if !wide.is_empty() {
+            wide.join(", ")
+        } else if cpu_has_avx2_fma() {
+            "AVX2, FMA".to_owned()
+        } else {
+            "below AVX2".to_owned()
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        std::env::consts::ARCH.to_owned()
     }
 }
 
@@ -108,10 +136,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_default_is_avx2_and_bad_values_name_the_variable() {
-        assert_eq!(CpuKernels::parse(None).unwrap(), CpuKernels::Avx2);
-        assert_eq!(CpuKernels::parse(Some("")).unwrap(), CpuKernels::Avx2);
-        assert_eq!(CpuKernels::parse(Some(" native ")).unwrap(), CpuKernels::Native);
+    fn the_default_is_native_and_bad_values_name_the_variable() {
+        assert_eq!(CpuKernels::parse(None).unwrap(), CpuKernels::Native);
+        assert_eq!(CpuKernels::parse(Some("")).unwrap(), CpuKernels::Native);
+        assert_eq!(CpuKernels::parse(Some(" avx2 ")).unwrap(), CpuKernels::Avx2);
         let err = CpuKernels::parse(Some("avx512")).unwrap_err().to_string();
         assert!(err.contains("JOCA_CPU_KERNELS") && err.contains("\"avx512\""), "{err}");
         assert!(err.contains("\"avx2\"") && err.contains("\"native\""), "{err}");

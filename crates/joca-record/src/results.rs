@@ -43,10 +43,14 @@ pub struct RunResults {
     /// (`run.scoring_precision`, float32 on a CPU without native bfloat16). Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub scoring_precision: String,
-    /// Which of libtorch's CPU kernels ran: `avx2` (the same numbers on every CPU with AVX2) or
-    /// `native` (`JOCA_CPU_KERNELS`). Empty in older runs.
+    /// Which of libtorch's CPU kernels ran: `native` (the widest the CPU has) or `avx2`
+    /// (`JOCA_CPU_KERNELS`). Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub cpu_kernels: String,
+    /// The CPU the run's results were computed on (model name and widest vector units): training
+    /// repeats bit for bit on the same machine type, not across types. Empty in older runs.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub cpu: String,
     /// The best designs of training, re-scored on the validation town; the tested design is the
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

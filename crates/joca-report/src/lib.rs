@@ -328,6 +328,10 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
             frames; render scale {}.\n",
         r.test.frames, r.render_scale
     );
+    let machine = machine_line(r);
+    if !machine.is_empty() {
+        let _ = writeln!(md, "{machine}\n");
+    }
     md.push_str(&table.markdown());
     let _ = writeln!(md, "\nAP50 {:.3}.\n", r.test.ap50);
     md.push_str(&settings_markdown(r));
@@ -339,16 +343,30 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     let body = format!(
         "<p>Camera parameters marked <span class=\"opt\">●</span> were optimised, <span \
             class=\"fix\">○</span> fixed. Test on {}, closed loop, {} frames; render scale {}; \
-            AP50 {:.3}.</p>\n{}",
+            AP50 {:.3}.</p>\n<p>{}</p>\n{}",
         table::escape(&tested_on),
         r.test.frames,
         r.render_scale,
         r.test.ap50,
+        table::escape(&machine),
         table.html()
     );
     let page = html::page(&title, &body, run_dir, &figures)?;
     write_text(&run_dir.join("report.html"), &page)?;
     Ok(md)
+}
+
+/// Where the numbers were computed: training repeats bit for bit on the same machine type and
+/// libtorch kernels, not across types (empty for runs that did not record it).
+fn machine_line(r: &RunResults) -> String {
+    if r.cpu.is_empty() {
+        return String::new();
+    }
+    format!(
+        "Computed on {} with libtorch's {} kernels (numbers repeat on this machine type).",
+        r.cpu,
+        if r.cpu_kernels.is_empty() { "native" } else { &r.cpu_kernels }
+    )
 }
 
 /// The closed-loop test's settings by illumination: mean exposure, gain, and exposure × linear

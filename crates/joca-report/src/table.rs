@@ -306,7 +306,8 @@ pub(crate) mod tests {
             render_scale: 0.08,
             source: "sim".into(),
             scoring_precision: "fp32".into(),
-            cpu_kernels: "avx2".into(),
+            cpu_kernels: "native".into(),
+            cpu: String::new(),
         }
     }
 

@@ -28,5 +28,6 @@ pub use pretrain::{
 pub use run::{
     DesignSummary, FixedCamera, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MIN_RENDER_SCALE, Method,
     PerturbationMutation, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario,
-    Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step, evaluate_run, run,
+    Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step, cpu_description,
+    evaluate_run, run,
 };

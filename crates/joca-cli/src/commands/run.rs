@@ -111,14 +111,16 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
     );
     let kernels = joca_nn::kernels::chosen();
     println!(
-        "cpu kernels: {} ({})",
+        "cpu: {}; kernels: {} ({})",
+        joca_train::cpu_description(),
         kernels.name(),
         match kernels {
             joca_nn::kernels::CpuKernels::Avx2 =>
-                "libtorch's AVX2 paths: the same numbers on every CPU with AVX2; \
-                 JOCA_CPU_KERNELS=native for the widest",
+                "libtorch pinned to its AVX2 paths (JOCA_CPU_KERNELS=avx2): training still \
+                 depends on the machine type",
             joca_nn::kernels::CpuKernels::Native =>
-                "libtorch's widest paths for this CPU: numbers depend on the CPU",
+                "libtorch's widest paths for this CPU: the numbers repeat on this machine \
+                 type, not across types",
         }
     );
     let scoring = cfg.scoring_precision.on_this_cpu();

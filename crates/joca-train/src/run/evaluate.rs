@@ -130,6 +130,21 @@ pub(super) fn test_design(
         },
         scoring_precision: config.scoring_precision.on_this_cpu().name().to_owned(),
         cpu_kernels: joca_nn::kernels::chosen().name().to_owned(),
+        cpu: cpu_description(),
         validation,
     })
+}
+
+/// The CPU's model name (Linux: `/proc/cpuinfo`) and widest vector units, for `results.json`.
+pub fn cpu_description() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| {
+            info.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, name)| name.trim().to_owned())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_owned());
+    format!("{model} ({})", joca_nn::kernels::vector_units())
 }

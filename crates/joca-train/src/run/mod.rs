@@ -29,8 +29,8 @@ pub use config::{
     MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MIN_RENDER_SCALE, PerturbationMutation, RealConfig,
     ReferenceConfig, RunConfig, Source, TieBreak,
 };
-pub use evaluate::evaluate_run;
 use evaluate::{best_design, test_design};
+pub use evaluate::{cpu_description, evaluate_run};
 use joca_camera::{
     AccRanges, Calibration, DesignSpace, GenomeCodec, ImageFormation, SensorEncoding,
 };
