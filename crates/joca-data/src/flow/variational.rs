@@ -170,19 +170,25 @@ impl Packed {
     fn slice(&self, row: usize, col: usize, count: usize) -> &[f32] {
         &self.data[row * self.stride + col..][..count]
     }
+}
 
-    /// Writes this plane (colour `c`) into component `component` of an image-order field.
-    fn unpack_into(&self, c: usize, field: &mut [[f32; 2]], component: usize) {
-        let w = self.width;
-        debug_assert_eq!(field.len(), w * self.height);
-        for y in 0..self.height {
-            let (s, count) = Self::span(w, y, c);
-            let row = &self.data[(y + 1) * self.stride + 1..][..count];
-            for (i, &d) in row.iter().enumerate() {
-                field[y * w + 2 * i + s][component] = d;
+/// Writes the refined flow held in the packed planes `state[c] = (u, v)` of both colours into
+/// an image-order field, rows in parallel.
+fn unpack(state: &[(Packed, Packed); 2], field: &mut [[f32; 2]]) {
+    let (w, h, stride) = (state[0].0.width, state[0].0.height, state[0].0.stride);
+    debug_assert_eq!(field.len(), w * h);
+    field.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (c, (u, v)) in state.iter().enumerate() {
+            let (s, count) = Packed::span(w, y, c);
+            let (u, v) = (
+                &u.data[(y + 1) * stride + 1..][..count],
+                &v.data[(y + 1) * stride + 1..][..count],
+            );
+            for (i, (&u, &v)) in u.iter().zip(v).enumerate() {
+                row[2 * i + s] = [u, v];
             }
         }
-    }
+    });
 }
 
 /// What a half-sweep needs of each pixel of one colour, packed as [`Packed`]: the smoothness
@@ -211,33 +217,40 @@ impl Coefficients {
     }
 
     /// Sets every pixel of colour `c` from the iteration's systems, smoothness weights and the
-    /// incoming flow (the borders stay zero).
+    /// incoming flow (the borders stay zero), rows in parallel.
     fn fill(&mut self, c: usize, system: &[System], smooth: &[f32], base: &[[f32; 2]]) {
-        let co = self;
-        let (w, h, stride) = (co.a12.width, co.a12.height, co.a12.stride);
-        for y in 0..h {
-            let (s, count) = Packed::span(w, y, c);
-            for i in 0..count {
-                let (x, k) = (2 * i + s, y * w + 2 * i + s);
-                let at = (y + 1) * stride + 1 + i;
-                let weights = [
-                    if x > 0 { smooth[k - 1] } else { 0.0 },
-                    if x + 1 < w { smooth[k] } else { 0.0 },
-                    if y > 0 { smooth[k - w] } else { 0.0 },
-                    if y + 1 < h { smooth[k] } else { 0.0 },
-                ];
-                for (plane, weight) in co.weights.iter_mut().zip(weights) {
-                    plane.data[at] = weight;
-                }
-                let total: f32 = weights.iter().sum();
-                let (sy, [u0, v0]) = (&system[k], base[k]);
-                co.a12.data[at] = sy.a12;
-                co.k[0].data[at] = sy.b1 + sy.a11 * u0 + sy.a12 * v0;
-                co.k[1].data[at] = sy.b2 + sy.a12 * u0 + sy.a22 * v0;
-                co.inv[0].data[at] = 1.0 / (sy.a11 + total);
-                co.inv[1].data[at] = 1.0 / (sy.a22 + total);
-            }
+        let (w, h, stride) = (self.a12.width, self.a12.height, self.a12.stride);
+        let [w0, w1, w2, w3] = &mut self.weights;
+        let ([k1, k2], [inv1, inv2]) = (&mut self.k, &mut self.inv);
+        fn rows(p: &mut Packed, stride: usize, h: usize) -> rayon::slice::ChunksMut<'_, f32> {
+            p.data[stride..][..h * stride].par_chunks_mut(stride)
         }
+        let r = |p| rows(p, stride, h);
+        (r(w0), r(w1), r(w2), r(w3), r(&mut self.a12))
+            .into_par_iter()
+            .zip((r(k1), r(k2), r(inv1), r(inv2)))
+            .enumerate()
+            .for_each(|(y, ((wl, wr, wu, wd, a12), (k1, k2, inv1, inv2)))| {
+                let (s, count) = Packed::span(w, y, c);
+                for i in 0..count {
+                    let (x, k, at) = (2 * i + s, y * w + 2 * i + s, 1 + i);
+                    let weights = [
+                        if x > 0 { smooth[k - 1] } else { 0.0 },
+                        if x + 1 < w { smooth[k] } else { 0.0 },
+                        if y > 0 { smooth[k - w] } else { 0.0 },
+                        if y + 1 < h { smooth[k] } else { 0.0 },
+                    ];
+                    (wl[at], wr[at], wu[at], wd[at]) =
+                        (weights[0], weights[1], weights[2], weights[3]);
+                    let total: f32 = weights.iter().sum();
+                    let (sy, [u0, v0]) = (&system[k], base[k]);
+                    a12[at] = sy.a12;
+                    k1[at] = sy.b1 + sy.a11 * u0 + sy.a12 * v0;
+                    k2[at] = sy.b2 + sy.a12 * u0 + sy.a22 * v0;
+                    inv1[at] = 1.0 / (sy.a11 + total);
+                    inv2[at] = 1.0 / (sy.a22 + total);
+                }
+            });
     }
 }
 
@@ -291,13 +304,15 @@ fn data_terms(i0: &Gray, i1: &Gray, base: &[[f32; 2]], p: &RefineParams) -> Vec<
             i1.sample((k % w) as f32 + u[0], (k / w) as f32 + u[1])
         })
         .collect();
-    let average = Gray::new(w, h, (0..n).map(|k| 0.5 * (i0.data()[k] + warped[k])).collect());
-    let iz = Gray::new(w, h, (0..n).map(|k| warped[k] - i0.data()[k]).collect());
+    let average =
+        Gray::new(w, h, (0..n).into_par_iter().map(|k| 0.5 * (i0.data()[k] + warped[k])).collect());
+    let iz = Gray::new(w, h, (0..n).into_par_iter().map(|k| warped[k] - i0.data()[k]).collect());
     let (ix, iy) = average.gradients();
     let ((ixx, ixy), (_, iyy)) = (ix.gradients(), iy.gradients());
     let (ixz, iyz) = iz.gradients();
     let z2 = p.zeta * p.zeta;
     (0..n)
+        .into_par_iter()
         .map(|k| {
             Terms {
                 ix: ix.data()[k],
@@ -338,10 +353,7 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
     let mut coefficients = [(); 2].map(|()| Coefficients::zeros(w, h));
     let e2 = p.epsilon * p.epsilon;
     for _ in 0..iterations {
-        for (c, (u, v)) in state.iter().enumerate() {
-            u.unpack_into(c, &mut current, 0);
-            v.unpack_into(c, &mut current, 1);
-        }
+        unpack(&state, &mut current);
         (system.par_iter_mut(), smooth.par_iter_mut()).into_par_iter().enumerate().for_each(
             |(k, (system, smooth))| {
                 let here = current[k];
@@ -368,10 +380,7 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
             }
         }
     }
-    for (c, (u, v)) in state.iter().enumerate() {
-        u.unpack_into(c, &mut flow.data, 0);
-        v.unpack_into(c, &mut flow.data, 1);
-    }
+    unpack(&state, &mut flow.data);
 }
 
 #[cfg(test)]
