@@ -109,7 +109,36 @@ fn main() -> ExitCode {
         return ExitCode::FAILURE;
     }
     let cli = Cli::parse();
-    let result = match cli.command {
+    // Every command runs on a worker of rayon's pool, not on the main thread: a parallel loop
+    // started from outside the pool hands its work to a sleeping worker and waits to be woken,
+    // which on these small images (the renderer's passes, DIS's sweeps) cost as much as the
+    // work; started from a worker, the caller works on it at once.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .stack_size(MAIN_STACK_BYTES)
+        .thread_name(|i| format!("joca-{i}"))
+        .build();
+    let result = match pool {
+        Ok(pool) => pool.install(|| dispatch(cli)),
+        Err(err) => Err(anyhow::anyhow!("cannot start the worker threads: {err}")),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err}");
+            for cause in err.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The stack of the worker threads, as large as a main thread's on Linux.
+const MAIN_STACK_BYTES: usize = 8 << 20;
+
+/// Runs the command `cli` names.
+fn dispatch(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
         Command::Run(args) => commands::run::run(&args),
         Command::Eval(args) => commands::eval::run(&args),
         Command::Sensors(args) => commands::sensors::run(&args),
@@ -127,15 +156,5 @@ fn main() -> ExitCode {
         Command::Flow(args) => commands::flow::run_flow(&args),
         Command::Blur(args) => commands::flow::run_blur(&args),
         Command::Import(args) => commands::import::run(&args),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("error: {err}");
-            for cause in err.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
-            }
-            ExitCode::FAILURE
-        }
     }
 }
