@@ -470,19 +470,19 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
     let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
     let e = stderr(&o);
     assert!(e.contains("scoring_precision") && e.contains("`fp32`") && e.contains("`bf16`"), "{e}");
-    // A reference range of zero (or less) names the field and the allowed range.
-    std::fs::write(
-        &cfg,
-        "[run.reference]\nvehicle_m = 100.0\nwalker_m = 0.0\ntraffic_sign_m = 50.0\n",
-    )
-    .unwrap();
-    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    // A reference range of zero (or less) names the field, the allowed range and the file,
+    // before a run directory exists; the other ranges of a partial table keep their defaults.
+    std::fs::write(&cfg, "[run.reference]\nwalker_m = 0.0\n").unwrap();
+    let never = dir.path().join("never");
+    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", never.to_str().unwrap()]);
     let e = stderr(&o);
     assert!(
         !o.status.success()
-            && e.contains("run.reference.walker_m = 0 is invalid: above 0 m, at most 200 m"),
+            && e.contains("run.reference.walker_m = 0 is invalid: above 0 m, at most 200 m")
+            && e.contains(cfg.to_str().unwrap()),
         "{e}"
     );
+    assert!(!never.exists(), "a refused config left {}", never.display());
     // `joca experiment --seeds 0` is refused before anything is written.
     let exp_dir = dir.path().join("exp");
     let o = joca(&["experiment", "ablation", "--seeds", "0", "--out", exp_dir.to_str().unwrap()]);

@@ -53,6 +53,12 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(s) = &args.test_source {
         cfg.test_source.clone_from(s);
     }
+    // A bad value is refused here, naming the file, before a run directory exists.
+    let source = match &args.config {
+        Some(path) => format!("{} over preset {}", path.display(), args.preset),
+        None => format!("preset {}", args.preset),
+    };
+    cfg.validate().with_context(|| format!("invalid [run] in {source}"))?;
     let real = cfg.source.is_recording();
     let out = args.out.clone().unwrap_or_else(|| {
         let mode = if real { "-real" } else { "" };

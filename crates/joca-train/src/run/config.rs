@@ -118,8 +118,9 @@ pub struct RunConfig {
 
 /// The reference objects of the simulator's ground truth: every object of a class in the
 /// camera's view within the class's range and at least 15 % visible, at any size in pixels.
+/// A field left out of a `[run.reference]` table keeps its default.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct ReferenceConfig {
     /// Farthest vehicle, metres.
     pub vehicle_m: f64,
