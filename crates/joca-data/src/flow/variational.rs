@@ -191,6 +191,19 @@ fn unpack(state: &[(Packed, Packed); 2], field: &mut [[f32; 2]]) {
     });
 }
 
+/// What filling the coefficients of one fixed-point iteration reads.
+#[derive(Clone, Copy)]
+struct Iteration<'a> {
+    terms: &'a [Terms],
+    /// The refined flow so far, image order.
+    current: &'a [[f32; 2]],
+    /// Each pixel's smoothness weight (towards its right and lower neighbours).
+    smooth: &'a [f32],
+    /// The incoming flow.
+    base: &'a [[f32; 2]],
+    params: &'a RefineParams,
+}
+
 /// What a half-sweep needs of each pixel of one colour, packed as [`Packed`]: the smoothness
 /// weights towards its four neighbours (0 across the image border), `a12`, and, folded with
 /// the incoming flow `u⁰` and the total weight `W = Σ w`, `k1 = b1 + a11 u⁰ + a12 v⁰`,
@@ -216,9 +229,10 @@ impl Coefficients {
         }
     }
 
-    /// Sets every pixel of colour `c` from the iteration's systems, smoothness weights and the
-    /// incoming flow (the borders stay zero), rows in parallel.
-    fn fill(&mut self, c: usize, system: &[System], smooth: &[f32], base: &[[f32; 2]]) {
+    /// Sets every pixel of colour `c` from its data terms' system at the current flow, the
+    /// smoothness weights and the incoming flow (the borders stay zero), rows in parallel.
+    fn fill(&mut self, c: usize, it: &Iteration<'_>) {
+        let Iteration { terms, current, smooth, base, params } = *it;
         let (w, h, stride) = (self.a12.width, self.a12.height, self.a12.stride);
         let [w0, w1, w2, w3] = &mut self.weights;
         let ([k1, k2], [inv1, inv2]) = (&mut self.k, &mut self.inv);
@@ -243,7 +257,8 @@ impl Coefficients {
                     (wl[at], wr[at], wu[at], wd[at]) =
                         (weights[0], weights[1], weights[2], weights[3]);
                     let total: f32 = weights.iter().sum();
-                    let (sy, [u0, v0]) = (&system[k], base[k]);
+                    let (here, [u0, v0]) = (current[k], base[k]);
+                    let sy = terms[k].system([here[0] - u0, here[1] - v0], params);
                     a12[at] = sy.a12;
                     k1[at] = sy.b1 + sy.a11 * u0 + sy.a12 * v0;
                     k2[at] = sy.b2 + sy.a12 * u0 + sy.a22 * v0;
@@ -297,13 +312,13 @@ fn data_terms(i0: &Gray, i1: &Gray, base: &[[f32; 2]], p: &RefineParams) -> Vec<
     let (w, h) = (i0.width(), i0.height());
     let n = w * h;
     // I1 warped by the incoming flow, the average image, the temporal difference.
-    let warped: Vec<f32> = (0..n)
-        .into_par_iter()
-        .map(|k| {
-            let u = base[k];
-            i1.sample((k % w) as f32 + u[0], (k / w) as f32 + u[1])
-        })
-        .collect();
+    let mut warped = vec![0.0f32; n];
+    warped.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, v) in row.iter_mut().enumerate() {
+            let u = base[y * w + x];
+            *v = i1.sample(x as f32 + u[0], y as f32 + u[1]);
+        }
+    });
     let average =
         Gray::new(w, h, (0..n).into_par_iter().map(|k| 0.5 * (i0.data()[k] + warped[k])).collect());
     let iz = Gray::new(w, h, (0..n).into_par_iter().map(|k| warped[k] - i0.data()[k]).collect());
@@ -347,18 +362,16 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
         let v = Packed::from_fn(w, h, c, |k| base[k][1]);
         (u, v)
     });
-    let mut system = vec![System::default(); n];
     let mut smooth = vec![0.0f32; n];
     let mut current = base.clone();
     let mut coefficients = [(); 2].map(|()| Coefficients::zeros(w, h));
     let e2 = p.epsilon * p.epsilon;
     for _ in 0..iterations {
         unpack(&state, &mut current);
-        (system.par_iter_mut(), smooth.par_iter_mut()).into_par_iter().enumerate().for_each(
-            |(k, (system, smooth))| {
+        smooth.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, smooth) in row.iter_mut().enumerate() {
+                let k = y * w + x;
                 let here = current[k];
-                *system = terms[k].system([here[0] - base[k][0], here[1] - base[k][1]], p);
-                let (x, y) = (k % w, k / w);
                 let right = if x + 1 < w { current[k + 1] } else { here };
                 let down = if y + 1 < h { current[k + w] } else { here };
                 let g2 = (right[0] - here[0]).powi(2)
@@ -366,10 +379,12 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
                     + (down[0] - here[0]).powi(2)
                     + (down[1] - here[1]).powi(2);
                 *smooth = 0.5 * p.alpha / (g2 + e2).sqrt();
-            },
-        );
+            }
+        });
+        let it =
+            Iteration { terms: &terms, current: &current, smooth: &smooth, base: &base, params: p };
         for (c, co) in coefficients.iter_mut().enumerate() {
-            co.fill(c, &system, &smooth, &base);
+            co.fill(c, &it);
         }
         for _ in 0..p.sweeps {
             for (c, co) in coefficients.iter().enumerate() {
