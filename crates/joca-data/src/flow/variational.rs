@@ -97,6 +97,7 @@ impl Terms {
     }
 
     /// The data terms' system at increment `(du, dv)`.
+    #[inline(always)]
     fn system(&self, [du, dv]: [f32; 2], p: &RefineParams) -> System {
         let (e2, z2) = (p.epsilon * p.epsilon, p.zeta * p.zeta);
         let t = self;
@@ -191,17 +192,129 @@ fn unpack(state: &[(Packed, Packed); 2], field: &mut [[f32; 2]]) {
     });
 }
 
-/// What filling the coefficients of one fixed-point iteration reads.
-#[derive(Clone, Copy)]
-struct Iteration<'a> {
-    terms: &'a [Terms],
-    /// The refined flow so far, image order.
-    current: &'a [[f32; 2]],
-    /// Each pixel's smoothness weight (towards its right and lower neighbours).
-    smooth: &'a [f32],
-    /// The incoming flow.
-    base: &'a [[f32; 2]],
-    params: &'a RefineParams,
+/// The image rows of a plane (its border rows left out), to be filled in parallel.
+fn interior_rows(p: &mut Packed) -> rayon::slice::ChunksMut<'_, f32> {
+    let (stride, h) = (p.stride, p.height);
+    p.data[stride..][..h * stride].par_chunks_mut(stride)
+}
+
+/// The data terms of the pixels of one colour, packed as [`Packed`], one plane per field of
+/// [`Terms`] (fixed for the refinement).
+struct PackedTerms([Packed; 11]);
+
+impl PackedTerms {
+    /// The terms of the pixels of colour `c`, rows in parallel.
+    fn new(d: &Derivatives, c: usize, z2: f32) -> Self {
+        let (w, h) = (d.ix.width(), d.ix.height());
+        let mut planes = [(); 11].map(|()| Packed::zeros(w, h));
+        let [p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10] = &mut planes;
+        let r = interior_rows;
+        (r(p0), r(p1), r(p2), r(p3), r(p4), r(p5), r(p6), r(p7), r(p8), r(p9), r(p10))
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(y, (ix, iy, iz, ixx, ixy, iyy, ixz, iyz, n, n1, n2))| {
+                let (s, count) = Packed::span(w, y, c);
+                for i in 0..count {
+                    let t = d.terms(y * w + 2 * i + s, z2);
+                    let at = 1 + i;
+                    (ix[at], iy[at], iz[at], ixx[at], ixy[at], iyy[at]) =
+                        (t.ix, t.iy, t.iz, t.ixx, t.ixy, t.iyy);
+                    (ixz[at], iyz[at], n[at], n1[at], n2[at]) =
+                        (t.ixz, t.iyz, t.inv_n, t.inv_n1, t.inv_n2);
+                }
+            });
+        Self(planes)
+    }
+
+    /// The `count` pixels of image row `y`, one slice per field.
+    fn row(&self, y: usize, count: usize) -> [&[f32]; 11] {
+        self.0.each_ref().map(|p| p.slice(y + 1, 1, count))
+    }
+}
+
+/// Pixel `i` of a row of [`PackedTerms::row`].
+#[inline(always)]
+fn terms_at(t: &[&[f32]; 11], i: usize) -> Terms {
+    Terms {
+        ix: t[0][i],
+        iy: t[1][i],
+        iz: t[2][i],
+        ixx: t[3][i],
+        ixy: t[4][i],
+        iyy: t[5][i],
+        ixz: t[6][i],
+        iyz: t[7][i],
+        inv_n: t[8][i],
+        inv_n1: t[9][i],
+        inv_n2: t[10][i],
+    }
+}
+
+/// The smoothness weights of the pixels of one colour at the current flow, packed: `right`
+/// towards the right neighbour and `down` towards the lower one, each 0 where that neighbour
+/// is outside the image (the pair of a pixel and its right or lower neighbour is weighted by
+/// the pixel's own penaliser weight).
+struct Smoothness {
+    right: Packed,
+    down: Packed,
+}
+
+impl Smoothness {
+    fn zeros(w: usize, h: usize) -> Self {
+        Self { right: Packed::zeros(w, h), down: Packed::zeros(w, h) }
+    }
+
+    /// The weights of colour `c` from the refined flow `mine` (this colour) and `other`, rows
+    /// in parallel: `α/2 / √(|∇u|² + |∇v|² + ε²)` with forward differences, a neighbour
+    /// outside the image counting as the pixel itself.
+    fn set(
+        &mut self,
+        c: usize,
+        (u, v): (&Packed, &Packed),
+        (ou, ov): (&Packed, &Packed),
+        p: &RefineParams,
+    ) {
+        let (w, h) = (u.width, u.height);
+        let (half_alpha, e2) = (0.5 * p.alpha, p.epsilon * p.epsilon);
+        let (right, down) = (&mut self.right, &mut self.down);
+        (interior_rows(right), interior_rows(down)).into_par_iter().enumerate().for_each(
+            |(y, (wr, wd))| {
+                let (s, count) = Packed::span(w, y, c);
+                let (hu, hv) = (u.slice(y + 1, 1, count), v.slice(y + 1, 1, count));
+                // The right neighbour of pixel i is pixel i + s of the other colour; past the
+                // row's end it is the border column, fixed below.
+                let (ru, rv) = (ou.slice(y + 1, 1 + s, count), ov.slice(y + 1, 1 + s, count));
+                // The lower neighbour is pixel i of the other colour in the next row; in the last
+                // row the pixel itself.
+                let (du, dv) = if y + 1 < h {
+                    (ou.slice(y + 2, 1, count), ov.slice(y + 2, 1, count))
+                } else {
+                    (hu, hv)
+                };
+                let weight = |here: [f32; 2], right: [f32; 2], down: [f32; 2]| {
+                    let g2 = (right[0] - here[0]).powi(2)
+                        + (right[1] - here[1]).powi(2)
+                        + (down[0] - here[0]).powi(2)
+                        + (down[1] - here[1]).powi(2);
+                    half_alpha / (g2 + e2).sqrt()
+                };
+                let (wr, wd) = (&mut wr[1..][..count], &mut wd[1..][..count]);
+                let has_down = if y + 1 < h { 1.0 } else { 0.0 };
+                for i in 0..count {
+                    let m = weight([hu[i], hv[i]], [ru[i], rv[i]], [du[i], dv[i]]);
+                    wr[i] = m;
+                    wd[i] = m * has_down;
+                }
+                // The last pixel of the row, if it is the image's last column: no right neighbour.
+                let last = count - 1;
+                if 2 * last + s == w - 1 {
+                    let here = [hu[last], hv[last]];
+                    let m = weight(here, here, [du[last], dv[last]]);
+                    (wr[last], wd[last]) = (0.0, m * has_down);
+                }
+            },
+        );
+    }
 }
 
 /// What a half-sweep needs of each pixel of one colour, packed as [`Packed`]: the smoothness
@@ -229,43 +342,124 @@ impl Coefficients {
         }
     }
 
-    /// Sets every pixel of colour `c` from its data terms' system at the current flow, the
-    /// smoothness weights and the incoming flow (the borders stay zero), rows in parallel.
-    fn fill(&mut self, c: usize, it: &Iteration<'_>) {
-        let Iteration { terms, current, smooth, base, params } = *it;
-        let (w, h, stride) = (self.a12.width, self.a12.height, self.a12.stride);
+    /// Sets every pixel of colour `c` from its data terms' system at the current flow
+    /// `(u, v)`, the smoothness weights of both colours and the incoming flow `(bu, bv)` (the
+    /// borders stay zero), rows in parallel.
+    #[allow(clippy::too_many_arguments)]
+    #[allow(unsafe_code)] // calling a target-feature function once the CPU is known to have it
+    fn fill(
+        &mut self,
+        c: usize,
+        terms: &PackedTerms,
+        (u, v): (&Packed, &Packed),
+        (bu, bv): (&Packed, &Packed),
+        mine: &Smoothness,
+        other: &Smoothness,
+        params: &RefineParams,
+    ) {
+        let w = self.a12.width;
         let [w0, w1, w2, w3] = &mut self.weights;
         let ([k1, k2], [inv1, inv2]) = (&mut self.k, &mut self.inv);
-        fn rows(p: &mut Packed, stride: usize, h: usize) -> rayon::slice::ChunksMut<'_, f32> {
-            p.data[stride..][..h * stride].par_chunks_mut(stride)
-        }
-        let r = |p| rows(p, stride, h);
+        let r = interior_rows;
         (r(w0), r(w1), r(w2), r(w3), r(&mut self.a12))
             .into_par_iter()
             .zip((r(k1), r(k2), r(inv1), r(inv2)))
             .enumerate()
             .for_each(|(y, ((wl, wr, wu, wd, a12), (k1, k2, inv1, inv2)))| {
                 let (s, count) = Packed::span(w, y, c);
-                for i in 0..count {
-                    let (x, k, at) = (2 * i + s, y * w + 2 * i + s, 1 + i);
-                    let weights = [
-                        if x > 0 { smooth[k - 1] } else { 0.0 },
-                        if x + 1 < w { smooth[k] } else { 0.0 },
-                        if y > 0 { smooth[k - w] } else { 0.0 },
-                        if y + 1 < h { smooth[k] } else { 0.0 },
-                    ];
-                    (wl[at], wr[at], wu[at], wd[at]) =
-                        (weights[0], weights[1], weights[2], weights[3]);
-                    let total: f32 = weights.iter().sum();
-                    let (here, [u0, v0]) = (current[k], base[k]);
-                    let sy = terms[k].system([here[0] - u0, here[1] - v0], params);
-                    a12[at] = sy.a12;
-                    k1[at] = sy.b1 + sy.a11 * u0 + sy.a12 * v0;
-                    k2[at] = sy.b2 + sy.a12 * u0 + sy.a22 * v0;
-                    inv1[at] = 1.0 / (sy.a11 + total);
-                    inv2[at] = 1.0 / (sy.a22 + total);
+                let t = terms.row(y, count);
+                let (hu, hv) = (u.slice(y + 1, 1, count), v.slice(y + 1, 1, count));
+                let (bu, bv) = (bu.slice(y + 1, 1, count), bv.slice(y + 1, 1, count));
+                // Towards the left neighbour: its weight to the right (0 in the border
+                // column); towards the upper one: its weight downwards (0 in the border row).
+                let left = other.right.slice(y + 1, s, count);
+                let up = other.down.slice(y, 1, count);
+                let (right, down) =
+                    (mine.right.slice(y + 1, 1, count), mine.down.slice(y + 1, 1, count));
+                let range = 1..1 + count;
+                let row = FillRow {
+                    terms: t,
+                    flow: (hu, hv),
+                    incoming: (bu, bv),
+                    weights: [left, right, up, down],
+                    out_weights: [
+                        &mut wl[range.clone()],
+                        &mut wr[range.clone()],
+                        &mut wu[range.clone()],
+                        &mut wd[range.clone()],
+                    ],
+                    a12: &mut a12[range.clone()],
+                    k: [&mut k1[range.clone()], &mut k2[range.clone()]],
+                    inv: [&mut inv1[range.clone()], &mut inv2[range]],
+                };
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2 (checked just above).
+                    return unsafe { row.run_avx2(params) };
                 }
+                row.run(params);
             });
+    }
+}
+
+/// One row of one colour for [`Coefficients::fill`]: what it reads and the planes' rows it
+/// writes, all `count` long.
+struct FillRow<'a> {
+    terms: [&'a [f32]; 11],
+    flow: (&'a [f32], &'a [f32]),
+    incoming: (&'a [f32], &'a [f32]),
+    /// Towards the left, right, upper and lower neighbours.
+    weights: [&'a [f32]; 4],
+    out_weights: [&'a mut [f32]; 4],
+    a12: &'a mut [f32],
+    k: [&'a mut [f32]; 2],
+    inv: [&'a mut [f32]; 2],
+}
+
+impl FillRow<'_> {
+    /// The row compiled for AVX2 (the same operations per pixel, so the same bits, in wider
+    /// vectors).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_avx2(self, params: &RefineParams) {
+        self.run(params);
+    }
+
+    #[inline(always)]
+    fn run(self, params: &RefineParams) {
+        let FillRow {
+            terms,
+            flow: (hu, hv),
+            incoming: (bu, bv),
+            weights,
+            out_weights,
+            a12,
+            k,
+            inv,
+        } = self;
+        // Every slice cut to the row's length, so that the loop carries no bounds checks and
+        // vectorises.
+        let count = a12.len();
+        let terms = terms.map(|t| &t[..count]);
+        let (hu, hv, bu, bv) = (&hu[..count], &hv[..count], &bu[..count], &bv[..count]);
+        let [left, right, up, down] = weights.map(|w| &w[..count]);
+        let [wl, wr, wu, wd] = out_weights;
+        let (wl, wr, wu, wd) =
+            (&mut wl[..count], &mut wr[..count], &mut wu[..count], &mut wd[..count]);
+        let ([k1, k2], [inv1, inv2]) = (k, inv);
+        let (k1, k2, inv1, inv2) =
+            (&mut k1[..count], &mut k2[..count], &mut inv1[..count], &mut inv2[..count]);
+        for i in 0..count {
+            (wl[i], wr[i], wu[i], wd[i]) = (left[i], right[i], up[i], down[i]);
+            let total = left[i] + right[i] + up[i] + down[i];
+            let (u0, v0) = (bu[i], bv[i]);
+            let sy = terms_at(&terms, i).system([hu[i] - u0, hv[i] - v0], params);
+            a12[i] = sy.a12;
+            k1[i] = sy.b1 + sy.a11 * u0 + sy.a12 * v0;
+            k2[i] = sy.b2 + sy.a12 * u0 + sy.a22 * v0;
+            inv1[i] = 1.0 / (sy.a11 + total);
+            inv2[i] = 1.0 / (sy.a22 + total);
+        }
     }
 }
 
@@ -307,42 +501,61 @@ fn half_sweep<'a>(
         });
 }
 
-/// The linearised data terms of every pixel, from `I0`, `I1` and the incoming flow `base`.
-fn data_terms(i0: &Gray, i1: &Gray, base: &[[f32; 2]], p: &RefineParams) -> Vec<Terms> {
-    let (w, h) = (i0.width(), i0.height());
-    let n = w * h;
-    // I1 warped by the incoming flow, the average image, the temporal difference.
-    let mut warped = vec![0.0f32; n];
-    warped.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, v) in row.iter_mut().enumerate() {
-            let u = base[y * w + x];
-            *v = i1.sample(x as f32 + u[0], y as f32 + u[1]);
-        }
-    });
-    let average =
-        Gray::new(w, h, (0..n).into_par_iter().map(|k| 0.5 * (i0.data()[k] + warped[k])).collect());
-    let iz = Gray::new(w, h, (0..n).into_par_iter().map(|k| warped[k] - i0.data()[k]).collect());
-    let (ix, iy) = average.gradients();
-    let ((ixx, ixy), (_, iyy)) = (ix.gradients(), iy.gradients());
-    let (ixz, iyz) = iz.gradients();
-    let z2 = p.zeta * p.zeta;
-    (0..n)
-        .into_par_iter()
-        .map(|k| {
-            Terms {
-                ix: ix.data()[k],
-                iy: iy.data()[k],
-                iz: iz.data()[k],
-                ixx: ixx.data()[k],
-                ixy: ixy.data()[k],
-                iyy: iyy.data()[k],
-                ixz: ixz.data()[k],
-                iyz: iyz.data()[k],
-                ..Terms::default()
+/// The images the data terms are made of, from `I0`, `I1` and the incoming flow `base`: the
+/// derivatives of the average of `I0` and the warped `I1`, and their difference and its
+/// derivatives.
+struct Derivatives {
+    ix: Gray,
+    iy: Gray,
+    iz: Gray,
+    ixx: Gray,
+    ixy: Gray,
+    iyy: Gray,
+    ixz: Gray,
+    iyz: Gray,
+}
+
+impl Derivatives {
+    fn new(i0: &Gray, i1: &Gray, base: &[[f32; 2]]) -> Self {
+        let (w, h) = (i0.width(), i0.height());
+        let n = w * h;
+        // I1 warped by the incoming flow, the average image, the temporal difference.
+        let mut warped = vec![0.0f32; n];
+        warped.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, v) in row.iter_mut().enumerate() {
+                let u = base[y * w + x];
+                *v = i1.sample(x as f32 + u[0], y as f32 + u[1]);
             }
-            .normalised(z2)
-        })
-        .collect()
+        });
+        let average = Gray::new(
+            w,
+            h,
+            (0..n).into_par_iter().map(|k| 0.5 * (i0.data()[k] + warped[k])).collect(),
+        );
+        let iz =
+            Gray::new(w, h, (0..n).into_par_iter().map(|k| warped[k] - i0.data()[k]).collect());
+        let (ix, iy) = average.gradients();
+        let ((ixx, ixy), (_, iyy)) = (ix.gradients(), iy.gradients());
+        let (ixz, iyz) = iz.gradients();
+        Self { ix, iy, iz, ixx, ixy, iyy, ixz, iyz }
+    }
+
+    /// The linearised data terms of pixel `k`, normalised with `ζ² = z2`.
+    #[inline(always)]
+    fn terms(&self, k: usize, z2: f32) -> Terms {
+        Terms {
+            ix: self.ix.data()[k],
+            iy: self.iy.data()[k],
+            iz: self.iz.data()[k],
+            ixx: self.ixx.data()[k],
+            ixy: self.ixy.data()[k],
+            iyy: self.iyy.data()[k],
+            ixz: self.ixz.data()[k],
+            iyz: self.iyz.data()[k],
+            ..Terms::default()
+        }
+        .normalised(z2)
+    }
 }
 
 /// Refines `flow` (from `i0` to `i1`, same size as both) in place with `iterations`
@@ -352,9 +565,8 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
     if w < 2 || h < 2 {
         return;
     }
-    let n = w * h;
     let base: Vec<[f32; 2]> = flow.data.clone();
-    let terms = data_terms(i0, i1, &base, p);
+    let derivatives = Derivatives::new(i0, i1, &base);
     // The state is the refined flow itself (incoming flow + increment), split by the red–black
     // colouring into packed planes (see [`Packed`]).
     let mut state = [0, 1].map(|c| {
@@ -362,29 +574,22 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
         let v = Packed::from_fn(w, h, c, |k| base[k][1]);
         (u, v)
     });
-    let mut smooth = vec![0.0f32; n];
-    let mut current = base.clone();
+    // The incoming flow and the data terms in the same layout, fixed for the refinement.
+    let incoming = state.clone();
+    let terms = [0, 1].map(|c| PackedTerms::new(&derivatives, c, p.zeta * p.zeta));
+    drop(derivatives);
+    let mut smooth = [(); 2].map(|()| Smoothness::zeros(w, h));
     let mut coefficients = [(); 2].map(|()| Coefficients::zeros(w, h));
-    let e2 = p.epsilon * p.epsilon;
     for _ in 0..iterations {
-        unpack(&state, &mut current);
-        smooth.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, smooth) in row.iter_mut().enumerate() {
-                let k = y * w + x;
-                let here = current[k];
-                let right = if x + 1 < w { current[k + 1] } else { here };
-                let down = if y + 1 < h { current[k + w] } else { here };
-                let g2 = (right[0] - here[0]).powi(2)
-                    + (right[1] - here[1]).powi(2)
-                    + (down[0] - here[0]).powi(2)
-                    + (down[1] - here[1]).powi(2);
-                *smooth = 0.5 * p.alpha / (g2 + e2).sqrt();
-            }
-        });
-        let it =
-            Iteration { terms: &terms, current: &current, smooth: &smooth, base: &base, params: p };
+        {
+            let [(u0, v0), (u1, v1)] = &state;
+            let [s0, s1] = &mut smooth;
+            s0.set(0, (u0, v0), (u1, v1), p);
+            s1.set(1, (u1, v1), (u0, v0), p);
+        }
         for (c, co) in coefficients.iter_mut().enumerate() {
-            co.fill(c, &it);
+            let ((u, v), (bu, bv)) = (&state[c], &incoming[c]);
+            co.fill(c, &terms[c], (u, v), (bu, bv), &smooth[c], &smooth[1 - c], p);
         }
         for _ in 0..p.sweeps {
             for (c, co) in coefficients.iter().enumerate() {
@@ -426,7 +631,8 @@ mod tests {
         }
         let n = w * h;
         let base: Vec<[f32; 2]> = flow.data.clone();
-        let terms = data_terms(i0, i1, &base, p);
+        let d = Derivatives::new(i0, i1, &base);
+        let terms: Vec<Terms> = (0..n).map(|k| d.terms(k, p.zeta * p.zeta)).collect();
         let mut du = vec![[0.0f32; 2]; n];
         let mut systems = vec![System::default(); n];
         let mut smooth = vec![0.0f32; n];
