@@ -346,7 +346,6 @@ impl Coefficients {
     /// `(u, v)`, the smoothness weights of both colours and the incoming flow `(bu, bv)` (the
     /// borders stay zero), rows in parallel.
     #[allow(clippy::too_many_arguments)]
-    #[allow(unsafe_code)] // calling a target-feature function once the CPU is known to have it
     fn fill(
         &mut self,
         c: usize,
@@ -392,11 +391,6 @@ impl Coefficients {
                     k: [&mut k1[range.clone()], &mut k2[range.clone()]],
                     inv: [&mut inv1[range.clone()], &mut inv2[range]],
                 };
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU has AVX2 (checked just above).
-                    return unsafe { row.run_avx2(params) };
-                }
                 row.run(params);
             });
     }
@@ -417,15 +411,6 @@ struct FillRow<'a> {
 }
 
 impl FillRow<'_> {
-    /// The row compiled for AVX2 (the same operations per pixel, so the same bits, in wider
-    /// vectors).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn run_avx2(self, params: &RefineParams) {
-        self.run(params);
-    }
-
-    #[inline(always)]
     fn run(self, params: &RefineParams) {
         let FillRow {
             terms,
@@ -437,8 +422,7 @@ impl FillRow<'_> {
             k,
             inv,
         } = self;
-        // Every slice cut to the row's length, so that the loop carries no bounds checks and
-        // vectorises.
+        // Every slice cut to the row's length, so that the loop carries no bounds checks.
         let count = a12.len();
         let terms = terms.map(|t| &t[..count]);
         let (hu, hv, bu, bv) = (&hu[..count], &hv[..count], &bu[..count], &bv[..count]);
