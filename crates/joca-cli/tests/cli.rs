@@ -637,6 +637,26 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     );
     assert_eq!(std::fs::read_to_string(exp.join("results.csv")).unwrap(), csv);
 
+    // A cell restored from its compact results (docs/results/ keeps results.json and the
+    // configuration only), first of its group: the report still has every figure, its row
+    // of the frames figure empty.
+    let compact = exp.join("cells/tacos-calibrated");
+    for entry in std::fs::read_dir(&compact).unwrap() {
+        let path = entry.unwrap().path();
+        let keep = ["results.json", "config.toml", "cell.toml", "best_design.json"];
+        if !keep.iter().any(|k| path.ends_with(k)) {
+            if path.is_dir() {
+                std::fs::remove_dir_all(&path).unwrap();
+            } else {
+                std::fs::remove_file(&path).unwrap();
+            }
+        }
+    }
+    std::fs::remove_dir_all(exp.join("figures")).unwrap();
+    let o = joca(&["report", exp.to_str().unwrap()]);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    assert!(exp.join("figures/calibrated-frames.png").is_file());
+
     // The same directory with another configuration is refused, naming the field.
     std::fs::write(&cfg, TINY_RUN.replace("steps_per_candidate = 3", "steps_per_candidate = 4"))
         .unwrap();

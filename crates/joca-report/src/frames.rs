@@ -71,6 +71,11 @@ fn draw_frame(
 ) -> Result<(), ReportError> {
     let Some(rel) = &frame.image else { return Ok(()) };
     let file = run.frame_path(rel);
+    // A cell restored from its compact results (docs/results/ keeps results.json and the
+    // configuration, not the test frames) leaves its tile empty instead of failing the report.
+    if !file.exists() {
+        return Ok(());
+    }
     let img = image::open(&file).map_err(|e| draw_err(&file, e))?.to_rgb8();
     let scale = (f64::from(tile.0) / f64::from(img.width()))
         .min(f64::from(tile.1) / f64::from(img.height()));
@@ -149,7 +154,9 @@ fn grid_columns(run: &RunData) -> Vec<(String, String, usize)> {
 
 /// The qualitative grid: one row per run (labelled), one column per showcase scene.
 pub fn qualitative_grid(path: &Path, runs: &[(String, &RunData)]) -> Result<(), ReportError> {
-    let Some(first) = runs.first() else { return Ok(()) };
+    // The columns come from the first run that kept its showcases (a cell restored from its
+    // compact results has none; its row stays empty).
+    let Some(first) = runs.iter().find(|(_, r)| !r.showcases.is_empty()) else { return Ok(()) };
     let cols = grid_columns(first.1);
     if cols.is_empty() {
         return Ok(());
