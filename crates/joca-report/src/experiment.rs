@@ -47,23 +47,36 @@ fn one() -> u64 {
     1
 }
 
-/// The runs a group's figures show: one per method, its lowest finished seed, in table order.
+/// The runs a group's figures show: one per method, its lowest finished seed (among the cells
+/// that kept their full run directory, if any did), in table order.
 /// With several seeds a figure of every run repeats each legend entry once per seed and reuses
 /// colours; the other seeds' figures are in their own cells' reports. Labels name the seed when
 /// the experiment has more than one.
-fn figure_members<'a, R>(runs: &'a [(CellSpec, R)], group: &str) -> Vec<(String, &'a R)> {
+fn figure_members<'a, R>(
+    runs: &'a [(CellSpec, R)],
+    group: &str,
+    full: impl Fn(&R) -> bool,
+) -> Vec<(String, &'a R)> {
     let in_group: Vec<&(CellSpec, R)> = runs.iter().filter(|(c, _)| c.group == group).collect();
     let several = in_group
         .iter()
         .any(|(c, _)| in_group.iter().any(|(o, _)| o.label == c.label && o.seed != c.seed));
     let mut members: Vec<(String, &R)> = Vec::new();
-    let mut shown: Vec<(&str, u64)> = Vec::new();
-    for (c, _) in &in_group {
-        match shown.iter_mut().find(|(l, _)| *l == c.label) {
-            Some((_, seed)) => *seed = (*seed).min(c.seed),
-            None => shown.push((&c.label, c.seed)),
+    // Per method its lowest seed, preferring cells that kept their full run directory (a cell
+    // restored from its compact results has no frames or training curves to draw).
+    let mut shown: Vec<(&str, u64, bool)> = Vec::new();
+    for (c, r) in &in_group {
+        let f = full(r);
+        match shown.iter_mut().find(|(l, _, _)| *l == c.label) {
+            Some((_, seed, was_full)) => {
+                if (f, std::cmp::Reverse(c.seed)) > (*was_full, std::cmp::Reverse(*seed)) {
+                    (*seed, *was_full) = (c.seed, f);
+                }
+            }
+            None => shown.push((&c.label, c.seed, f)),
         }
     }
+    let shown: Vec<(&str, u64)> = shown.into_iter().map(|(l, s, _)| (l, s)).collect();
     for (label, seed) in shown {
         if let Some((c, r)) = in_group.iter().find(|(c, _)| c.label == label && c.seed == seed) {
             let name =
@@ -164,7 +177,7 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     );
     let mut figures: Vec<Figure> = Vec::new();
     for group in table.groups() {
-        let members = figure_members(&runs, &group);
+        let members = figure_members(&runs, &group, |r: &RunData| !r.showcases.is_empty());
         let prefix = format!("{}-", slug(&group));
         let group_figures = write_figures(exp_dir, &prefix, &group, &members)?;
         let _ = writeln!(md, "## {group}\n");
@@ -209,11 +222,25 @@ mod tests {
             cell("a", "blur", 0),
         ];
         let shown: Vec<(String, u64)> =
-            figure_members(&runs, "cal").into_iter().map(|(l, r)| (l, *r)).collect();
+            figure_members(&runs, "cal", |_| true).into_iter().map(|(l, r)| (l, *r)).collect();
         assert_eq!(shown, vec![("a, seed 0".to_owned(), 0), ("b, seed 1".to_owned(), 1)]);
         // One seed: labels as the table's.
         let one = vec![cell("a", "cal", 0), cell("b", "cal", 0)];
-        let shown: Vec<String> = figure_members(&one, "cal").into_iter().map(|(l, _)| l).collect();
+        let shown: Vec<String> =
+            figure_members(&one, "cal", |_| true).into_iter().map(|(l, _)| l).collect();
         assert_eq!(shown, vec!["a".to_owned(), "b".to_owned()]);
+        // Seeds 0 of "a" and 1 of "b" restored from compact results (here: even seeds are
+        // full): each method is shown at its lowest full seed, a method without one at its
+        // lowest seed.
+        let shown: Vec<(String, u64)> = figure_members(&runs, "cal", |s| s % 2 == 0)
+            .into_iter()
+            .map(|(l, r)| (l, *r))
+            .collect();
+        assert_eq!(shown, vec![("a, seed 0".to_owned(), 0), ("b, seed 2".to_owned(), 2)]);
+        let odd: Vec<(String, u64)> = figure_members(&runs, "cal", |s| s % 2 == 1)
+            .into_iter()
+            .map(|(l, r)| (l, *r))
+            .collect();
+        assert_eq!(odd, vec![("a, seed 0".to_owned(), 0), ("b, seed 1".to_owned(), 1)]);
     }
 }
