@@ -9,9 +9,9 @@
 //! (`ATEN_CPU_CAPABILITY=avx2`, `DNNL_MAX_CPU_ISA=AVX2`, `MKL_CBWR=AVX2`). That makes inference
 //! (`joca detect`, the test of a trained checkpoint) give the same bits on the machines it was
 //! checked on (an AVX2-only AMD EPYC and an AVX-512/AMX Intel Xeon), but it does NOT make
-//! training reproducible across machine types: MKL runs its AVX2 branch only on Intel CPUs (its
-//! generic reproducible branch elsewhere), and oneDNN sizes its backward-pass blocks by the
-//! caches. Training is reproducible per machine type, with either setting. Where the CPU lacks
+//! training reproducible across machine types: MKL documents that its AVX2 branch runs on
+//! Intel CPUs only (its AUTO branch elsewhere), and oneDNN promises no identical results across
+//! CPU models. Training is reproducible per machine type, with either setting. Where the CPU lacks
 //! AVX2 or FMA, the choice is `native` whatever was asked, and the run's header and
 //! `results.json` say `native`.
 //!
