@@ -317,14 +317,13 @@ impl Smoothness {
     }
 }
 
-/// What a half-sweep needs of each pixel of one colour, packed as [`Packed`]: the smoothness
-/// weights towards its four neighbours (0 across the image border), `a12`, and, folded with
+/// What a half-sweep needs of each pixel of one colour, packed as [`Packed`], beside the
+/// smoothness weights ([`Smoothness`] of both colours): `a12`, and, folded with
 /// the incoming flow `u⁰` and the total weight `W = Σ w`, `k1 = b1 + a11 u⁰ + a12 v⁰`,
 /// `k2 = b2 + a12 u⁰ + a22 v⁰`, `1/(a11 + W)`, `1/(a22 + W)`: the SOR update of the refined
 /// flow `u = u⁰ + du` is then `u ← u + ω ((k1 + Σ w u_m − a12 v) / (a11 + W) − u)`, the same as solving
 /// for the increment (`(b1 + Σ w (u_m − u⁰) − a12 dv) / (a11 + W)`) up to rounding.
 struct Coefficients {
-    weights: [Packed; 4],
     a12: Packed,
     k: [Packed; 2],
     inv: [Packed; 2],
@@ -334,12 +333,7 @@ impl Coefficients {
     /// Planes for a `w × h` image, to be set by [`Coefficients::fill`].
     fn zeros(w: usize, h: usize) -> Self {
         let blank = || Packed::zeros(w, h);
-        Self {
-            weights: [(); 4].map(|()| blank()),
-            a12: blank(),
-            k: [blank(), blank()],
-            inv: [blank(), blank()],
-        }
+        Self { a12: blank(), k: [blank(), blank()], inv: [blank(), blank()] }
     }
 
     /// Sets every pixel of colour `c` from its data terms' system at the current flow
@@ -357,94 +351,52 @@ impl Coefficients {
         params: &RefineParams,
     ) {
         let w = self.a12.width;
-        let [w0, w1, w2, w3] = &mut self.weights;
         let ([k1, k2], [inv1, inv2]) = (&mut self.k, &mut self.inv);
         let r = interior_rows;
-        (r(w0), r(w1), r(w2), r(w3), r(&mut self.a12))
-            .into_par_iter()
-            .zip((r(k1), r(k2), r(inv1), r(inv2)))
-            .enumerate()
-            .for_each(|(y, ((wl, wr, wu, wd, a12), (k1, k2, inv1, inv2)))| {
+        (r(&mut self.a12), r(k1), r(k2), r(inv1), r(inv2)).into_par_iter().enumerate().for_each(
+            |(y, (a12, k1, k2, inv1, inv2))| {
                 let (s, count) = Packed::span(w, y, c);
                 let t = terms.row(y, count);
                 let (hu, hv) = (u.slice(y + 1, 1, count), v.slice(y + 1, 1, count));
                 let (bu, bv) = (bu.slice(y + 1, 1, count), bv.slice(y + 1, 1, count));
-                // Towards the left neighbour: its weight to the right (0 in the border
-                // column); towards the upper one: its weight downwards (0 in the border row).
-                let left = other.right.slice(y + 1, s, count);
-                let up = other.down.slice(y, 1, count);
-                let (right, down) =
-                    (mine.right.slice(y + 1, 1, count), mine.down.slice(y + 1, 1, count));
+                let [left, right, up, down] = weights_of(y, s, count, mine, other);
                 let range = 1..1 + count;
-                let row = FillRow {
-                    terms: t,
-                    flow: (hu, hv),
-                    incoming: (bu, bv),
-                    weights: [left, right, up, down],
-                    out_weights: [
-                        &mut wl[range.clone()],
-                        &mut wr[range.clone()],
-                        &mut wu[range.clone()],
-                        &mut wd[range.clone()],
-                    ],
-                    a12: &mut a12[range.clone()],
-                    k: [&mut k1[range.clone()], &mut k2[range.clone()]],
-                    inv: [&mut inv1[range.clone()], &mut inv2[range]],
-                };
-                row.run(params);
-            });
+                let (a12, k1, k2) =
+                    (&mut a12[range.clone()], &mut k1[range.clone()], &mut k2[range.clone()]);
+                let (inv1, inv2) = (&mut inv1[range.clone()], &mut inv2[range]);
+                for i in 0..count {
+                    let total = left[i] + right[i] + up[i] + down[i];
+                    let (u0, v0) = (bu[i], bv[i]);
+                    let sy = terms_at(&t, i).system([hu[i] - u0, hv[i] - v0], params);
+                    a12[i] = sy.a12;
+                    k1[i] = sy.b1 + sy.a11 * u0 + sy.a12 * v0;
+                    k2[i] = sy.b2 + sy.a12 * u0 + sy.a22 * v0;
+                    inv1[i] = 1.0 / (sy.a11 + total);
+                    inv2[i] = 1.0 / (sy.a22 + total);
+                }
+            },
+        );
     }
 }
 
-/// One row of one colour for [`Coefficients::fill`]: what it reads and the planes' rows it
-/// writes, all `count` long.
-struct FillRow<'a> {
-    terms: [&'a [f32]; 11],
-    flow: (&'a [f32], &'a [f32]),
-    incoming: (&'a [f32], &'a [f32]),
-    /// Towards the left, right, upper and lower neighbours.
-    weights: [&'a [f32]; 4],
-    out_weights: [&'a mut [f32]; 4],
-    a12: &'a mut [f32],
-    k: [&'a mut [f32]; 2],
-    inv: [&'a mut [f32]; 2],
-}
-
-impl FillRow<'_> {
-    fn run(self, params: &RefineParams) {
-        let FillRow {
-            terms,
-            flow: (hu, hv),
-            incoming: (bu, bv),
-            weights,
-            out_weights,
-            a12,
-            k,
-            inv,
-        } = self;
-        // Every slice cut to the row's length, so that the loop carries no bounds checks.
-        let count = a12.len();
-        let terms = terms.map(|t| &t[..count]);
-        let (hu, hv, bu, bv) = (&hu[..count], &hv[..count], &bu[..count], &bv[..count]);
-        let [left, right, up, down] = weights.map(|w| &w[..count]);
-        let [wl, wr, wu, wd] = out_weights;
-        let (wl, wr, wu, wd) =
-            (&mut wl[..count], &mut wr[..count], &mut wu[..count], &mut wd[..count]);
-        let ([k1, k2], [inv1, inv2]) = (k, inv);
-        let (k1, k2, inv1, inv2) =
-            (&mut k1[..count], &mut k2[..count], &mut inv1[..count], &mut inv2[..count]);
-        for i in 0..count {
-            (wl[i], wr[i], wu[i], wd[i]) = (left[i], right[i], up[i], down[i]);
-            let total = left[i] + right[i] + up[i] + down[i];
-            let (u0, v0) = (bu[i], bv[i]);
-            let sy = terms_at(&terms, i).system([hu[i] - u0, hv[i] - v0], params);
-            a12[i] = sy.a12;
-            k1[i] = sy.b1 + sy.a11 * u0 + sy.a12 * v0;
-            k2[i] = sy.b2 + sy.a12 * u0 + sy.a22 * v0;
-            inv1[i] = 1.0 / (sy.a11 + total);
-            inv2[i] = 1.0 / (sy.a22 + total);
-        }
-    }
+/// The smoothness weights of the `count` pixels of colour row `y` (first column `s`) towards
+/// their left, right, upper and lower neighbours: towards the left one its weight to the right
+/// (0 in the border column), towards the upper one its weight downwards (0 in the border row),
+/// towards the right and lower ones the pixel's own.
+#[inline(always)]
+fn weights_of<'a>(
+    y: usize,
+    s: usize,
+    count: usize,
+    mine: &'a Smoothness,
+    other: &'a Smoothness,
+) -> [&'a [f32]; 4] {
+    [
+        other.right.slice(y + 1, s, count),
+        mine.right.slice(y + 1, 1, count),
+        other.down.slice(y, 1, count),
+        mine.down.slice(y + 1, 1, count),
+    ]
 }
 
 /// One SOR half-sweep over the pixels of colour `c` (`mine`, updated), reading their
@@ -454,6 +406,7 @@ fn half_sweep<'a>(
     (u, v): (&mut Packed, &mut Packed),
     (ou, ov): (&'a Packed, &'a Packed),
     co: &'a Coefficients,
+    (mine, other): (&'a Smoothness, &'a Smoothness),
     omega: f32,
 ) {
     let (stride, w) = (u.stride, u.width);
@@ -469,7 +422,7 @@ fn half_sweep<'a>(
             let (urt, vrt) = (at(ou, y + 1, s + 1), at(ov, y + 1, s + 1));
             let (uu, vu) = (at(ou, y, 1), at(ov, y, 1));
             let (ud, vd) = (at(ou, y + 2, 1), at(ov, y + 2, 1));
-            let [wl, wr, wu, wd] = co.weights.each_ref().map(|p| at(p, y + 1, 1));
+            let [wl, wr, wu, wd] = weights_of(y, s, count, mine, other);
             let (a12, k1, k2) =
                 (at(&co.a12, y + 1, 1), at(&co.k[0], y + 1, 1), at(&co.k[1], y + 1, 1));
             let (inv1, inv2) = (at(&co.inv[0], y + 1, 1), at(&co.inv[1], y + 1, 1));
@@ -580,7 +533,7 @@ pub fn refine(i0: &Gray, i1: &Gray, flow: &mut Flow, p: &RefineParams, iteration
                 let [(u0, v0), (u1, v1)] = &mut state;
                 let (mine, other) =
                     if c == 0 { ((u0, v0), (&*u1, &*v1)) } else { ((u1, v1), (&*u0, &*v0)) };
-                half_sweep(c, mine, other, co, p.omega);
+                half_sweep(c, mine, other, co, (&smooth[c], &smooth[1 - c]), p.omega);
             }
         }
     }
