@@ -23,7 +23,18 @@ pub struct AverageAe {
 impl AverageAe {
     /// AverageAE with the paper's target 0.5·255 within `ranges`.
     pub fn new(ranges: AccRanges) -> Self {
-        Self { ranges, target_dn: 0.5 * 255.0 }
+        Self::with_target(ranges, 0.5 * 255.0)
+    }
+
+    /// AverageAE holding the frame mean at `target_dn` instead of mid-grey (for tests of what
+    /// a darker or brighter policy does to the task).
+    pub fn with_target(ranges: AccRanges, target_dn: f64) -> Self {
+        Self { ranges, target_dn }
+    }
+
+    /// The frame mean it steers towards, DN.
+    pub fn target_dn(&self) -> f64 {
+        self.target_dn
     }
 
     /// Settings for the next frame, given the previous frame's settings and mean intensity.
@@ -62,6 +73,19 @@ mod tests {
         let got = ae.step_from_mean(DynamicSettings::new(5e-3, 10.0), 127.5 / 4.0);
         assert!((got.exposure_s - 10e-3).abs() < 1e-15);
         assert!((got.gain_db - (10.0 + 20.0 * 2f64.log10())).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_custom_target_is_a_fixed_point() {
+        // Target 50 DN: a frame at 50 DN keeps the settings, one at 200 DN quarters E·G.
+        let ae = AverageAe::with_target(AccRanges::PAPER, 50.0);
+        let s = DynamicSettings::new(8e-3, 12.0);
+        let same = ae.step_from_mean(s, 50.0);
+        assert!((same.exposure_s - s.exposure_s).abs() < 1e-15);
+        assert!((same.gain_db - s.gain_db).abs() < 1e-12);
+        let got = ae.step_from_mean(s, 200.0);
+        assert!((got.exposure_s - 4e-3).abs() < 1e-15);
+        assert!((got.gain_db - (12.0 - 20.0 * 2f64.log10())).abs() < 1e-12);
     }
 
     #[test]

@@ -51,6 +51,10 @@ pub struct RunResults {
     /// repeats bit for bit on the same machine type, not across types. Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub cpu: String,
+    /// The controller the test drove the design with when it was not the run's own (`joca eval
+    /// --controller average:DN`); empty for the run's own test.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub test_controller: String,
     /// The best designs of training, re-scored on the validation town; the tested design is the
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

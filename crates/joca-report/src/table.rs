@@ -308,6 +308,7 @@ pub(crate) mod tests {
             scoring_precision: "fp32".into(),
             cpu_kernels: "native".into(),
             cpu: String::new(),
+            test_controller: String::new(),
         }
     }
 

@@ -17,7 +17,8 @@ mod run;
 
 pub use checkpoint::{CheckpointDir, write_atomic};
 pub use control::{
-    AverageControl, Decision, ExposureControl, NeuralControl, SensorLimits, for_sensor,
+    AverageControl, Decision, ExposureControl, NeuralControl, SensorLimits, TestController,
+    for_sensor,
 };
 pub use error::TrainError;
 pub use eval::{EvalSpec, evaluate};

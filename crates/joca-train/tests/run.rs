@@ -80,8 +80,27 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     assert_eq!(a, b);
 
     // `eval` re-tests the best design from the checkpoint and reproduces the test scores.
-    let e = joca_train::evaluate_run(&dir.path().join("a"), None, None).unwrap();
+    let (e, test_dir) = joca_train::evaluate_run(
+        &dir.path().join("a"),
+        None,
+        None,
+        joca_train::TestController::Trained,
+    )
+    .unwrap();
     assert_eq!(e, a);
+    assert_eq!(test_dir, dir.path().join("a").join("test"));
+    // Another controller on the same trained design: its own files, the run's left alone.
+    let before = std::fs::read(dir.path().join("a").join("results.json")).unwrap();
+    let average = joca_train::TestController::from_name("average:60").unwrap();
+    let (o, test_dir) =
+        joca_train::evaluate_run(&dir.path().join("a"), None, None, average).unwrap();
+    assert_eq!(o.test_controller, "average-60");
+    assert_eq!((o.design.clone(), o.test.frames), (a.design.clone(), a.test.frames));
+    assert_eq!(test_dir, dir.path().join("a").join("test-average-60"));
+    assert!(test_dir.join("showcase.json").exists());
+    let written = std::fs::read_to_string(dir.path().join("a").join("results-average-60.json"));
+    assert!(written.unwrap().contains("\"test_controller\": \"average-60\""));
+    assert_eq!(std::fs::read(dir.path().join("a").join("results.json")).unwrap(), before);
 
     let mut other = cfg.clone();
     other.task_weight = 5.0;

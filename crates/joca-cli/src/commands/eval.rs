@@ -1,7 +1,7 @@
 //! `joca eval`: test a run's best design again from its checkpoint.
 
 use anyhow::{Context, Result, anyhow};
-use joca_train::{Scenario, evaluate_run};
+use joca_train::{Scenario, TestController, evaluate_run};
 use std::path::PathBuf;
 
 /// Arguments of `joca eval`.
@@ -15,16 +15,29 @@ pub struct Args {
     /// Test under another scenario: calibrated, noise10, noise20, blur2, blur4.
     #[arg(long)]
     scenario: Option<String>,
+    /// Drive the trained design with another controller: `trained` (the run's own), `average`
+    /// (AverageAE at mid-grey) or `average:DN` (AverageAE holding the frame mean at DN). The
+    /// design is still the one the run's own controller chose; results go to
+    /// `results-<controller>.json` and `test-<controller>/`.
+    #[arg(long, default_value = "trained")]
+    controller: String,
 }
 
 /// Runs `joca eval`.
 pub fn run(args: &Args) -> Result<()> {
     let scenario =
         args.scenario.as_deref().map(Scenario::from_name).transpose().map_err(|e| anyhow!(e))?;
-    let r = evaluate_run(&args.run_dir, scenario, args.frames)
+    let controller =
+        TestController::from_name(&args.controller).map_err(|e| anyhow!("--controller: {e}"))?;
+    let (r, test_dir) = evaluate_run(&args.run_dir, scenario, args.frames, controller)
         .with_context(|| format!("cannot evaluate {}", args.run_dir.display()))?;
+    let with = if r.test_controller.is_empty() {
+        String::new()
+    } else {
+        format!(" with {}", r.test_controller)
+    };
     println!(
-        "{} / {}: {} behind {:.2} mm at x {:.2} m, z {:.2} m -> mAP {:.3}, AP50 {:.3}, TP ratio \
+        "{} / {}{with}: {} behind {:.2} mm at x {:.2} m, z {:.2} m -> mAP {:.3}, AP50 {:.3}, TP ratio \
             {:.3} over {} frames",
         r.method.name(),
         r.scenario.name(),
@@ -40,5 +53,12 @@ pub fn run(args: &Args) -> Result<()> {
     println!();
     print!("{}", joca_report::settings_markdown(&r));
     print!("{}", joca_report::objects_markdown(&r));
+    let show_path = test_dir.join("showcase.json");
+    let text = std::fs::read_to_string(&show_path)
+        .with_context(|| format!("cannot read {}", show_path.display()))?;
+    let showcases: Vec<joca_train::Showcase> = serde_json::from_str(&text)
+        .with_context(|| format!("cannot parse {}", show_path.display()))?;
+    println!();
+    print!("{}", joca_report::light_step_markdown(&showcases));
     Ok(())
 }

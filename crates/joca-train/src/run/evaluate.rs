@@ -7,6 +7,7 @@ use super::results::summary;
 use super::{Context, RunResults, RunState, Scenario, setup};
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, read_json, write_atomic};
+use crate::control::TestController;
 use joca_camera::CameraDesign;
 use joca_nn::joint::JointModel;
 use joca_record::Validated;
@@ -14,13 +15,17 @@ use std::path::{Path, PathBuf};
 
 /// Tests the best design of a finished (or interrupted) run again, from its checkpoint: the
 /// trained detector and NeuralAE in closed loop on the test town, optionally under another
-/// scenario or with another number of frames. Writes `results.json` (or, for another scenario,
-/// `results-<scenario>.json`) and returns the results.
+/// scenario, with another number of frames, or with another controller (`controller`: AverageAE
+/// at a chosen frame mean in place of the trained one; the design is still chosen with the run's
+/// own controller). Writes `results.json` (for another scenario `results-<scenario>.json`, for
+/// another controller `results-<controller>.json` or `results-<scenario>-<controller>.json`, its
+/// trace and showcases in the matching `test-…` folder) and returns the results and that folder.
 pub fn evaluate_run(
     run_dir: &Path,
     scenario: Option<Scenario>,
     frames_per_episode: Option<usize>,
-) -> Result<RunResults, TrainError> {
+    controller: TestController,
+) -> Result<(RunResults, PathBuf), TrainError> {
     let config_path = run_dir.join("config.toml");
     let text =
         std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
@@ -46,19 +51,26 @@ pub fn evaluate_run(
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     model.load(&dir)?;
     let (design, validation) = best_design(&mut cx, &mut model, &state)?;
-    let other = scenario.is_some_and(|s| s != state.config.scenario);
-    let (name, test_dir) = if other {
-        (
-            format!("results-{}.json", config.scenario.name()),
-            format!("test-{}", config.scenario.name()),
-        )
-    } else {
+    let mut tags = Vec::new();
+    if scenario.is_some_and(|s| s != state.config.scenario) {
+        tags.push(config.scenario.name().to_owned());
+    }
+    if controller != TestController::Trained {
+        tags.push(controller.name());
+    }
+    let (name, test_dir) = if tags.is_empty() {
         ("results.json".to_owned(), "test".to_owned())
+    } else {
+        (format!("results-{}.json", tags.join("-")), format!("test-{}", tags.join("-")))
     };
     let out = run_dir.join(test_dir);
-    let results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
+    cx.test_controller = controller;
+    let mut results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
+    if controller != TestController::Trained {
+        results.test_controller = controller.name();
+    }
     write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
-    Ok(results)
+    Ok((results, out))
 }
 
 /// The design to test, and how the validation scored the candidates for it.
@@ -131,6 +143,7 @@ pub(super) fn test_design(
         scoring_precision: config.scoring_precision.on_this_cpu().name().to_owned(),
         cpu_kernels: joca_nn::kernels::chosen().name().to_owned(),
         cpu: cpu_description(),
+        test_controller: String::new(),
         validation,
     })
 }

@@ -22,6 +22,7 @@ mod timing;
 
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
+use crate::control::TestController;
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub(crate) use config::check_detector;
@@ -154,6 +155,8 @@ struct Context {
     log_path: PathBuf,
     /// Where each step's time goes (only `joca bench step` reads it).
     watch: Stopwatch,
+    /// The controller closed-loop tests drive the design with (`joca eval --controller`).
+    test_controller: TestController,
 }
 
 impl Context {
@@ -391,6 +394,7 @@ fn setup(
         log,
         log_path,
         watch: Stopwatch::default(),
+        test_controller: TestController::Trained,
     };
     Ok((cx, model))
 }
