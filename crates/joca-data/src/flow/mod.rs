@@ -15,7 +15,8 @@
 //!    neighbour's estimates, a backward pass from its right and lower neighbours', each pass
 //!    with half the iterations, within fixed stripes of patch rows.
 //! 3. **Densification.** A pixel's flow is the average of the flows of the patches covering it,
-//!    weighted by `1 / max(1, |I1(x + u_i) − I0(x)|)`.
+//!    weighted by `1 / max(1, |I1(x + u_i) − I0(x)|)`; the last patch of a row or column also
+//!    covers the few pixels past it (OpenCV's grid and rule).
 //! 4. **Variational refinement** (optional, [`variational`]): a few fixed-point iterations of a
 //!    robust colour-constancy + gradient-constancy + smoothness energy with normalised data
 //!    terms (Brox et al., Zimmer et al.; DIS's weights), solved by red–black SOR.
@@ -226,16 +227,14 @@ impl DisParams {
     }
 }
 
-/// Patch origins along an axis of `n` pixels: every `stride`, plus one flush with the end.
+/// Patch origins along an axis of `n` pixels: every `stride` from 0 while a patch fits (OpenCV's
+/// grid: `1 + (n − size) / stride` patches). The up to `stride − 1` pixels past the last patch
+/// are covered by that patch in the densification.
 fn patch_origins(n: usize, size: usize, stride: usize) -> Vec<usize> {
     if n <= size {
         return vec![0];
     }
-    let mut v: Vec<usize> = (0..=n - size).step_by(stride.max(1)).collect();
-    if v.last() != Some(&(n - size)) {
-        v.push(n - size);
-    }
-    v
+    (0..=n - size).step_by(stride.max(1)).collect()
 }
 
 /// One scale: patch search from `init`, densification, optional refinement.
@@ -265,7 +264,8 @@ fn scale_flow(i0: &Gray, i1: &Gray, init: &Flow, p: &DisParams) -> Flow {
 const BAND: usize = 32;
 
 /// Densification: each pixel's flow is the photometric-error-weighted average of the patches
-/// covering it (`init`'s where none does). Bands of rows in parallel, each visiting the patches
+/// covering it, the last patch of a row or column reaching to the image's edge, so every pixel
+/// has one (`init` is only a fallback). Bands of rows in parallel, each visiting the patches
 /// that reach into it in the global patch order, so every pixel sums its patches in the same
 /// order whatever the thread count. The sums are kept in planes (one per component) so that a
 /// patch row is one vector loop; with AVX2 where the CPU has it, the same code compiled for
@@ -323,25 +323,31 @@ impl Band<'_> {
     }
 
     /// Adds the band's patches into `sums` = (Σ weight·u, Σ weight·v, Σ weight), band rows only.
+    /// The last patch of each row and column also covers the pixels past it to the image's
+    /// edge (fewer than a stride), as OpenCV's densification does.
     #[inline(always)]
     fn accumulate(&self, [su, sv, sw]: [&mut [f32]; 3]) {
         let (w, size) = (self.i0.width(), self.size);
+        let h = self.i0.height();
         let bottom = self.top + su.len() / w;
-        let mut warped = vec![0.0f32; size * size];
+        let (last_x, last_y) = (self.xs.len() - 1, self.ys.len() - 1);
+        let mut warped = Vec::new();
         for (row, &py) in self.ys.iter().enumerate() {
-            if py >= bottom || py + size <= self.top {
+            let ph = if row == last_y { h - py } else { size };
+            if py >= bottom || py + ph <= self.top {
                 continue;
             }
             let flows = &self.patch_flows[row * self.xs.len()..][..self.xs.len()];
-            for (&px, &u) in self.xs.iter().zip(flows) {
-                self.i1.patch(px as f32 + u[0], py as f32 + u[1], size, &mut warped);
-                let width = size.min(w - px);
-                for y in py.max(self.top)..(py + size).min(bottom) {
-                    let patch_row = &warped[(y - py) * size..][..width];
-                    let image_row = &self.i0.data()[y * w + px..][..width];
+            for (col, (&px, &u)) in self.xs.iter().zip(flows).enumerate() {
+                let pw = if col == last_x { w - px } else { size };
+                warped.resize(pw * ph, 0.0);
+                self.i1.rect(px as f32 + u[0], py as f32 + u[1], (pw, ph), &mut warped);
+                for y in py.max(self.top)..(py + ph).min(bottom) {
+                    let patch_row = &warped[(y - py) * pw..][..pw];
+                    let image_row = &self.i0.data()[y * w + px..][..pw];
                     let at = (y - self.top) * w + px;
                     let (a, b, c) =
-                        (&mut su[at..at + width], &mut sv[at..at + width], &mut sw[at..at + width]);
+                        (&mut su[at..at + pw], &mut sv[at..at + pw], &mut sw[at..at + pw]);
                     for ((((&p, &g), a), b), c) in
                         patch_row.iter().zip(image_row).zip(a).zip(b).zip(c)
                     {
@@ -378,13 +384,16 @@ mod tests {
     #[test]
     fn patch_grid_covers_the_image() {
         assert_eq!(patch_origins(20, 8, 4), vec![0, 4, 8, 12]);
-        assert_eq!(patch_origins(21, 8, 4), vec![0, 4, 8, 12, 13]);
+        assert_eq!(patch_origins(23, 8, 4), vec![0, 4, 8, 12]);
+        assert_eq!(patch_origins(24, 8, 4), vec![0, 4, 8, 12, 16]);
         assert_eq!(patch_origins(5, 8, 4), vec![0]);
     }
 
     /// The densification against its definition, pixel by pixel: the average of the covering
     /// patches' flows weighted by `1 / max(1, |I1(x + u_i) − I0(x)|)`, patches in the global
-    /// order, `init` where none covers; bit for bit, over several bands and a ragged edge.
+    /// order, the last patch of a row or column reaching to the image's edge; bit for bit, over
+    /// several bands and a ragged edge (45 = 6·6 + 8 + 1: one column past the last patch; 70 =
+    /// 10·6 + 8 + 2).
     #[test]
     fn densification_is_the_weighted_average_of_the_covering_patches() {
         let (w, h, size) = (45, 70, 8);
@@ -405,26 +414,30 @@ mod tests {
         let init = Flow::new(w, h, vec![[9.0, -9.0]; w * h]);
         let padded = Padded::new(&i1, 2 * size);
         let got = densify(&i0, &padded, &xs, &ys, &flows, &init, size);
-        let mut warped = vec![0.0f32; size * size];
+        let mut warped = vec![0.0f32; 4 * size * size];
+        let (last_x, last_y) = (*xs.last().unwrap(), *ys.last().unwrap());
+        assert_eq!((w - last_x - size, h - last_y - size), (1, 2));
         for y in 0..h {
             for x in 0..w {
                 let (mut su, mut sv, mut sw) = (0.0f32, 0.0f32, 0.0f32);
                 for (k, (&py, &px)) in
                     ys.iter().flat_map(|py| xs.iter().map(move |px| (py, px))).enumerate()
                 {
-                    if !(px..px + size).contains(&x) || !(py..py + size).contains(&y) {
+                    let pw = if px == last_x { w - px } else { size };
+                    let ph = if py == last_y { h - py } else { size };
+                    if !(px..px + pw).contains(&x) || !(py..py + ph).contains(&y) {
                         continue;
                     }
                     let u = flows[k];
-                    padded.patch(px as f32 + u[0], py as f32 + u[1], size, &mut warped);
+                    padded.rect(px as f32 + u[0], py as f32 + u[1], (pw, ph), &mut warped);
                     let weight =
-                        1.0 / (warped[(y - py) * size + x - px] - i0.at(x, y)).abs().max(1.0);
+                        1.0 / (warped[(y - py) * pw + x - px] - i0.at(x, y)).abs().max(1.0);
                     su += weight * u[0];
                     sv += weight * u[1];
                     sw += weight;
                 }
-                let want = if sw > 0.0 { [su / sw, sv / sw] } else { init.at(x, y) };
-                assert_eq!(got[y * w + x], want, "pixel ({x}, {y})");
+                assert!(sw > 0.0, "pixel ({x}, {y}) is covered");
+                assert_eq!(got[y * w + x], [su / sw, sv / sw], "pixel ({x}, {y})");
             }
         }
     }

@@ -126,7 +126,8 @@ impl Template {
     unsafe fn at8_avx2(&self, i1: &Padded, u: [f32; 2]) -> (f32, [f32; 2]) {
         use std::arch::x86_64::*;
         debug_assert!(self.t.len() == 64 && self.gx.len() == 64 && self.gy.len() == 64);
-        let (start, [w00, w01, w10, w11]) = i1.place(self.origin.0 + u[0], self.origin.1 + u[1], 8);
+        let (start, [w00, w01, w10, w11]) =
+            i1.place(self.origin.0 + u[0], self.origin.1 + u[1], (8, 8));
         let (w00, w01) = (_mm256_set1_ps(w00), _mm256_set1_ps(w01));
         let (w10, w11) = (_mm256_set1_ps(w10), _mm256_set1_ps(w11));
         let mut acc = [_mm256_setzero_ps(); 4];
@@ -249,17 +250,17 @@ impl Padded {
         Self { data, stride, border, width: w, height: h }
     }
 
-    /// Where the `size × size` patch whose top-left pixel lands at `(x, y)` (image
+    /// Where the `width × height` patch whose top-left pixel lands at `(x, y)` (image
     /// coordinates) is read: the index of its top-left sample in `data` and the bilinear
     /// weights `(w00, w01, w10, w11)` every pixel of it shares. A patch reaching past the
-    /// border is moved back inside it, so rows `start + j · stride` hold `size + 1` samples for
-    /// `j ≤ size`.
+    /// border is moved back inside it, so rows `start + j · stride` hold `width + 1` samples
+    /// for `j ≤ height`.
     #[inline(always)]
-    fn place(&self, x: f32, y: f32, size: usize) -> (usize, [f32; 4]) {
+    fn place(&self, x: f32, y: f32, (width, height): (usize, usize)) -> (usize, [f32; 4]) {
         let b = self.border as f32;
         // Every read, at floor + size, must stay inside the padded image.
-        let x = x.clamp(-b, (self.width + self.border - size - 1) as f32);
-        let y = y.clamp(-b, (self.height + self.border - size - 1) as f32);
+        let x = x.clamp(-b, (self.width + self.border - width - 1) as f32);
+        let y = y.clamp(-b, (self.height + self.border - height - 1) as f32);
         // floor without libm's call (|x| is far below 2³¹ here).
         let floor = |v: f32| {
             let t = v as i32 as f32;
@@ -277,10 +278,17 @@ impl Padded {
     /// (image coordinates), row-major into `out`.
     #[inline(always)]
     pub(super) fn patch(&self, x: f32, y: f32, size: usize, out: &mut [f32]) {
-        let (start, [w00, w01, w10, w11]) = self.place(x, y, size);
-        for (j, row) in out.chunks_exact_mut(size).enumerate() {
-            let top = &self.data[start + j * self.stride..][..size + 1];
-            let bottom = &self.data[start + (j + 1) * self.stride..][..size + 1];
+        self.rect(x, y, (size, size), out);
+    }
+
+    /// The bilinear samples of the `width × height` rectangle whose top-left pixel lands at
+    /// `(x, y)`, row-major into `out` (`width · height` long; both sides at most the border).
+    #[inline(always)]
+    pub(super) fn rect(&self, x: f32, y: f32, (width, height): (usize, usize), out: &mut [f32]) {
+        let (start, [w00, w01, w10, w11]) = self.place(x, y, (width, height));
+        for (j, row) in out[..width * height].chunks_exact_mut(width).enumerate() {
+            let top = &self.data[start + j * self.stride..][..width + 1];
+            let bottom = &self.data[start + (j + 1) * self.stride..][..width + 1];
             for (i, o) in row.iter_mut().enumerate() {
                 *o = (w00 * top[i] + w01 * top[i + 1]) + (w10 * bottom[i] + w11 * bottom[i + 1]);
             }
