@@ -10,6 +10,9 @@ use crate::settings::{AccRanges, DynamicSettings};
 use joca_core::Rgb8Image;
 use joca_core::units::{db_from_linear, linear_from_db};
 
+/// The paper's target frame mean, half the 8-bit range, DN.
+pub const MID_GREY_DN: f64 = 0.5 * 255.0;
+
 /// Floor on the measured mean, DN: a frame darker than this is treated as this dark.
 pub const MIN_MEAN_DN: f64 = 1e-3;
 
@@ -23,18 +26,13 @@ pub struct AverageAe {
 impl AverageAe {
     /// AverageAE with the paper's target 0.5·255 within `ranges`.
     pub fn new(ranges: AccRanges) -> Self {
-        Self::with_target(ranges, 0.5 * 255.0)
+        Self::with_target(ranges, MID_GREY_DN)
     }
 
     /// AverageAE holding the frame mean at `target_dn` instead of mid-grey (for tests of what
     /// a darker or brighter policy does to the task).
     pub fn with_target(ranges: AccRanges, target_dn: f64) -> Self {
         Self { ranges, target_dn }
-    }
-
-    /// The frame mean it steers towards, DN.
-    pub fn target_dn(&self) -> f64 {
-        self.target_dn
     }
 
     /// Settings for the next frame, given the previous frame's settings and mean intensity.

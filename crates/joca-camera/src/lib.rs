@@ -36,7 +36,7 @@ mod genome;
 mod noise_calibration;
 mod settings;
 
-pub use average_ae::{AverageAe, MIN_MEAN_DN};
+pub use average_ae::{AverageAe, MID_GREY_DN, MIN_MEAN_DN};
 pub use capture::Capture;
 pub use catalogue::{Sensor, Shutter, sensor_by_name};
 pub use compensation::{compensate_for_pixel_size, limit_exposure};

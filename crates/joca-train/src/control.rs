@@ -10,7 +10,8 @@
 //! equal). AverageAE works on the sensor's own settings.
 
 use joca_camera::{
-    AccRanges, AverageAe, Calibration, DynamicSettings, compensate_for_pixel_size, limit_exposure,
+    AccRanges, AverageAe, Calibration, DynamicSettings, MID_GREY_DN, compensate_for_pixel_size,
+    limit_exposure,
 };
 use joca_core::Rgb8Image;
 use joca_nn::joint::{Exposure, JointModel, Prediction};
@@ -130,7 +131,7 @@ pub struct AverageControl {
 impl AverageControl {
     /// AverageAE within `ranges`.
     pub fn new(ranges: AccRanges) -> Self {
-        Self::with_target(ranges, AverageAe::new(ranges).target_dn())
+        Self::with_target(ranges, MID_GREY_DN)
     }
 
     /// AverageAE within `ranges` holding the frame mean at `target_dn`.
@@ -181,7 +182,7 @@ impl TestController {
         };
         match name {
             "trained" => Ok(Self::Trained),
-            "average" => Ok(Self::Average { target_dn: 127.5 }),
+            "average" => Ok(Self::Average { target_dn: MID_GREY_DN }),
             _ => {
                 let dn: f64 =
                     name.strip_prefix("average:").ok_or_else(bad)?.parse().map_err(|_| bad())?;
@@ -191,6 +192,20 @@ impl TestController {
                     Err(bad())
                 }
             }
+        }
+    }
+
+    /// The controller a closed-loop test drives a design of `sensor` with, for a run whose own
+    /// controller is NeuralAE if `neural`.
+    pub(crate) fn control(
+        self,
+        neural: bool,
+        sensor: SensorLimits,
+        ranges: AccRanges,
+    ) -> Box<dyn ExposureControl> {
+        match self {
+            Self::Trained => controller(neural, sensor, ranges),
+            Self::Average { target_dn } => Box::new(AverageControl::with_target(ranges, target_dn)),
         }
     }
 

@@ -331,7 +331,8 @@ impl Band<'_> {
         let h = self.i0.height();
         let bottom = self.top + su.len() / w;
         let (last_x, last_y) = (self.xs.len() - 1, self.ys.len() - 1);
-        let mut warped = Vec::new();
+        // Room for the largest patch, the last one of the grid; each patch uses its own prefix.
+        let mut buffer = vec![0.0f32; (w - self.xs[last_x]) * (h - self.ys[last_y])];
         for (row, &py) in self.ys.iter().enumerate() {
             let ph = if row == last_y { h - py } else { size };
             if py >= bottom || py + ph <= self.top {
@@ -340,8 +341,8 @@ impl Band<'_> {
             let flows = &self.patch_flows[row * self.xs.len()..][..self.xs.len()];
             for (col, (&px, &u)) in self.xs.iter().zip(flows).enumerate() {
                 let pw = if col == last_x { w - px } else { size };
-                warped.resize(pw * ph, 0.0);
-                self.i1.rect(px as f32 + u[0], py as f32 + u[1], (pw, ph), &mut warped);
+                let warped = &mut buffer[..pw * ph];
+                self.i1.rect(px as f32 + u[0], py as f32 + u[1], (pw, ph), warped);
                 for y in py.max(self.top)..(py + ph).min(bottom) {
                     let patch_row = &warped[(y - py) * pw..][..pw];
                     let image_row = &self.i0.data()[y * w + px..][..pw];

@@ -14,7 +14,7 @@
 use super::{Context, SettingsByLight, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
-use crate::control::{AverageControl, ExposureControl, SensorLimits, TestController, controller};
+use crate::control::{ExposureControl, SensorLimits};
 use joca_camera::{CameraDesign, Capture, DynamicSettings};
 use joca_core::units::linear_from_db;
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
@@ -64,12 +64,7 @@ impl Driver {
         let pixel_pitch_um = design.sensor().pixel_pitch_um;
         let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s);
         model.set_max_exposure(sensor.max_exposure_s);
-        let mut control = match cx.test_controller {
-            TestController::Trained => controller(cx.config.method.neural(), sensor, cx.ranges),
-            TestController::Average { target_dn } => {
-                Box::new(AverageControl::with_target(cx.ranges, target_dn))
-            }
-        };
+        let mut control = cx.test_controller.control(cx.config.method.neural(), sensor, cx.ranges);
         let applied = control.start();
         Self { control, applied, previous: None, pixel_pitch_um }
     }
