@@ -120,6 +120,19 @@ pub(super) fn form_u8(
     }
 }
 
+/// [`form_u8`] with the normals given (as [`standard_normals`] draws them), sequentially.
+pub(super) fn form_u8_with_normals(i0: &HdrImage, p: &FormationParams, z: &[f32], out: &mut [u8]) {
+    let band = TILE_ROWS * i0.width() * 3;
+    if band == 0 {
+        return;
+    }
+    let pattern = Pattern::new(p);
+    // Band by band, as `form_u8` runs, so the loop is the same one the compiler vectorises.
+    for ((src, z), dst) in i0.data().chunks(band).zip(z.chunks(band)).zip(out.chunks_mut(band)) {
+        pattern.apply(src, z, dst, quantise);
+    }
+}
+
 /// Unclipped, unquantised formation into `out` (interleaved RGB floats).
 pub(super) fn form_linear(i0: &HdrImage, p: &FormationParams, seed: u64, out: &mut [f32]) {
     let band = TILE_ROWS * i0.width() * 3;
@@ -142,8 +155,7 @@ pub(super) fn standard_normals(width: usize, height: usize, seed: u64) -> Vec<f3
     if band == 0 {
         return out;
     }
-    for (t, dst) in out.chunks_mut(band).enumerate() {
-        fill_normals(dst, seed, t);
-    }
+    // Bands draw from their own generators, so they can be filled on any thread.
+    out.par_chunks_mut(band).enumerate().for_each(|(t, dst)| fill_normals(dst, seed, t));
     out
 }

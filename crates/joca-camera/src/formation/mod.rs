@@ -198,6 +198,26 @@ impl ImageFormation {
         out
     }
 
+    /// [`ImageFormation::form`] on a noise field drawn beforehand: `normals` is
+    /// [`ImageFormation::standard_normals`] for the seed `form`'s stream would yield, and the
+    /// frame is then bit-identical to `form`'s. Frames of one noise sample under several
+    /// settings (DF-Grad's perturbed frames) draw the sample once instead of once per frame.
+    ///
+    /// Panics if `normals` does not hold one value per pixel channel of `i0`.
+    pub fn form_with_normals(
+        &self,
+        i0: &HdrImage,
+        settings: DynamicSettings,
+        pixel_pitch_um: f64,
+        normals: &[f32],
+    ) -> Rgb8Image {
+        assert_eq!(normals.len(), i0.data().len(), "one normal per pixel channel");
+        let params = self.params(settings, pixel_pitch_um);
+        let mut out = Rgb8Image::zeros(i0.width(), i0.height());
+        kernels::form_u8_with_normals(i0, &params, normals, out.data_mut());
+        out
+    }
+
     /// [`ImageFormation::form`] with image tiles spread over rayon's thread pool; the result is
     /// bit-identical to the sequential one.
     pub fn form_parallel(

@@ -161,6 +161,7 @@ fn parallel_equals_sequential_and_normals_reproduce_the_frame() {
 
     let seed: u64 = streams.stream("f").random();
     let z = ImageFormation::standard_normals(97, 53, seed);
+    assert_eq!(formation.form_with_normals(&img, s, 2.4, &z), a);
     let linear = formation.form_linear(&img, s, 2.4, &mut streams.stream("f"));
     let p = formation.params(s, 2.4);
     for (k, ((&i0, &zk), &lin)) in img.data().iter().zip(&z).zip(linear.data()).enumerate() {

@@ -75,6 +75,22 @@ pub fn time_training(
     batch: usize,
     precision: Precision,
 ) -> f64 {
+    let times = training_step_times(engine, config, h, w, repeats, batch, precision);
+    times.iter().copied().fold(f64::INFINITY, f64::min) / batch as f64
+}
+
+/// The wall time in milliseconds of each of `repeats` training steps (after one warm-up step)
+/// on a batch of `batch` `h × w` frames in `precision`: forward, CenterNet loss, backward and
+/// AdamW update.
+pub fn training_step_times(
+    engine: &Engine,
+    config: DetectorConfig,
+    h: usize,
+    w: usize,
+    repeats: usize,
+    batch: usize,
+    precision: Precision,
+) -> Vec<f64> {
     let vs = VarStore::new(engine.device());
     let net = Detector::new(&vs.root(), config);
     let mut opt = Adam::new(&vs, AdamConfig::DETECTOR);
@@ -90,13 +106,12 @@ pub fn time_training(
     let s = out.heatmap.size();
     let one = || Targets::new(&truth, &[], config.classes, s[2], s[3], engine.device());
     let targets = Targets::stack((0..batch).map(|_| one()).collect());
-    let train = best_ms(repeats, &mut || {
+    times_ms(repeats, &mut || {
         let loss = DetectionLoss::new(&net.forward(&x), &targets);
         opt.zero_grad();
         loss.total.backward();
         opt.step();
-    });
-    train / batch as f64
+    })
 }
 
 /// A deterministic textured frame.
@@ -107,6 +122,11 @@ fn bench_frame(w: usize, h: usize) -> Rgb8Image {
 
 /// The best of `repeats` timed calls after one warm-up call, milliseconds.
 fn best_ms(repeats: usize, f: &mut dyn FnMut()) -> f64 {
+    times_ms(repeats, f).into_iter().fold(f64::INFINITY, f64::min)
+}
+
+/// Each of `repeats` (at least 1) timed calls after one warm-up call, milliseconds.
+fn times_ms(repeats: usize, f: &mut dyn FnMut()) -> Vec<f64> {
     f();
     (0..repeats.max(1))
         .map(|_| {
@@ -114,5 +134,5 @@ fn best_ms(repeats: usize, f: &mut dyn FnMut()) -> f64 {
             f();
             t.elapsed().as_secs_f64() * 1e3
         })
-        .fold(f64::INFINITY, f64::min)
+        .collect()
 }

@@ -35,6 +35,42 @@ fn any_input_size_gives_a_quarter_resolution_grid() {
     assert_eq!(out.features.size(), vec![1, 32, 20, 26]);
 }
 
+/// The input batch is `DN / 255 − 0.5` in planar channels, bit for bit what the tensor ops
+/// `permute`, `to_kind(Float)`, `/ 255`, `− 0.5` give for every byte value, in either frame of a
+/// batch, with 2 threads (vectorised loops) as with 1.
+#[test]
+fn the_input_batch_is_the_tensor_ops_bit_for_bit() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let (w, h) = (37usize, 29usize);
+    let a: Vec<u8> = (0..w * h * 3).map(|i| (i * 7 % 256) as u8).collect();
+    let b: Vec<u8> = (0..w * h * 3).map(|i| (255 - i * 13 % 256) as u8).collect();
+    let frames = [Rgb8Image::from_vec(w, h, a).unwrap(), Rgb8Image::from_vec(w, h, b).unwrap()];
+    let refs: Vec<&Rgb8Image> = frames.iter().collect();
+    for threads in [1, 2] {
+        let engine = Engine::cpu(threads);
+        let bytes: Vec<u8> = frames.iter().flat_map(|f| f.data().iter().copied()).collect();
+        let want = Tensor::from_slice(&bytes)
+            .view([2, h as i64, w as i64, 3])
+            .permute([0, 3, 1, 2])
+            .contiguous()
+            .to_kind(Kind::Float)
+            / 255.0
+            - 0.5;
+        let got = batch_tensor(&refs, engine.device(), Precision::Fp32);
+        assert_eq!(got.size(), vec![2, 3, h as i64, w as i64]);
+        let (want, got) = (
+            Vec::<f32>::try_from(want.view([-1])).unwrap(),
+            Vec::<f32>::try_from(got.view([-1])).unwrap(),
+        );
+        assert!(
+            want.iter().zip(&got).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{threads} threads"
+        );
+        // Every byte value occurs, in the red plane of the first frame for one.
+        assert!((0..=255u8).all(|v| frames[0].data().contains(&v)));
+    }
+}
+
 #[test]
 fn targets_peak_at_object_centres() {
     let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);

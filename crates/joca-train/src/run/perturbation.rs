@@ -8,12 +8,14 @@ use super::config::{PerturbationMutation, TieBreak};
 use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
-use joca_camera::DynamicSettings;
+use joca_camera::{DynamicSettings, ImageFormation};
 use joca_core::{Frame, Rgb8Image, SeedStreams};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
 use joca_nn::detector::Precision;
 use joca_nn::joint::JointModel;
+use rand::Rng;
+use rayon::prelude::*;
 
 /// The perturbations of the `fixed-perturbation` ablation: ±2.5 % of each range, four signs.
 const FIXED: [[f64; 2]; 4] = [[0.025, 0.025], [0.025, -0.025], [-0.025, 0.025], [-0.025, -0.025]];
@@ -133,16 +135,25 @@ pub(super) fn search(
     members: &[Member],
     frames: &[Frame],
 ) -> Result<Option<DynamicSettings>, TrainError> {
-    let images: Vec<Rgb8Image> = members
-        .iter()
-        .zip(frames)
-        .map(|(m, frame)| {
-            // Every member of a step on the same noise sample: they differ by their settings
-            // only.
-            let mut noise = cx.streams.indexed("perturbation-noise", probe.scene_step);
-            cx.formation.form(&frame.hdr, m.applied, probe.sensor.pixel_pitch_um, &mut noise)
-        })
-        .collect();
+    // Every member of a step on the same noise sample: they differ by their settings only. The
+    // sample is drawn once, the members are formed in parallel (each frame as `form` with that
+    // stream would make it).
+    let images: Vec<Rgb8Image> = match frames.first() {
+        Some(first) => {
+            let seed: u64 = cx.streams.indexed("perturbation-noise", probe.scene_step).random();
+            let normals =
+                ImageFormation::standard_normals(first.hdr.width(), first.hdr.height(), seed);
+            let (formation, pitch) = (&cx.formation, probe.sensor.pixel_pitch_um);
+            members
+                .par_iter()
+                .zip(frames.par_iter())
+                .map(|(m, frame)| {
+                    formation.form_with_normals(&frame.hdr, m.applied, pitch, &normals)
+                })
+                .collect()
+        }
+        None => Vec::new(),
+    };
     cx.watch.lap(|t| &mut t.perturbation_render_ms);
     let refs: Vec<&Rgb8Image> = images.iter().collect();
     let precision = cx.config.scoring_precision.on_this_cpu();
