@@ -155,7 +155,8 @@ pub(super) fn standard_normals(width: usize, height: usize, seed: u64) -> Vec<f3
     if band == 0 {
         return out;
     }
-    // Bands draw from their own generators, so they can be filled on any thread.
-    out.par_chunks_mut(band).enumerate().for_each(|(t, dst)| fill_normals(dst, seed, t));
+    for (t, dst) in out.chunks_mut(band).enumerate() {
+        fill_normals(dst, seed, t);
+    }
     out
 }

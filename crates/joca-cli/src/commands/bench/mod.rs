@@ -403,13 +403,14 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
         );
         return Ok(());
     }
+    // The same steps as above (same scenes, same warm-up), so the rows compare like with like.
     cfg.scoring_precision = Precision::Bf16;
-    let checked = 4 * steps;
-    let b = joca_train::bench_step(&cfg, &design, checked, Some(Precision::Fp32))?;
+    let b = joca_train::bench_step(&cfg, &design, steps, Some(Precision::Fp32))?;
     println!(
-        "\nwith scoring_precision = \"bf16\" (native here), mean of {} steps, same run",
+        "\nwith scoring_precision = \"bf16\" (native here), the same {} steps, same run",
         b.steps
     );
+    println!("{:<46} {:>9.1}", "render forward + perturbed frames (one grid)", b.render_ms);
     println!("{:<46} {:>9.1}", "detect + AP50 of the perturbed frames", b.perturbation_detect_ms);
     println!("{:<46} {:>9.1}", "total per step", b.total_ms());
     println!("{:<46} {:>9.2}x", "step / detector training step", b.total_ms() / detector_ms);
