@@ -18,6 +18,15 @@
 //! The variables are read by libtorch when it first computes, so [`select_from_env`] runs first
 //! thing in `main`; child processes (`joca cell`, the Python references of `joca bench`) inherit
 //! them.
+//!
+//! Subnormal floats (below 1.2·10⁻³⁸) are flushed to zero by default ([`DENORMALS_ENV`]): a
+//! pre-trained detector's back-propagated gradients hold many, and x86 cores take a slow
+//! microcode path for each subnormal operand or result — the DF-Grad step's backward pass took
+//! 40 ms with them and 31 ms without on a 2-core Xeon. [`select_from_env`] sets the flush
+//! (MXCSR's flush-to-zero and denormals-are-zero bits) on the main thread before any other thread
+//! exists; every thread started later (rayon's, libtorch's OpenMP pool) inherits it, so every
+//! thread rounds alike. `JOCA_DENORMALS=keep` keeps IEEE subnormals. Library use and unit tests
+//! never call it and keep them.
 
 use std::sync::OnceLock;
 
@@ -41,6 +50,70 @@ pub enum CpuKernels {
 }
 
 static CHOSEN: OnceLock<CpuKernels> = OnceLock::new();
+
+/// The environment variable that chooses how subnormal floats are handled: `flush` (the
+/// default: to zero) or `keep`.
+pub const DENORMALS_ENV: &str = "JOCA_DENORMALS";
+
+/// How the process handles subnormal floats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Denormals {
+    /// Flushed to zero, as operands and as results (the default of `joca`).
+    Flush,
+    /// Kept (IEEE 754; library use and tests).
+    Keep,
+}
+
+static DENORMALS: OnceLock<Denormals> = OnceLock::new();
+
+impl Denormals {
+    /// The name `JOCA_DENORMALS`, run headers and `results.json` use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Flush => "flush",
+            Self::Keep => "keep",
+        }
+    }
+
+    /// What `JOCA_DENORMALS` asks for (unset or empty: `flush`).
+    pub fn parse(value: Option<&str>) -> Result<Self, NnError> {
+        match value.map(str::trim) {
+            None | Some("") | Some("flush") => Ok(Self::Flush),
+            Some("keep") => Ok(Self::Keep),
+            Some(other) => Err(NnError::Config(format!(
+                "environment variable {DENORMALS_ENV} = {other:?}: allowed values are \"flush\" \
+                 (the default: subnormal floats become zero, much faster on x86) and \"keep\" \
+                 (IEEE subnormals)"
+            ))),
+        }
+    }
+}
+
+/// Sets flush-to-zero and denormals-are-zero on the calling thread (threads it starts later
+/// inherit them). Returns whether it could (x86-64 only).
+///
+/// # Safety
+/// Rust and LLVM assume the default floating-point environment: code evaluated at compile time
+/// and at run time can then differ, though only where a subnormal value occurs. Call it before
+/// any other thread exists, so that every thread computes alike.
+#[allow(unsafe_code)]
+unsafe fn flush_denormals() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // Bit 15: flush-to-zero (subnormal results), bit 6: denormals-are-zero (operands).
+        const FTZ_DAZ: u32 = (1 << 15) | (1 << 6);
+        #[allow(deprecated)]
+        // SAFETY: SSE is part of x86-64; see the function's own safety note.
+        unsafe {
+            std::arch::x86_64::_mm_setcsr(std::arch::x86_64::_mm_getcsr() | FTZ_DAZ);
+        }
+        true
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
 
 impl CpuKernels {
     /// The name `JOCA_CPU_KERNELS`, run headers and `results.json` use.
@@ -122,7 +195,19 @@ pub unsafe fn select_from_env() -> Result<CpuKernels, NnError> {
         }
     }
     let _ = CHOSEN.set(chosen);
+    let denormals = match Denormals::parse(std::env::var(DENORMALS_ENV).ok().as_deref())? {
+        // SAFETY: the caller guarantees that no other thread exists yet.
+        Denormals::Flush if unsafe { flush_denormals() } => Denormals::Flush,
+        _ => Denormals::Keep,
+    };
+    let _ = DENORMALS.set(denormals);
     Ok(chosen)
+}
+
+/// How this process handles subnormal floats: what [`select_from_env`] set, `keep` if it never
+/// ran (library use, unit tests).
+pub fn denormals() -> Denormals {
+    DENORMALS.get().copied().unwrap_or(Denormals::Keep)
 }
 
 /// The kernels this process runs: what [`select_from_env`] chose, `native` if it never ran
@@ -143,6 +228,50 @@ mod tests {
         let err = CpuKernels::parse(Some("avx512")).unwrap_err().to_string();
         assert!(err.contains("JOCA_CPU_KERNELS") && err.contains("\"avx512\""), "{err}");
         assert!(err.contains("\"avx2\"") && err.contains("\"native\""), "{err}");
+    }
+
+    #[test]
+    fn denormals_are_flushed_by_default_and_bad_values_name_the_variable() {
+        assert_eq!(Denormals::parse(None).unwrap(), Denormals::Flush);
+        assert_eq!(Denormals::parse(Some(" keep")).unwrap(), Denormals::Keep);
+        let err = Denormals::parse(Some("off")).unwrap_err().to_string();
+        assert!(err.contains("JOCA_DENORMALS") && err.contains("\"off\""), "{err}");
+        assert!(err.contains("\"flush\"") && err.contains("\"keep\""), "{err}");
+    }
+
+    /// With the flush set, a subnormal operand reads as zero and a product below the normal
+    /// range is zero; threads started afterwards inherit it. Checked in a thread of its own, so
+    /// the other tests keep IEEE subnormals.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    #[allow(unsafe_code)]
+    fn the_flush_makes_subnormals_zero_in_threads_started_after_it() {
+        let seen = std::thread::spawn(|| {
+            let tiny = std::hint::black_box(1e-39f32); // subnormal
+            // black_box on the results too: LLVM assumes a fixed floating-point environment and
+            // could otherwise compute them after the flush.
+            let before = std::hint::black_box((
+                std::hint::black_box(tiny) * std::hint::black_box(1.5f32),
+                std::hint::black_box(1e-20f32) * 1e-20,
+            ));
+            // SAFETY: this thread computes nothing else; the test only reads floats.
+            assert!(unsafe { flush_denormals() });
+            let after = (
+                std::hint::black_box(tiny) * std::hint::black_box(1.5f32),
+                std::hint::black_box(1e-20f32) * 1e-20,
+            );
+            let child = std::thread::spawn(move || {
+                std::hint::black_box(tiny) * std::hint::black_box(1.5f32)
+            })
+            .join();
+            (before, after, child.unwrap())
+        })
+        .join()
+        .unwrap();
+        let (before, after, child) = seen;
+        assert!(before.0 > 0.0 && before.1 > 0.0, "{before:?}");
+        assert_eq!(after, (0.0, 0.0));
+        assert_eq!(child, 0.0);
     }
 
     #[test]

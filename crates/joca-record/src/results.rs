@@ -47,6 +47,11 @@ pub struct RunResults {
     /// (`JOCA_CPU_KERNELS`). Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub cpu_kernels: String,
+    /// How subnormal floats were handled: `flush` (to zero, joca's default) or `keep`
+    /// (`JOCA_DENORMALS`; the numbers differ where subnormals occur). Empty in older runs, which
+    /// kept them.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub denormals: String,
     /// The CPU the run's results were computed on (model name and widest vector units): training
     /// repeats bit for bit on the same machine type, not across types. Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]

@@ -363,9 +363,10 @@ fn machine_line(r: &RunResults) -> String {
         return String::new();
     }
     format!(
-        "Computed on {} with libtorch's {} kernels (numbers repeat on this machine type).",
+        "Computed on {} with libtorch's {} kernels{} (numbers repeat on this machine type).",
         r.cpu,
-        if r.cpu_kernels.is_empty() { "native" } else { &r.cpu_kernels }
+        if r.cpu_kernels.is_empty() { "native" } else { &r.cpu_kernels },
+        if r.denormals == "flush" { ", subnormal floats flushed to zero" } else { "" }
     )
 }
 

@@ -307,6 +307,7 @@ pub(crate) mod tests {
             source: "sim".into(),
             scoring_precision: "fp32".into(),
             cpu_kernels: "native".into(),
+            denormals: String::new(),
             cpu: String::new(),
             test_controller: String::new(),
         }

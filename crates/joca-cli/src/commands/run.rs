@@ -117,8 +117,9 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
     );
     let kernels = joca_nn::kernels::chosen();
     println!(
-        "cpu: {}; kernels: {} ({})",
+        "cpu: {}; denormals: {}; kernels: {} ({})",
         joca_train::cpu_description(),
+        joca_nn::kernels::denormals().name(),
         kernels.name(),
         match kernels {
             joca_nn::kernels::CpuKernels::Avx2 =>

@@ -142,6 +142,7 @@ pub(super) fn test_design(
         },
         scoring_precision: config.scoring_precision.on_this_cpu().name().to_owned(),
         cpu_kernels: joca_nn::kernels::chosen().name().to_owned(),
+        denormals: joca_nn::kernels::denormals().name().to_owned(),
         cpu: cpu_description(),
         test_controller: String::new(),
         validation,

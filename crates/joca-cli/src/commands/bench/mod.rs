@@ -71,8 +71,10 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     if matches!(args.target, Target::Detector | Target::Step) {
         println!(
-            "libtorch CPU kernels: {} (JOCA_CPU_KERNELS; the PyTorch reference inherits them)",
-            joca_nn::kernels::chosen().name()
+            "libtorch CPU kernels: {} (JOCA_CPU_KERNELS; the PyTorch reference inherits them); \
+             subnormal floats: {} (JOCA_DENORMALS)",
+            joca_nn::kernels::chosen().name(),
+            joca_nn::kernels::denormals().name()
         );
     }
     match args.target {
