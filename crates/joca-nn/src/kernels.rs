@@ -21,8 +21,8 @@
 //!
 //! Subnormal floats (below 1.2·10⁻³⁸) are flushed to zero by default ([`DENORMALS_ENV`]): a
 //! pre-trained detector's back-propagated gradients hold many, and x86 cores take a slow
-//! microcode path for each subnormal operand or result — the DF-Grad step's backward pass took
-//! 40 ms with them and 31 ms without on a 2-core Xeon. [`select_from_env`] sets the flush
+//! microcode path for each subnormal operand or result (the DF-Grad step's backward pass is a
+//! fifth shorter without them: docs/results, 2026-11-25). [`select_from_env`] sets the flush
 //! (MXCSR's flush-to-zero and denormals-are-zero bits) on the main thread before any other thread
 //! exists; every thread started later (rayon's, libtorch's OpenMP pool) inherits it, so every
 //! thread rounds alike. `JOCA_DENORMALS=keep` keeps IEEE subnormals. Library use and unit tests
