@@ -66,7 +66,7 @@ fn the_input_batch_is_the_tensor_ops_bit_for_bit() {
             want.iter().zip(&got).all(|(x, y)| x.to_bits() == y.to_bits()),
             "{threads} threads"
         );
-        // Every byte value occurs, in the red plane of the first frame for one.
+        // Every byte value occurs (in the first frame already).
         assert!((0..=255u8).all(|v| frames[0].data().contains(&v)));
     }
 }
