@@ -327,32 +327,40 @@ fn draw_faces(
 }
 
 /// Whether box `b`, seen from `cam`, certainly covers no pixel centre of `target` (most boxes of
-/// a city view are small or far). The box lies in the cube of half-size |half| around its
-/// centre; in front of the near plane, x/z and y/z over that cube are extreme at its corners,
-/// so the cube's screen extent bounds the box's. A box that reaches the near plane is never
-/// rejected here.
+/// a city view are small, far or beside the view). In front of the camera, the screen image of
+/// a box lies within the bounding rectangle of its eight projected corners, so a box whose
+/// rectangle holds no pixel centre draws nothing. The corners are those of the box grown by a
+/// margin that exceeds the rounding of the faces' own corner arithmetic (f32 world
+/// coordinates), so a rejected box would have drawn nothing whatever the rounding. A box that
+/// reaches the near plane is never rejected here (its faces are clipped there).
 fn misses_every_pixel_centre(cam: &CameraFrame, b: &OrientedBox, target: &Target) -> bool {
     let c = cam.camera_from_world(b.centre);
-    // Slack for rounding: a rejected box must be clear of every centre by more than it.
-    let r = b.half.norm() * 1.001 + 1e-3;
-    if c.z - r <= NEAR_M {
+    let margin = 0.01 + 1e-5 * (b.centre.x.abs() + b.centre.y.abs() + b.centre.z.abs());
+    // The box's half axes in camera coordinates (right, down, forward).
+    let (f, l) = b.axes();
+    let to_cam = |v: V3, half: f32| {
+        let h = half + margin;
+        V3::new(v.dot(cam.right) * h, -v.z * h, v.dot(cam.forward) * h)
+    };
+    let axes = [to_cam(f, b.half.x), to_cam(l, b.half.y), V3::new(0.0, -(b.half.z + margin), 0.0)];
+    let depth = axes.iter().map(|a| a.z.abs()).sum::<f32>();
+    if c.z - depth <= NEAR_M {
         return false;
     }
-    let (near, far) = (1.0 / (c.z - r), 1.0 / (c.z + r));
-    let extent = |lo: f32, hi: f32, f: f32, centre: f32| {
-        let a = centre + f * (lo * near).min(lo * far);
-        let b = centre + f * (hi * near).max(hi * far);
-        (a, b)
-    };
-    let (x0, x1) = extent(c.x - r, c.x + r, cam.fx, cam.cx);
-    let (y0, y1) = extent(c.y - r, c.y + r, cam.fy, cam.cy);
-    // Pixel centres are at k + 0.5 for k in 0..size.
-    let none_in = |lo: f32, hi: f32, size: usize| {
-        let first = (lo - 0.5).ceil().max(0.0);
-        let last = (hi - 0.5).floor().min(size as f32 - 1.0);
-        first > last
-    };
-    none_in(x0, x1, target.width) || none_in(y0, y1, target.height)
+    let (mut x_min, mut x_max) = (f64::INFINITY, f64::NEG_INFINITY);
+    let (mut y_min, mut y_max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for corner in 0..8 {
+        let sign = |bit: usize| if corner >> bit & 1 == 0 { -1.0 } else { 1.0 };
+        let p = c + axes[0] * sign(0) + axes[1] * sign(1) + axes[2] * sign(2);
+        let inv_z = 1.0 / f64::from(p.z);
+        let x = f64::from(cam.cx) + f64::from(cam.fx) * f64::from(p.x) * inv_z;
+        let y = f64::from(cam.cy) + f64::from(cam.fy) * f64::from(p.y) * inv_z;
+        (x_min, x_max) = (x_min.min(x), x_max.max(x));
+        (y_min, y_max) = (y_min.min(y), y_max.max(y));
+    }
+    let (x0, x1) = raster::centre_span_f64(x_min, x_max, target.width);
+    let (y0, y1) = raster::centre_span_f64(y_min, y_max, target.height);
+    x0 > x1 || y0 > y1
 }
 
 /// What lights one box: the lamps' irradiance at its foot, computed once per box, and what each

@@ -100,6 +100,24 @@ fn cell_hash(x: i32, y: i32, seed: u32) -> f32 {
     (h >> 8) as f32 / (1u32 << 24) as f32
 }
 
+/// The first and last pixel index `k` in `0..size` whose centre `k + 0.5` lies in `[lo, hi]`
+/// (first > last: none): `max(⌈lo − ½⌉, 0)` and `min(⌊hi − ½⌋, size − 1)`.
+///
+/// Written with an integer conversion instead of `f64::ceil`/`floor`: baseline x86-64 has no
+/// rounding instruction, so those are library calls, and they ran for every row of every
+/// polygon. Bounds are clamped to `[−2, size + 1]` first, which keeps the conversion exact and
+/// changes no span: a non-empty span has the same ends, an empty one stays empty (its ends may
+/// differ; tested against the library functions, NaN and infinite bounds included).
+#[inline(always)]
+pub(crate) fn centre_span_f64(lo: f64, hi: f64, size: usize) -> (f64, f64) {
+    let top = size as f64 + 1.0;
+    let (a, b) = ((lo - 0.5).max(-2.0).min(top), (hi - 0.5).min(top).max(-2.0));
+    let (fa, fb) = ((a as i64) as f64, (b as i64) as f64);
+    let first = if fa < a { fa + 1.0 } else { fa };
+    let last = if fb > b { fb - 1.0 } else { fb };
+    (first.max(0.0), last.min(size as f64 - 1.0))
+}
+
 /// Clips a convex polygon against the near plane and rasterises it.
 pub(crate) fn draw_polygon(
     verts: &[Vertex],
@@ -223,18 +241,18 @@ fn fill(
 /// polygons reaching far outside the image (close to the camera) stay watertight.
 fn convex(p: &[Projected], shade: &dyn Fn() -> Shade, id: u32, target: &mut Target) {
     let n = p.len();
-    // Most faces of a city view (~80 %) cover no pixel centre at all: small or far objects.
-    // They end here, before any set-up or shading.
-    let (w, h) = (target.width as f64, target.height as f64);
+    // Many faces that pass the box test cover no pixel centre themselves: they end here,
+    // before any set-up or shading.
+    let w = target.width as f64;
     let (mut x_min, mut x_max) = (f64::INFINITY, f64::NEG_INFINITY);
     let (mut y_min, mut y_max) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in p {
         (x_min, x_max) = (x_min.min(v.x), x_max.max(v.x));
         (y_min, y_max) = (y_min.min(v.y), y_max.max(v.y));
     }
-    let y0 = (y_min - 0.5).ceil().max(0.0);
-    let y1 = (y_max - 0.5).floor().min(h - 1.0);
-    if y0 > y1 || (x_min - 0.5).ceil().max(0.0) > (x_max - 0.5).floor().min(w - 1.0) {
+    let (y0, y1) = centre_span_f64(y_min, y_max, target.height);
+    let (x0, x1) = centre_span_f64(x_min, x_max, target.width);
+    if y0 > y1 || x0 > x1 {
         return;
     }
     // Signed double area, and the fan triangle with the largest area for the planes.
@@ -289,12 +307,11 @@ fn convex(p: &[Projected], shade: &dyn Fn() -> Shade, id: u32, target: &mut Targ
         if empty || lo > hi {
             continue;
         }
-        let x0 = (lo - 0.5).ceil().max(0.0) as usize;
-        let x1 = ((hi - 0.5).floor().min(w - 1.0)) as isize;
-        if (x1 as f64) < x0 as f64 {
+        let (x0, x1) = centre_span_f64(lo, hi, target.width);
+        if x1 < x0 {
             continue;
         }
-        let x1 = x1 as usize;
+        let (x0, x1) = (x0 as usize, x1 as usize);
         covered += (x1 + 1 - x0) as u32;
         let xc = x0 as f64 + 0.5;
         let mut inv_z = iz.at(xc, yc) as f32;

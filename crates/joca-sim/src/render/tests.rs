@@ -18,15 +18,20 @@ fn camera(rng: &mut impl Rng) -> PinholeCamera {
 }
 
 /// The box rejection is conservative: a rejected box, rasterised face by face, covers no
-/// pixel centre. Boxes of 2 cm to 20 m, anywhere from beside the camera to 300 m away; the
-/// test also asserts that both outcomes occur often, so neither branch is left untested.
+/// pixel centre. Boxes of 2 cm to 20 m, anywhere from beside the camera to 300 m away, in world
+/// coordinates of up to 3 km (where f32 rounds to 0.2 mm); the test also asserts that both
+/// outcomes occur often, so neither branch is left untested.
 #[test]
 fn a_rejected_box_covers_no_pixel() {
     let mut rng = joca_core::SeedStreams::new(7).stream("test");
     let (mut rejected, mut drawn) = (0, 0);
-    for _ in 0..20_000 {
+    for _ in 0..40_000 {
         let pinhole = camera(&mut rng);
-        let ego = Pose2 { x: 0.0, y: 0.0, yaw: rng.random_range(-3.2..3.2) };
+        let ego = Pose2 {
+            x: rng.random_range(-3000.0..3000.0),
+            y: rng.random_range(-3000.0..3000.0),
+            yaw: rng.random_range(-3.2..3.2),
+        };
         let cam = CameraFrame::new(&pinhole, ego);
         let half = V3::new(
             rng.random_range(0.01..10.0),
@@ -35,7 +40,7 @@ fn a_rejected_box_covers_no_pixel() {
         );
         let range: f32 = rng.random_range(0.0f32..300.0).powi(2) / 300.0;
         let bearing: f32 = rng.random_range(-3.2..3.2);
-        let centre = V3::new(range * bearing.cos(), range * bearing.sin(), half.z);
+        let centre = V3::new(ego.x + range * bearing.cos(), ego.y + range * bearing.sin(), half.z);
         let b = OrientedBox { centre, half, yaw: rng.random_range(-3.2..3.2) };
         let mut target = Target::ids_only(pinhole.width_px, pinhole.height_px, 1);
         let rejects = misses_every_pixel_centre(&cam, &b, &target);
@@ -96,6 +101,50 @@ fn ground_points_are_the_same_on_every_code_path() {
             );
             // And the grain is the scalar per-point function's.
             assert_eq!(q.2.to_bits(), crate::city::ground_grain(q.0, q.1).to_bits());
+        }
+    }
+}
+
+/// The pixel-centre spans without library rounding are the spans `ceil`/`floor` give (the
+/// same first and last index where there is one, empty where it is empty): random
+/// bounds at every scale, values on and next to the half-pixel boundaries, signed zeros,
+/// infinities and NaN.
+#[test]
+fn pixel_centre_spans_match_the_library_rounding() {
+    let reference64 = |lo: f64, hi: f64, size: usize| {
+        ((lo - 0.5).ceil().max(0.0), (hi - 0.5).floor().min(size as f64 - 1.0))
+    };
+    let mut rng = joca_core::SeedStreams::new(3).stream("spans");
+    let mut values: Vec<f64> = vec![
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        0.0,
+        -0.0,
+        1e300,
+        -1e300,
+        f64::MAX,
+        f64::MIN,
+        9.2e18,
+        -9.2e18,
+    ];
+    for k in -6..700 {
+        let c = f64::from(k) + 0.5;
+        values.extend([c, c.next_up(), c.next_down(), f64::from(k), f64::from(k) + 0.25]);
+    }
+    for _ in 0..20_000 {
+        let scale = 10f64.powi(rng.random_range(-3..12));
+        values.push(rng.random_range(-1.0..1.0) * scale);
+    }
+    for size in [1usize, 2, 7, 320, 641] {
+        for (i, &lo) in values.iter().enumerate() {
+            let hi = values[(i * 7919 + 13) % values.len()];
+            for (a, b) in [(lo, hi), (hi, lo), (lo, lo)] {
+                let (f, l) = raster::centre_span_f64(a, b, size);
+                let (rf, rl) = reference64(a, b, size);
+                let same = if rf > rl { f > l } else { f == rf && l == rl };
+                assert!(same, "{a} {b} {size}: {f} {l} vs {rf} {rl}");
+            }
         }
     }
 }

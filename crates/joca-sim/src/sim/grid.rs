@@ -127,22 +127,20 @@ impl Simulator {
         let reach = rings.iter().map(RingWeights::reach).max().unwrap_or(0);
         let others: Vec<usize> =
             (middle - reach..=middle + reach).filter(|&k| k != middle).collect();
-        let rendered: Vec<Vec<f32>> = others
+        let rendered: Vec<Target> = others
             .par_iter()
-            .map_init(
-                || Target::new(w, h, objects),
-                |target, &k| {
-                    self.render_at(episode, camera, grid.time(k), target);
-                    target.colour.clone()
-                },
-            )
+            .map(|&k| {
+                let mut target = self.targets.take(w, h, objects, true);
+                self.render_at(episode, camera, grid.time(k), &mut target);
+                target
+            })
             .collect();
         let cell = |k: usize| -> &[f32] {
             if k == middle {
                 &mid.colour
             } else {
                 let i = if k < middle { k - (middle - reach) } else { k - (middle - reach) - 1 };
-                &rendered[i]
+                &rendered[i].colour
             }
         };
         // Over blocks of the image in parallel; within a block, rings in order.
@@ -189,6 +187,7 @@ impl Simulator {
                 }
             }
         });
+        self.targets.give(rendered);
         out
     }
 }

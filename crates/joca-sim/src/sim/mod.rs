@@ -7,6 +7,7 @@ use crate::lighting::{Illumination, Lighting};
 use crate::render::{self, CameraFrame, Target, View};
 use joca_core::rng::SeedStreams;
 mod grid;
+mod pool;
 mod truth;
 
 pub use grid::ShutterGrid;
@@ -125,6 +126,8 @@ pub struct Simulator {
     config: SimConfig,
     city: City,
     episodes: Mutex<HashMap<u64, Arc<Episode>>>,
+    /// Render buffers reused from frame to frame.
+    targets: pool::TargetPool,
 }
 
 impl Simulator {
@@ -132,12 +135,12 @@ impl Simulator {
     pub fn new(config: SimConfig) -> Self {
         let streams = SeedStreams::new(config.map_seed);
         let city = City::generate(&config.city, &mut streams.stream("city"));
-        Self { config, city, episodes: Mutex::new(HashMap::new()) }
+        Self { config, city, episodes: Mutex::new(HashMap::new()), targets: Default::default() }
     }
 
     /// A simulator over a given city (e.g. a hand-built test scene).
     pub fn with_city(config: SimConfig, city: City) -> Self {
-        Self { config, city, episodes: Mutex::new(HashMap::new()) }
+        Self { config, city, episodes: Mutex::new(HashMap::new()), targets: Default::default() }
     }
 
     /// Replaces episode `index` with a scripted one.
@@ -322,7 +325,8 @@ impl Simulator {
             }
         }
         let episode = self.episode(request.episode);
-        let mut mid = Target::new(camera.width_px, camera.height_px, self.city.objects.len());
+        let mut mid =
+            self.targets.take(camera.width_px, camera.height_px, self.city.objects.len(), true);
         // Ground truth and the 180° count run beside the middle sub-frame, which the grid
         // depends on; the other sub-frames then have every thread.
         let truth = rayon::join(
@@ -340,7 +344,9 @@ impl Simulator {
                 self.grid_for(&episode, camera, request.time_s, longest, &mid)
             }
         };
-        self.frames(&episode, camera, &grid, &shutters, &mid, truth)
+        let frames = self.frames(&episode, camera, &grid, &shutters, &mid, truth);
+        self.targets.give([mid]);
+        frames
     }
 
     /// Validates `request` and `exposures_s`; returns the shutter intervals (exposure × motion

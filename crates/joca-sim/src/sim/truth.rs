@@ -9,7 +9,7 @@
 
 use super::{Episode, Simulator};
 use crate::geometry::{OrientedBox, V3};
-use crate::render::{self, CameraFrame, Target};
+use crate::render::{self, CameraFrame};
 use joca_core::{Annotation, BBox, PinholeCamera};
 
 /// Angular sampling of the reference grid at the image centre, pixels per radian (2 mrad a
@@ -68,7 +68,7 @@ impl Simulator {
         let rules = self.config.visibility;
         let (reference, kx, ky) = reference_camera(camera);
         let (rw, rh) = (reference.width_px, reference.height_px);
-        let mut grid = Target::ids_only(rw, rh, self.city.objects.len());
+        let mut grid = self.targets.take(rw, rh, self.city.objects.len(), false);
         render::render_ids(&self.city, &self.view(episode, &reference, time_s), &mut grid);
         // Per object id: visible pixels and tight box, indexed by id (no hashing per pixel of a
         // grid of ~1.5 Mpixel).
@@ -115,6 +115,7 @@ impl Simulator {
                 Some((reference, Annotation::at_distance(bbox, class, distance)))
             })
             .collect();
+        self.targets.give([grid]);
         let (boxes, ignore): (Vec<_>, Vec<_>) = out.into_iter().partition(|(r, _)| *r);
         let strip = |v: Vec<(bool, Annotation)>| v.into_iter().map(|(_, a)| a).collect();
         (strip(boxes), strip(ignore))
