@@ -363,6 +363,35 @@ fn frames_are_bit_identical_for_the_same_inputs_on_any_thread_count() {
     assert_ne!(a.hdr, other.hdr);
 }
 
+/// The simulator reuses its render buffers from frame to frame; a frame rendered into buffers
+/// that held other views (another instant, day and night, a shorter and a longer shutter, a
+/// frame of another size in between) is the frame a fresh simulator renders, ground truth
+/// included.
+#[test]
+fn a_frame_in_reused_buffers_is_the_frame_of_a_fresh_simulator() {
+    let cam = camera(160, 120, 100.0, [1.2, 0.0, 1.6]);
+    let small = camera(96, 72, 60.0, [1.2, 0.0, 1.6]);
+    let config = SimConfig { map_seed: 9, ..SimConfig::default() };
+    let request = |episode: u64, time_s: f64, exposure_s: f64| FrameRequest {
+        episode,
+        time_s,
+        exposure_s,
+        motion_scale: 1.0,
+    };
+    let wanted = [request(4, 7.3, 20e-3), request(5, 30.0, 4e-3), request(4, 12.0, 33e-3)];
+    let used = Simulator::new(config);
+    let mut reused = Vec::new();
+    for (k, r) in wanted.iter().enumerate() {
+        used.render(&cam, &request(3 + k as u64, 2.0 + k as f64, 30e-3)).unwrap();
+        used.render(&small, &request(3, 4.0, 10e-3)).unwrap();
+        reused.push(used.render(&cam, r).unwrap());
+    }
+    for (r, frame) in wanted.iter().zip(&reused) {
+        let fresh = Simulator::new(config).render(&cam, r).unwrap();
+        assert_eq!(frame, &fresh, "{r:?}");
+    }
+}
+
 /// Mean absolute difference of two frames over the mean of the second (relative error).
 fn relative_difference(a: &joca_core::Frame, b: &joca_core::Frame) -> f64 {
     let (x, y) = (a.hdr.data(), b.hdr.data());
