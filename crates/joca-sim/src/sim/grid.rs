@@ -100,8 +100,8 @@ impl RingWeights {
 }
 
 impl Simulator {
-    /// The frames of shutters integrated over `grid`, one per row of `weights` (each shutter's
-    /// [`ShutterGrid::weights`]). The middle cell is `mid`, already rendered; the others are
+    /// The frames of `shutters` integrated over `grid`, one per shutter. The middle cell is
+    /// `mid`, already rendered; the others are
     /// rendered in parallel, each once, and a cell no shutter overlaps is not rendered.
     ///
     /// Shutters are centred on the grid, so a shutter's weights are one value over a symmetric
@@ -116,9 +116,10 @@ impl Simulator {
         episode: &Episode,
         camera: &PinholeCamera,
         grid: &ShutterGrid,
-        weights: &[Vec<f32>],
+        shutters: &[f64],
         mid: &Target,
     ) -> Vec<Vec<f32>> {
+        let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
         let (w, h) = (camera.width_px, camera.height_px);
         let objects = self.city.objects.len();
         let middle = grid.cells / 2;

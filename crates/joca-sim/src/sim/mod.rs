@@ -325,28 +325,31 @@ impl Simulator {
             }
         }
         let episode = self.episode(request.episode);
-        let mut mid =
-            self.targets.take(camera.width_px, camera.height_px, self.city.objects.len(), true);
-        // Ground truth and the 180° count run beside the middle sub-frame, which the grid
-        // depends on; the other sub-frames then have every thread.
-        let truth = rayon::join(
+        let (w, h) = (camera.width_px, camera.height_px);
+        // Ground truth and the 180° count run beside the frame's own renders: the middle
+        // sub-frame first (the grid depends on it), then the others, which the thread that did
+        // the ground truth joins when it is done.
+        let (truth, (grid, colours)) = rayon::join(
             || {
                 let t = request.time_s;
                 (self.annotations(&episode, camera, t), self.visible_180(&episode, t))
             },
-            || self.render_at(&episode, camera, request.time_s, &mut mid),
-        )
-        .0;
-        let grid = match grid {
-            Some(g) => *g,
-            None => {
-                let longest = shutters.iter().copied().fold(0.0, f64::max);
-                self.grid_for(&episode, camera, request.time_s, longest, &mid)
-            }
-        };
-        let frames = self.frames(&episode, camera, &grid, &shutters, &mid, truth);
-        self.targets.give([mid]);
-        frames
+            || {
+                let mut mid = self.targets.take(w, h, self.city.objects.len(), true);
+                self.render_at(&episode, camera, request.time_s, &mut mid);
+                let grid = match grid {
+                    Some(g) => *g,
+                    None => {
+                        let longest = shutters.iter().copied().fold(0.0, f64::max);
+                        self.grid_for(&episode, camera, request.time_s, longest, &mid)
+                    }
+                };
+                let colours = self.integrate(&episode, camera, &grid, &shutters, &mid);
+                self.targets.give([mid]);
+                (grid, colours)
+            },
+        );
+        self.frames(camera, &grid, &shutters, colours, truth)
     }
 
     /// Validates `request` and `exposures_s`; returns the shutter intervals (exposure × motion
@@ -376,28 +379,25 @@ impl Simulator {
         Ok(exposures_s.iter().map(|&e| e * request.motion_scale).collect())
     }
 
-    /// The frames of `shutters` on `grid`, with `truth`, the ground truth and 180° count of the
-    /// grid's centre.
+    /// The frames of `shutters` on `grid` from their integrated colours, with `truth`, the
+    /// ground truth and 180° count of the grid's centre.
     fn frames(
         &self,
-        episode: &Episode,
         camera: &PinholeCamera,
         grid: &ShutterGrid,
         shutters: &[f64],
-        mid: &Target,
+        colours: Vec<Vec<f32>>,
         truth: Truth,
     ) -> Result<Vec<Frame>, SourceError> {
         let (w, h) = (camera.width_px, camera.height_px);
-        let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
         let ((boxes, ignore), visible_180) = truth;
-        let colours = self.integrate(episode, camera, grid, &weights, mid);
         colours
             .into_iter()
-            .zip(&weights)
-            .map(|(colour, wk)| {
+            .zip(shutters)
+            .map(|(colour, &shutter)| {
                 let hdr = HdrImage::from_vec(w, h, colour)
                     .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
-                let subframes = wk.iter().filter(|&&a| a > 0.0).count() as u32;
+                let subframes = grid.weights(shutter).iter().filter(|&&a| a > 0.0).count() as u32;
                 Ok(Frame {
                     hdr,
                     boxes: boxes.clone(),
