@@ -76,7 +76,12 @@ pub struct Pose2 {
 impl Pose2 {
     /// Maps a point from this pose's local frame (`x` forward, `y` left, `z` up) to the world.
     pub fn apply(&self, p: V3) -> V3 {
-        let (s, c) = self.yaw.sin_cos();
+        self.apply_rotated(self.yaw.sin_cos(), p)
+    }
+
+    /// [`Pose2::apply`] with the sine and cosine of the yaw given (computed once for many
+    /// points).
+    pub fn apply_rotated(&self, (s, c): (f32, f32), p: V3) -> V3 {
         V3::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y, p.z)
     }
 }

@@ -154,12 +154,14 @@ impl Object {
     /// The object's boxes in the world at time `t_s`, each with its material.
     pub fn boxes_at(&self, t_s: f64) -> impl Iterator<Item = (OrientedBox, Material)> + '_ {
         let (pose, phase) = self.motion.at(t_s);
+        let rotation = pose.yaw.sin_cos();
         self.parts.iter().map(move |p| {
             let mut offset = p.offset;
             if p.swing_m != 0.0 {
                 offset.x += p.swing_m * phase.sin();
             }
-            (OrientedBox { centre: pose.apply(offset), half: p.half, yaw: pose.yaw }, p.material)
+            let centre = pose.apply_rotated(rotation, offset);
+            (OrientedBox { centre, half: p.half, yaw: pose.yaw }, p.material)
         })
     }
 

@@ -162,11 +162,16 @@ pub fn render(city: &City, view: &View<'_>, target: &mut Target) {
     for (_, index) in visible {
         let id = index as u32 + 1;
         for (b, material) in city.objects[index].boxes_at(view.time_s) {
+            let axes = b.axes();
+            if misses_every_pixel_centre(&cam, &b, axes, target) {
+                continue;
+            }
             if target.colour.is_empty() {
-                draw_faces(&cam, &b, &|_, _| Shade::Constant([0.0; 3]), id, target);
+                draw_faces(&cam, &b, axes, &|_, _| Shade::Constant([0.0; 3]), id, target);
             } else {
                 let light = BoxLight::new(city, view, lamp_pos, heading, &b);
-                draw_faces(&cam, &b, &|face, n| light.shade(material, face, n), id, target);
+                let shade = |face, n| light.shade(material, face, n);
+                draw_faces(&cam, &b, axes, &shade, id, target);
             }
         }
     }
@@ -286,19 +291,17 @@ fn ground_points_portable(cam: &CameraFrame, t: f32, slopes: &[f32], out: &mut [
     }
 }
 
-/// The camera-facing faces of one box: corners, texture coordinates and rasterisation; `shade`
-/// gives each face's colouring from its index and outward normal.
+/// The camera-facing faces of one box (`axes`: its [`OrientedBox::axes`]): corners, texture
+/// coordinates and rasterisation; `shade` gives each face's colouring from its index and
+/// outward normal.
 fn draw_faces(
     cam: &CameraFrame,
     b: &OrientedBox,
+    (f, l): (V3, V3),
     shade: &dyn Fn(usize, V3) -> Shade,
     id: u32,
     target: &mut Target,
 ) {
-    if misses_every_pixel_centre(cam, b, target) {
-        return;
-    }
-    let (f, l) = b.axes();
     let up = V3::new(0.0, 0.0, 1.0);
     let h = b.half;
     // (normal, half along normal, first in-face axis and half, second (vertical if side) axis).
@@ -332,12 +335,17 @@ fn draw_faces(
 /// rectangle holds no pixel centre draws nothing. The corners are those of the box grown by a
 /// margin that exceeds the rounding of the faces' own corner arithmetic (f32 world
 /// coordinates), so a rejected box would have drawn nothing whatever the rounding. A box that
-/// reaches the near plane is never rejected here (its faces are clipped there).
-fn misses_every_pixel_centre(cam: &CameraFrame, b: &OrientedBox, target: &Target) -> bool {
+/// reaches the near plane is never rejected here (its faces are clipped there). `axes`: the
+/// box's [`OrientedBox::axes`].
+fn misses_every_pixel_centre(
+    cam: &CameraFrame,
+    b: &OrientedBox,
+    (f, l): (V3, V3),
+    target: &Target,
+) -> bool {
     let c = cam.camera_from_world(b.centre);
     let margin = 0.01 + 1e-5 * (b.centre.x.abs() + b.centre.y.abs() + b.centre.z.abs());
     // The box's half axes in camera coordinates (right, down, forward).
-    let (f, l) = b.axes();
     let to_cam = |v: V3, half: f32| {
         let h = half + margin;
         V3::new(v.dot(cam.right) * h, -v.z * h, v.dot(cam.forward) * h)

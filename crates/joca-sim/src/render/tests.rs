@@ -43,7 +43,7 @@ fn a_rejected_box_covers_no_pixel() {
         let centre = V3::new(ego.x + range * bearing.cos(), ego.y + range * bearing.sin(), half.z);
         let b = OrientedBox { centre, half, yaw: rng.random_range(-3.2..3.2) };
         let mut target = Target::ids_only(pinhole.width_px, pinhole.height_px, 1);
-        let rejects = misses_every_pixel_centre(&cam, &b, &target);
+        let rejects = misses_every_pixel_centre(&cam, &b, b.axes(), &target);
         // Rasterise every face without the rejection.
         let (f, l) = b.axes();
         let up = V3::new(0.0, 0.0, 1.0);
