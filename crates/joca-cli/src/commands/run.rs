@@ -133,12 +133,17 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
     let scoring = cfg.scoring_precision.on_this_cpu();
     if scoring != cfg.scoring_precision {
         println!(
-            "scoring_precision: bf16 asked for, but libtorch computes it natively only on a CPU \
-                with AVX-512 BF16 and with JOCA_CPU_KERNELS=native: the perturbed frames are \
-                scored in fp32"
+            "scoring_precision: the perturbed frames are scored in fp32 (bf16 is used only where \
+                libtorch computes it natively: AVX-512 BF16 with JOCA_CPU_KERNELS=native)"
         );
-    } else if scoring == joca_nn::detector::Precision::Bf16 {
-        println!("scoring_precision: the perturbed frames are scored in bf16 (native on this CPU)");
+    } else {
+        let name = scoring.name();
+        let why = if scoring == joca_nn::detector::Precision::Bf16 {
+            " (native on this CPU)"
+        } else {
+            ""
+        };
+        println!("scoring_precision: the perturbed frames are scored in {name}{why}");
     }
     let started = Instant::now();
     let generations = cfg.generations;

@@ -160,11 +160,14 @@ pub(super) fn search(
     let fitness = score(cx.config.perturbation_tie_break, model, frames, &refs, precision);
     cx.watch.lap(|t| &mut t.perturbation_detect_ms);
     let best = best_member(&fitness);
-    // `joca bench step` only: would the other precision have chosen the same member?
+    // `joca bench step` only: would the other precision have chosen the same member, and what
+    // does this precision's choice lose by the other's scores?
     if let Some(other) = cx.watch.check_precision {
         let tie = cx.config.perturbation_tie_break;
-        let same = best_member(&score(tie, model, frames, &refs, other)) == best;
-        cx.watch.count_check(same);
+        let reference = score(tie, model, frames, &refs, other);
+        let top = reference.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let bottom = reference.iter().copied().fold(f64::INFINITY, f64::min);
+        cx.watch.count_check(best_member(&reference) == best, top - reference[best], top - bottom);
     }
     if cx.config.method != Method::FixedPerturbation {
         ga.tell(&fitness, &mut cx.streams.indexed("perturbation-ga", probe.global_step), |_| {})

@@ -39,6 +39,12 @@ pub struct StepBreakdown {
     pub searches_checked: usize,
     /// Of those, the searches where both precisions chose the same member.
     pub searches_agreeing: usize,
+    /// Over those searches, the sum of the other precision's fitness of its best member less
+    /// its fitness of the member this precision chose (the regret, 0 where they agree).
+    pub check_regret: f64,
+    /// Over those searches, the sum of the spread of the other precision's fitness (best less
+    /// worst member): the scale the regret compares with.
+    pub check_spread: f64,
 }
 
 impl StepBreakdown {
@@ -101,11 +107,15 @@ impl Stopwatch {
         Self { breakdown: Some(StepBreakdown::default()), ..Self::default() }
     }
 
-    /// Counts one checked perturbation search, and restarts (the check is not timed).
-    pub(super) fn count_check(&mut self, same: bool) {
+    /// Counts one checked perturbation search (whether both precisions chose the same member,
+    /// the regret and the spread of the check's fitness), and restarts (the check is not
+    /// timed).
+    pub(super) fn count_check(&mut self, same: bool, regret: f64, spread: f64) {
         if let Some(t) = self.breakdown.as_mut() {
             t.searches_checked += 1;
             t.searches_agreeing += usize::from(same);
+            t.check_regret += regret;
+            t.check_spread += spread;
         }
         self.restart();
     }

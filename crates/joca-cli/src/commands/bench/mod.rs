@@ -349,9 +349,14 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     let total = b.total_ms();
     println!(
         "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (render scale {}), {} threads, mean \
-            of {} steps",
+            of {} steps, perturbed frames scored in fp32",
         cfg.render_scale, cfg.threads, b.steps
     );
+    if !Precision::native_bf16() {
+        println!(
+            "(the default here: scoring_precision = \"bf16\" is fp32 without native bfloat16)"
+        );
+    }
     println!("{:<46} {:>9} {:>7}", "part", "ms", "share");
     for (name, ms) in [
         ("NeuralAE prediction", b.acc_predict_ms),
@@ -409,7 +414,8 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     cfg.scoring_precision = Precision::Bf16;
     let b = joca_train::bench_step(&cfg, &design, steps, Some(Precision::Fp32))?;
     println!(
-        "\nwith scoring_precision = \"bf16\" (native here), the same {} steps, same run",
+        "\nwith scoring_precision = \"bf16\" (the default; native here), the same {} steps, same \
+            run",
         b.steps
     );
     println!("{:<46} {:>9.1}", "render forward + perturbed frames (one grid)", b.render_ms);
@@ -419,6 +425,13 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     println!(
         "{:<46} {:>5} of {}",
         "searches choosing the fp32 member", b.searches_agreeing, b.searches_checked
+    );
+    let n = b.searches_checked.max(1) as f64;
+    println!(
+        "{:<46} {:>9.4}  (fp32 fitness spread among members: {:.4})",
+        "mean fp32 fitness lost by the bf16 choice",
+        b.check_regret / n,
+        b.check_spread / n
     );
     Ok(())
 }
