@@ -4,7 +4,7 @@
 mod common;
 
 use common::{poison_first_tensor, snapshot};
-use joca_nn::detector::DetectorConfig;
+use joca_nn::detector::{DetectorConfig, Precision};
 use joca_train::{
     FixedCamera, Method, PerturbationMutation, RealConfig, RunConfig, RunEvent, Scenario, Source,
     TrainError, run,
@@ -29,7 +29,8 @@ fn tiny(method: Method) -> RunConfig {
         perturbation_population: 4,
         perturbation_mutation: PerturbationMutation::Additive,
         perturbation_tie_break: Default::default(),
-        scoring_precision: Default::default(),
+        // The run's default: bfloat16 scoring where native (float32 elsewhere).
+        scoring_precision: Precision::Bf16,
         acc_lr: 1e-5,
         clip_gradient: Default::default(),
         ga_every: 2,
