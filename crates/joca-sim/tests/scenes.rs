@@ -363,10 +363,10 @@ fn frames_are_bit_identical_for_the_same_inputs_on_any_thread_count() {
     assert_ne!(a.hdr, other.hdr);
 }
 
-/// The simulator reuses its render buffers from frame to frame; a frame rendered into buffers
-/// that held other views (another instant, day and night, a shorter and a longer shutter, a
-/// frame of another size in between) is the frame a fresh simulator renders, ground truth
-/// included.
+/// The simulators of a process reuse render buffers from frame to frame; a frame rendered after
+/// buffers held other views (another instant, day and night, a shorter and a longer shutter, a
+/// frame of another size in between) is the frame a new simulator renders for it, ground truth
+/// included (that a reused target renders as a fresh one is tested in the renderer's tests).
 #[test]
 fn a_frame_in_reused_buffers_is_the_frame_of_a_fresh_simulator() {
     let cam = camera(160, 120, 100.0, [1.2, 0.0, 1.6]);

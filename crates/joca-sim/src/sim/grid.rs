@@ -1,7 +1,7 @@
 //! The sub-frame grid that the frames of one instant share, and a centred shutter's weights on
 //! it; the frames integrated on it.
 
-use super::{Episode, Simulator};
+use super::{Episode, Simulator, pool};
 use crate::render::Target;
 use joca_core::PinholeCamera;
 use rayon::prelude::*;
@@ -101,8 +101,8 @@ impl RingWeights {
 
 impl Simulator {
     /// The frames of `shutters` integrated over `grid`, one per shutter. The middle cell is
-    /// `mid`, already rendered; the others are
-    /// rendered in parallel, each once, and a cell no shutter overlaps is not rendered.
+    /// `mid`, already rendered; the others are rendered in parallel, each once, and a cell no
+    /// shutter overlaps is not rendered.
     ///
     /// Shutters are centred on the grid, so a shutter's weights are one value over a symmetric
     /// run of whole cells and one smaller value on the pair of cells just outside it (see
@@ -131,7 +131,7 @@ impl Simulator {
         let rendered: Vec<Target> = others
             .par_iter()
             .map(|&k| {
-                let mut target = self.targets.take(w, h, objects, true);
+                let mut target = pool::take(w, h, objects, true);
                 self.render_at(episode, camera, grid.time(k), &mut target);
                 target
             })
@@ -188,7 +188,7 @@ impl Simulator {
                 }
             }
         });
-        self.targets.give(rendered);
+        pool::give(rendered);
         out
     }
 }

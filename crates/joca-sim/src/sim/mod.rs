@@ -126,8 +126,6 @@ pub struct Simulator {
     config: SimConfig,
     city: City,
     episodes: Mutex<HashMap<u64, Arc<Episode>>>,
-    /// Render buffers reused from frame to frame.
-    targets: pool::TargetPool,
 }
 
 impl Simulator {
@@ -135,12 +133,12 @@ impl Simulator {
     pub fn new(config: SimConfig) -> Self {
         let streams = SeedStreams::new(config.map_seed);
         let city = City::generate(&config.city, &mut streams.stream("city"));
-        Self { config, city, episodes: Mutex::new(HashMap::new()), targets: Default::default() }
+        Self { config, city, episodes: Mutex::new(HashMap::new()) }
     }
 
     /// A simulator over a given city (e.g. a hand-built test scene).
     pub fn with_city(config: SimConfig, city: City) -> Self {
-        Self { config, city, episodes: Mutex::new(HashMap::new()), targets: Default::default() }
+        Self { config, city, episodes: Mutex::new(HashMap::new()) }
     }
 
     /// Replaces episode `index` with a scripted one.
@@ -335,7 +333,7 @@ impl Simulator {
                 (self.annotations(&episode, camera, t), self.visible_180(&episode, t))
             },
             || {
-                let mut mid = self.targets.take(w, h, self.city.objects.len(), true);
+                let mut mid = pool::take(w, h, self.city.objects.len(), true);
                 self.render_at(&episode, camera, request.time_s, &mut mid);
                 let grid = match grid {
                     Some(g) => *g,
@@ -345,7 +343,7 @@ impl Simulator {
                     }
                 };
                 let colours = self.integrate(&episode, camera, &grid, &shutters, &mid);
-                self.targets.give([mid]);
+                pool::give([mid]);
                 (grid, colours)
             },
         );

@@ -7,7 +7,7 @@
 //! object: a miss when undetected. Boxes are the reference grid's tight boxes mapped to the
 //! design's pixel coordinates (sub-pixel for small designs).
 
-use super::{Episode, Simulator};
+use super::{Episode, Simulator, pool};
 use crate::geometry::{OrientedBox, V3};
 use crate::render::{self, CameraFrame};
 use joca_core::{Annotation, BBox, PinholeCamera};
@@ -68,7 +68,7 @@ impl Simulator {
         let rules = self.config.visibility;
         let (reference, kx, ky) = reference_camera(camera);
         let (rw, rh) = (reference.width_px, reference.height_px);
-        let mut grid = self.targets.take(rw, rh, self.city.objects.len(), false);
+        let mut grid = pool::take(rw, rh, self.city.objects.len(), false);
         render::render_ids(&self.city, &self.view(episode, &reference, time_s), &mut grid);
         // Per object id: visible pixels and tight box, indexed by id (no hashing per pixel of a
         // grid of ~1.5 Mpixel).
@@ -115,7 +115,7 @@ impl Simulator {
                 Some((reference, Annotation::at_distance(bbox, class, distance)))
             })
             .collect();
-        self.targets.give([grid]);
+        pool::give([grid]);
         let (boxes, ignore): (Vec<_>, Vec<_>) = out.into_iter().partition(|(r, _)| *r);
         let strip = |v: Vec<(bool, Annotation)>| v.into_iter().map(|(_, a)| a).collect();
         (strip(boxes), strip(ignore))
