@@ -123,6 +123,18 @@ impl CameraFrame {
         let r = p - self.origin;
         V3::new(r.dot(self.right), -r.z, r.dot(self.forward))
     }
+
+    /// Screen position (f64, the rasteriser's precision) of camera-frame point `c` in front of
+    /// the camera, and its `1 / z`.
+    #[inline(always)]
+    pub(crate) fn screen(&self, c: V3) -> (f64, f64, f64) {
+        let inv_z = 1.0 / f64::from(c.z);
+        (
+            f64::from(self.cx) + f64::from(self.fx) * f64::from(c.x) * inv_z,
+            f64::from(self.cy) + f64::from(self.fy) * f64::from(c.y) * inv_z,
+            inv_z,
+        )
+    }
 }
 
 /// Position of the ego head lights in the vehicle frame, metres.
@@ -359,10 +371,7 @@ fn misses_every_pixel_centre(
     let (mut y_min, mut y_max) = (f64::INFINITY, f64::NEG_INFINITY);
     for corner in 0..8 {
         let sign = |bit: usize| if corner >> bit & 1 == 0 { -1.0 } else { 1.0 };
-        let p = c + axes[0] * sign(0) + axes[1] * sign(1) + axes[2] * sign(2);
-        let inv_z = 1.0 / f64::from(p.z);
-        let x = f64::from(cam.cx) + f64::from(cam.fx) * f64::from(p.x) * inv_z;
-        let y = f64::from(cam.cy) + f64::from(cam.fy) * f64::from(p.y) * inv_z;
+        let (x, y, _) = cam.screen(c + axes[0] * sign(0) + axes[1] * sign(1) + axes[2] * sign(2));
         (x_min, x_max) = (x_min.min(x), x_max.max(x));
         (y_min, y_max) = (y_min.min(y), y_max.max(y));
     }

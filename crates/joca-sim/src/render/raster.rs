@@ -168,14 +168,8 @@ struct Projected {
 
 impl Projected {
     fn new(v: &Vertex, cam: &CameraFrame) -> Self {
-        let inv_z = 1.0 / f64::from(v.cam.z);
-        Self {
-            x: f64::from(cam.cx) + f64::from(cam.fx) * f64::from(v.cam.x) * inv_z,
-            y: f64::from(cam.cy) + f64::from(cam.fy) * f64::from(v.cam.y) * inv_z,
-            inv_z,
-            u_over_z: f64::from(v.u) * inv_z,
-            v_over_z: f64::from(v.v) * inv_z,
-        }
+        let (x, y, inv_z) = cam.screen(v.cam);
+        Self { x, y, inv_z, u_over_z: f64::from(v.u) * inv_z, v_over_z: f64::from(v.v) * inv_z }
     }
 }
 

@@ -100,9 +100,9 @@ impl RingWeights {
 }
 
 impl Simulator {
-    /// The frames of `shutters` integrated over `grid`, one per shutter. The middle cell is
-    /// `mid`, already rendered; the others are rendered in parallel, each once, and a cell no
-    /// shutter overlaps is not rendered.
+    /// The frames of shutters integrated over `grid`, one per row of `weights` (each shutter's
+    /// [`ShutterGrid::weights`]). The middle cell is `mid`, already rendered; the others are
+    /// rendered in parallel, each once, and a cell no shutter overlaps is not rendered.
     ///
     /// Shutters are centred on the grid, so a shutter's weights are one value over a symmetric
     /// run of whole cells and one smaller value on the pair of cells just outside it (see
@@ -116,10 +116,9 @@ impl Simulator {
         episode: &Episode,
         camera: &PinholeCamera,
         grid: &ShutterGrid,
-        shutters: &[f64],
+        weights: &[Vec<f32>],
         mid: &Target,
     ) -> Vec<Vec<f32>> {
-        let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
         let (w, h) = (camera.width_px, camera.height_px);
         let objects = self.city.objects.len();
         let middle = grid.cells / 2;

@@ -327,7 +327,7 @@ impl Simulator {
         // Ground truth and the 180° count run beside the frame's own renders: the middle
         // sub-frame first (the grid depends on it), then the others, which the thread that did
         // the ground truth joins when it is done.
-        let (truth, (grid, colours)) = rayon::join(
+        let (truth, (weights, colours)) = rayon::join(
             || {
                 let t = request.time_s;
                 (self.annotations(&episode, camera, t), self.visible_180(&episode, t))
@@ -342,12 +342,13 @@ impl Simulator {
                         self.grid_for(&episode, camera, request.time_s, longest, &mid)
                     }
                 };
-                let colours = self.integrate(&episode, camera, &grid, &shutters, &mid);
+                let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
+                let colours = self.integrate(&episode, camera, &grid, &weights, &mid);
                 pool::give([mid]);
-                (grid, colours)
+                (weights, colours)
             },
         );
-        self.frames(camera, &grid, &shutters, colours, truth)
+        self.frames(camera, &weights, colours, truth)
     }
 
     /// Validates `request` and `exposures_s`; returns the shutter intervals (exposure × motion
@@ -377,13 +378,12 @@ impl Simulator {
         Ok(exposures_s.iter().map(|&e| e * request.motion_scale).collect())
     }
 
-    /// The frames of `shutters` on `grid` from their integrated colours, with `truth`, the
-    /// ground truth and 180° count of the grid's centre.
+    /// The frames from their integrated colours and grid weights (one per shutter), with
+    /// `truth`, the ground truth and 180° count of the grid's centre.
     fn frames(
         &self,
         camera: &PinholeCamera,
-        grid: &ShutterGrid,
-        shutters: &[f64],
+        weights: &[Vec<f32>],
         colours: Vec<Vec<f32>>,
         truth: Truth,
     ) -> Result<Vec<Frame>, SourceError> {
@@ -391,11 +391,11 @@ impl Simulator {
         let ((boxes, ignore), visible_180) = truth;
         colours
             .into_iter()
-            .zip(shutters)
-            .map(|(colour, &shutter)| {
+            .zip(weights)
+            .map(|(colour, wk)| {
                 let hdr = HdrImage::from_vec(w, h, colour)
                     .map_err(|e| SourceError::OutOfRange { reason: e.to_string() })?;
-                let subframes = grid.weights(shutter).iter().filter(|&&a| a > 0.0).count() as u32;
+                let subframes = wk.iter().filter(|&&a| a > 0.0).count() as u32;
                 Ok(Frame {
                     hdr,
                     boxes: boxes.clone(),
