@@ -49,11 +49,22 @@ pub(super) fn lane_marking(offset: f32, along: f32, road: Road, grain: f32) -> R
 }
 
 /// `floor(x)` as an integer without a library call (baseline x86-64 has no rounding
-/// instruction for `f32::floor`, and this runs per pixel). Valid for |x| < 2³¹.
+/// instruction for `f32::floor`, and this runs per pixel). Exact for |x| < 2³¹; larger values
+/// and NaN give the nearest end of that range (−2³¹ + 128 for NaN).
+///
+/// `x` is clamped into the range first, so the conversion needs no saturation: Rust's `as`
+/// saturates, and LLVM cannot vectorise that on AVX2 (it became a compare and a branch per
+/// lane in the ground pass's eight-wide loop).
 #[inline(always)]
+#[allow(unsafe_code)] // an unchecked conversion of a value already clamped into range
+#[allow(clippy::manual_clamp)] // `clamp` passes NaN through; `max` then `min` does not
 pub fn fast_floor(x: f32) -> i32 {
-    let i = x as i32;
-    if (i as f32) > x { i - 1 } else { i }
+    const END: f32 = 2_147_483_520.0; // the largest f32 below 2³¹
+    let c = x.max(-END).min(END);
+    // SAFETY: `c` is not NaN (`max` returns the other operand) and lies in [−END, END], whose
+    // truncation fits in an i32.
+    let i = unsafe { c.to_int_unchecked::<i32>() };
+    if (i as f32) > c { i - 1 } else { i }
 }
 
 /// `x mod m` in `[0, m)` for `m > 0`, without a library call.
@@ -80,4 +91,26 @@ pub fn hash_unit(x: f32, y: f32) -> f32 {
 #[inline(always)]
 pub fn ground_grain(x: f32, y: f32) -> f32 {
     0.9 + 0.12 * hash_unit(x * 1.3, y * 1.3) + 0.08 * hash_unit(x * 9.0, y * 9.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fast_floor;
+
+    #[test]
+    fn the_fast_floor_is_the_library_floor_in_range_and_clamps_outside() {
+        let mut x = -3.0e6f32;
+        while x < 3.0e6 {
+            for v in [x, x + 0.5, x.next_up(), x.next_down()] {
+                assert_eq!(fast_floor(v) as f32, v.floor(), "{v}");
+            }
+            x += 977.375;
+        }
+        for v in [-0.0f32, 0.0, -0.25, 0.999_999_9, -1.0, 2_147_483_520.0, -2_147_483_520.0] {
+            assert_eq!(fast_floor(v) as f32, v.floor(), "{v}");
+        }
+        assert_eq!(fast_floor(3.0e9), 2_147_483_520);
+        assert_eq!(fast_floor(f32::NEG_INFINITY), -2_147_483_520);
+        assert_eq!(fast_floor(f32::NAN), -2_147_483_520);
+    }
 }
