@@ -2,7 +2,9 @@
 //!
 //! Each view is drawn in two passes into a [`Target`], objects first so that the ground is only
 //! shaded where it is seen:
-//! 1. **Objects**, nearest first: every box face that faces the camera is clipped against the
+//! 1. **Objects**, nearest first. A box whose screen rectangle is already covered by nearer
+//!    surfaces everywhere is skipped (most boxes of a street view stand behind a facade); for
+//!    the others every box face that faces the camera is clipped against the
 //!    near plane and rasterised with a z-buffer (holding 1/z, so the depth test needs no
 //!    division); depth and texture coordinates are interpolated perspective-correctly. Faces are
 //!    shaded once each (sun, sky, lamps, head lights at the face centre) and textured per pixel
@@ -19,6 +21,7 @@
 //! uses both (visible pixels over covered pixels is the visible fraction).
 
 mod raster;
+mod reach;
 
 use crate::city::City;
 use crate::geometry::{OrientedBox, Pose2, V3};
@@ -26,6 +29,7 @@ use crate::lighting::{self, Lighting, RADIANCE_SCALE_DN};
 use crate::objects::{Material, Rgb};
 use joca_core::PinholeCamera;
 use raster::{Shade, Vertex};
+use reach::{Reach, hidden, screen_reach};
 
 /// Closest depth that is drawn, metres.
 pub const NEAR_M: f32 = 0.05;
@@ -60,7 +64,9 @@ pub struct Target {
     pub inv_depth: Vec<f32>,
     /// Index + 1 of the visible object per pixel (0 = ground or sky).
     pub id: Vec<u32>,
-    /// Per object index + 1: pixels covered by its camera-facing faces, before occlusion.
+    /// Per object index + 1: pixels covered by its camera-facing faces, before occlusion. Exact
+    /// on id-only targets ([`render_ids`], the ground truth); a colour render skips boxes that
+    /// nearer ones already hide entirely, so there it counts only boxes that may show.
     pub coverage: Vec<u32>,
 }
 
@@ -142,6 +148,12 @@ const HEADLIGHT_MOUNT: V3 = V3::new(2.3, 0.0, 0.7);
 
 /// Renders one instant of `city` seen through `view` into `target` (which it clears first).
 pub fn render(city: &City, view: &View<'_>, target: &mut Target) {
+    draw(city, view, target, true);
+}
+
+/// [`render`], with the skipping of hidden boxes on or off (off: only for the test that the
+/// skipping changes nothing).
+fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     let cam = CameraFrame::new(view.camera, view.ego);
     let lamp_pos = view.ego.apply(HEADLIGHT_MOUNT);
     let heading = cam.forward;
@@ -175,12 +187,13 @@ pub fn render(city: &City, view: &View<'_>, target: &mut Target) {
         let id = index as u32 + 1;
         for (b, material) in city.objects[index].boxes_at(view.time_s) {
             let axes = b.axes();
-            if misses_every_pixel_centre(&cam, &b, axes, target) {
+            let reach = screen_reach(&cam, &b, axes, target);
+            if reach == Reach::Nowhere {
                 continue;
             }
             if target.colour.is_empty() {
                 draw_faces(&cam, &b, axes, &|_, _| Shade::Constant([0.0; 3]), id, target);
-            } else {
+            } else if !(skip_hidden && hidden(target, reach)) {
                 let light = BoxLight::new(city, view, lamp_pos, heading, &b);
                 let shade = |face, n| light.shade(material, face, n);
                 draw_faces(&cam, &b, axes, &shade, id, target);
@@ -339,45 +352,6 @@ fn draw_faces(
         });
         raster::draw_polygon(&verts, cam, &|| shade(face_index, n), id, target);
     }
-}
-
-/// Whether box `b`, seen from `cam`, certainly covers no pixel centre of `target` (most boxes of
-/// a city view are small, far or beside the view). In front of the camera, the screen image of
-/// a box lies within the bounding rectangle of its eight projected corners, so a box whose
-/// rectangle holds no pixel centre draws nothing. The corners are those of the box grown by a
-/// margin that exceeds the rounding of the faces' own corner arithmetic (f32 world
-/// coordinates), so a rejected box would have drawn nothing whatever the rounding. A box that
-/// reaches the near plane is never rejected here (its faces are clipped there). `axes`: the
-/// box's [`OrientedBox::axes`].
-fn misses_every_pixel_centre(
-    cam: &CameraFrame,
-    b: &OrientedBox,
-    (f, l): (V3, V3),
-    target: &Target,
-) -> bool {
-    let c = cam.camera_from_world(b.centre);
-    let margin = 0.01 + 1e-5 * (b.centre.x.abs() + b.centre.y.abs() + b.centre.z.abs());
-    // The box's half axes in camera coordinates (right, down, forward).
-    let to_cam = |v: V3, half: f32| {
-        let h = half + margin;
-        V3::new(v.dot(cam.right) * h, -v.z * h, v.dot(cam.forward) * h)
-    };
-    let axes = [to_cam(f, b.half.x), to_cam(l, b.half.y), V3::new(0.0, -(b.half.z + margin), 0.0)];
-    let depth = axes.iter().map(|a| a.z.abs()).sum::<f32>();
-    if c.z - depth <= NEAR_M {
-        return false;
-    }
-    let (mut x_min, mut x_max) = (f64::INFINITY, f64::NEG_INFINITY);
-    let (mut y_min, mut y_max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for corner in 0..8 {
-        let sign = |bit: usize| if corner >> bit & 1 == 0 { -1.0 } else { 1.0 };
-        let (x, y, _) = cam.screen(c + axes[0] * sign(0) + axes[1] * sign(1) + axes[2] * sign(2));
-        (x_min, x_max) = (x_min.min(x), x_max.max(x));
-        (y_min, y_max) = (y_min.min(y), y_max.max(y));
-    }
-    let (x0, x1) = raster::centre_span_f64(x_min, x_max, target.width);
-    let (y0, y1) = raster::centre_span_f64(y_min, y_max, target.height);
-    x0 > x1 || y0 > y1
 }
 
 /// What lights one box: the lamps' irradiance at its foot, computed once per box, and what each

@@ -17,14 +17,16 @@ fn camera(rng: &mut impl Rng) -> PinholeCamera {
     }
 }
 
-/// The box rejection is conservative: a rejected box, rasterised face by face, covers no
-/// pixel centre. Boxes of 2 cm to 20 m, anywhere from beside the camera to 300 m away, in world
-/// coordinates of up to 3 km (where f32 rounds to 0.2 mm); the test also asserts that both
-/// outcomes occur often, so neither branch is left untested.
+/// A box's screen reach is conservative: a rejected box, rasterised face by face, covers no
+/// pixel centre, and a bounded one draws only inside its rectangle and no nearer than its depth
+/// bound (which makes skipping hidden boxes exact). Boxes of 2 cm to 20 m, anywhere from beside
+/// the camera to 300 m away, in world coordinates of up to 3 km (where f32 rounds to 0.2 mm);
+/// the test also asserts that every outcome occurs often, so no branch is left untested, and
+/// that the depth bound is tight for some box (a bound loosened by mistake would skip less).
 #[test]
 fn a_rejected_box_covers_no_pixel() {
     let mut rng = joca_core::SeedStreams::new(7).stream("test");
-    let (mut rejected, mut drawn) = (0, 0);
+    let (mut rejected, mut drawn, mut bounded, mut tightest) = (0, 0, 0, 0.0f32);
     for _ in 0..40_000 {
         let pinhole = camera(&mut rng);
         let ego = Pose2 {
@@ -43,7 +45,8 @@ fn a_rejected_box_covers_no_pixel() {
         let centre = V3::new(ego.x + range * bearing.cos(), ego.y + range * bearing.sin(), half.z);
         let b = OrientedBox { centre, half, yaw: rng.random_range(-3.2..3.2) };
         let mut target = Target::ids_only(pinhole.width_px, pinhole.height_px, 1);
-        let rejects = misses_every_pixel_centre(&cam, &b, b.axes(), &target);
+        let reach = screen_reach(&cam, &b, b.axes(), &target);
+        let rejects = reach == Reach::Nowhere;
         // Rasterise every face without the rejection.
         let (f, l) = b.axes();
         let up = V3::new(0.0, 0.0, 1.0);
@@ -71,8 +74,21 @@ fn a_rejected_box_covers_no_pixel() {
         } else if target.coverage[1] > 0 {
             drawn += 1;
         }
+        // A bounded box draws only inside its rectangle and never nearer than its bound.
+        if let Reach::Within { x0, x1, y0, y1, max_inv_z } = reach {
+            bounded += 1;
+            for (k, &d) in target.inv_depth.iter().enumerate() {
+                let (x, y) = (k % pinhole.width_px, k / pinhole.width_px);
+                if d > 0.0 {
+                    assert!((x0..=x1).contains(&x) && (y0..=y1).contains(&y), "{b:?}: {x} {y}");
+                    assert!(d <= max_inv_z, "{b:?}: 1/z {d} beyond the bound {max_inv_z}");
+                    tightest = tightest.max(d / max_inv_z);
+                }
+            }
+        }
     }
     assert!(rejected > 2_000 && drawn > 2_000, "rejected {rejected}, drawn {drawn}");
+    assert!(bounded > 2_000 && tightest > 0.99, "{bounded} bounded, tightest {tightest}");
 }
 
 /// The vectorised ground row gives the bits of the portable one.
@@ -201,4 +217,59 @@ fn a_reused_target_renders_as_a_fresh_one() {
         assert_eq!(bits(&ids), bits(&fresh_ids));
         assert_eq!((&ids.id, &ids.coverage), (&fresh_ids.id, &fresh_ids.coverage));
     }
+}
+
+/// Skipping the boxes that nearer ones hide changes no colour, depth or id value: street views
+/// (the camera on a road, looking along it or across, in day and at night, where lamps and
+/// head lights light the faces) rendered with and without the skipping. It also asserts that
+/// most of the objects drawn without it are skipped entirely with it, so the shortcut is
+/// exercised.
+#[test]
+fn skipping_hidden_boxes_changes_no_pixel() {
+    let city = City::generate(
+        &crate::CityConfig::default(),
+        &mut joca_core::SeedStreams::new(5).stream("city"),
+    );
+    let mut rng = joca_core::SeedStreams::new(12).stream("views");
+    let pinhole = PinholeCamera {
+        width_px: 160,
+        height_px: 120,
+        fx_px: 93.0,
+        fy_px: 93.0,
+        cx_px: 80.0,
+        cy_px: 60.0,
+        mount_m: [0.43, 0.0, 1.65],
+    };
+    let objects = city.objects.len();
+    let (mut skipped, mut drawn) = (0usize, 0usize);
+    for k in 0..40 {
+        // On a road: along one of the north-south roads, at a random place, any heading.
+        let road = city.roads_x[k % city.roads_x.len()];
+        let v = View {
+            camera: &pinhole,
+            ego: Pose2 {
+                x: road.centre_m + rng.random_range(-3.0..3.0),
+                y: rng.random_range(0.0..city.extent_m),
+                yaw: rng.random_range(-3.2..3.2),
+            },
+            lighting: Lighting {
+                ambient: if k % 2 == 0 { 1.0 } else { 0.01 },
+                sun_dir: [0.3, 0.2, 0.93],
+            },
+            time_s: rng.random_range(0.0..60.0),
+        };
+        let (mut with, mut without) =
+            (Target::new(160, 120, objects), Target::new(160, 120, objects));
+        draw(&city, &v, &mut with, true);
+        draw(&city, &v, &mut without, false);
+        let bits = |t: &Target| -> Vec<u32> {
+            t.colour.iter().chain(&t.inv_depth).map(|v| v.to_bits()).collect()
+        };
+        assert_eq!(bits(&with), bits(&without), "view {k}");
+        assert_eq!(with.id, without.id, "view {k}");
+        let reached = |t: &Target| t.coverage.iter().filter(|&&c| c > 0).count();
+        (skipped, drawn) =
+            (skipped + reached(&without) - reached(&with), drawn + reached(&without));
+    }
+    assert!(skipped * 2 > drawn, "only {skipped} of {drawn} objects skipped");
 }
