@@ -3,8 +3,9 @@
 //! Each view is drawn in two passes into a [`Target`], objects first so that the ground is only
 //! shaded where it is seen:
 //! 1. **Objects**, nearest first. A box whose screen rectangle is already covered by nearer
-//!    surfaces everywhere is skipped (most boxes of a street view stand behind a facade); for
-//!    the others every box face that faces the camera is clipped against the
+//!    surfaces everywhere is skipped (most boxes of a street view stand behind a facade; the
+//!    id-only pass still counts the coverage of those whose object shows elsewhere); for the
+//!    others every box face that faces the camera is clipped against the
 //!    near plane and rasterised with a z-buffer (holding 1/z, so the depth test needs no
 //!    division); depth and texture coordinates are interpolated perspective-correctly. Faces are
 //!    shaded once each (sun, sky, lamps, head lights at the face centre) and textured per pixel
@@ -65,8 +66,10 @@ pub struct Target {
     /// Index + 1 of the visible object per pixel (0 = ground or sky).
     pub id: Vec<u32>,
     /// Per object index + 1: pixels covered by its camera-facing faces, before occlusion. Exact
-    /// on id-only targets ([`render_ids`], the ground truth); a colour render skips boxes that
-    /// nearer ones already hide entirely, so there it counts only boxes that may show.
+    /// on id-only targets ([`render_ids`], the ground truth) for every object with a box that
+    /// reaches the depth buffer (so for every object seen anywhere in the view). Renders skip
+    /// boxes that nearer ones already hide entirely; a colour render leaves them out of this
+    /// count, an id-only render only those of objects with no box drawn.
     pub coverage: Vec<u32>,
 }
 
@@ -183,6 +186,9 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     }
     // Nearest first: farther surfaces then mostly fail the depth test before being shaded.
     visible.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let no_shade = |_, _| Shade::Constant([0.0; 3]);
+    // Hidden boxes of an id-only target, whose coverage may still be needed.
+    let mut hidden_boxes: Vec<(u32, OrientedBox)> = Vec::new();
     for (_, index) in visible {
         let id = index as u32 + 1;
         for (b, material) in city.objects[index].boxes_at(view.time_s) {
@@ -191,13 +197,26 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
             if reach == Reach::Nowhere {
                 continue;
             }
-            if target.colour.is_empty() {
-                draw_faces(&cam, &b, axes, &|_, _| Shade::Constant([0.0; 3]), id, target);
-            } else if !(skip_hidden && hidden(target, reach)) {
+            if skip_hidden && hidden(target, reach) {
+                if target.colour.is_empty() {
+                    hidden_boxes.push((id, b));
+                }
+            } else if target.colour.is_empty() {
+                draw_faces(&cam, &b, axes, &no_shade, id, target);
+            } else {
                 let light = BoxLight::new(city, view, lamp_pos, heading, &b);
                 let shade = |face, n| light.shade(material, face, n);
                 draw_faces(&cam, &b, axes, &shade, id, target);
             }
+        }
+    }
+    // The coverage of a hidden box counts towards its object's visible fraction. Only an object
+    // with a box that was drawn can be visible (a hidden box writes no pixel), so only those
+    // boxes are rasterised now; the depth buffer has only grown nearer since they were found
+    // hidden, so they still write nothing and only add their coverage.
+    for (id, b) in hidden_boxes {
+        if target.coverage[id as usize] > 0 {
+            draw_faces(&cam, &b, b.axes(), &no_shade, id, target);
         }
     }
     if !target.colour.is_empty() {

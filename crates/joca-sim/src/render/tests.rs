@@ -219,9 +219,10 @@ fn a_reused_target_renders_as_a_fresh_one() {
     }
 }
 
-/// Skipping the boxes that nearer ones hide changes no colour, depth or id value: street views
-/// (the camera on a road, looking along it or across, in day and at night, where lamps and
-/// head lights light the faces) rendered with and without the skipping. It also asserts that
+/// Skipping the boxes that nearer ones hide changes no colour, depth or id value, nor the
+/// coverage of any object seen in the id-only pass: street views (the camera on a road, looking
+/// along it or across, in day and at night, where lamps and head lights light the faces)
+/// rendered with and without the skipping. It also asserts that
 /// most of the objects drawn without it are skipped entirely with it, so the shortcut is
 /// exercised.
 #[test]
@@ -241,7 +242,7 @@ fn skipping_hidden_boxes_changes_no_pixel() {
         mount_m: [0.43, 0.0, 1.65],
     };
     let objects = city.objects.len();
-    let (mut skipped, mut drawn) = (0usize, 0usize);
+    let (mut skipped, mut drawn, mut hidden_whole) = (0usize, 0usize, 0usize);
     for k in 0..40 {
         // On a road: along one of the north-south roads, at a random place, any heading.
         let road = city.roads_x[k % city.roads_x.len()];
@@ -270,6 +271,21 @@ fn skipping_hidden_boxes_changes_no_pixel() {
         let reached = |t: &Target| t.coverage.iter().filter(|&&c| c > 0).count();
         (skipped, drawn) =
             (skipped + reached(&without) - reached(&with), drawn + reached(&without));
+        // The id-only pass (the ground truth): the same ids and depths, and the same coverage
+        // for every object seen.
+        let (mut with, mut without) =
+            (Target::ids_only(160, 120, objects), Target::ids_only(160, 120, objects));
+        draw(&city, &v, &mut with, true);
+        draw(&city, &v, &mut without, false);
+        assert_eq!(bits(&with), bits(&without), "view {k}");
+        assert_eq!(with.id, without.id, "view {k}");
+        for &id in &with.id {
+            let i = id as usize;
+            assert_eq!(with.coverage[i], without.coverage[i], "view {k}, object {id}");
+        }
+        hidden_whole += with.coverage.iter().zip(&without.coverage).filter(|(a, b)| a != b).count();
     }
+    // Some objects are hidden entirely, and their coverage is then not counted.
+    assert!(hidden_whole > 0);
     assert!(skipped * 2 > drawn, "only {skipped} of {drawn} objects skipped");
 }
