@@ -139,6 +139,8 @@ pub(super) fn train(
         })?;
         let perturbed: Vec<Frame> = frames.collect();
         cx.watch.lap(|t| &mut t.render_ms);
+        cx.watch
+            .count_subframes(perturbed.iter().map(|f| f.subframes).fold(frame.subframes, u32::max));
         let mut ga_target = None;
         if !members.is_empty() {
             let probe = Probe { sensor, global_step: global, scene_step: common };

@@ -32,6 +32,9 @@ pub struct StepBreakdown {
     pub update_ms: f64,
     /// Decoding and metric bookkeeping.
     pub decode_ms: f64,
+    /// Sub-frames rendered for the step's grid (the longest shutter's count, which every other
+    /// shutter's cells lie within).
+    pub subframes: f64,
     /// Steps measured.
     pub steps: usize,
     /// Perturbation searches scored a second time in another precision (`bench_step`'s
@@ -76,6 +79,7 @@ impl StepBreakdown {
             &mut self.backward_ms,
             &mut self.update_ms,
             &mut self.decode_ms,
+            &mut self.subframes,
         ] {
             *v *= k;
         }
@@ -126,6 +130,13 @@ impl Stopwatch {
         self.clock = Instant::now();
         if let Some(t) = self.breakdown.as_mut() {
             *part(t) += ms;
+        }
+    }
+
+    /// Counts the sub-frames of a step's grid, when measuring.
+    pub(super) fn count_subframes(&mut self, n: u32) {
+        if let Some(t) = self.breakdown.as_mut() {
+            t.subframes += f64::from(n);
         }
     }
 

@@ -372,6 +372,7 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
         println!("{:<46} {:>9.1} {:>6.1}%", name, ms, 100.0 * ms / total);
     }
     println!("{:<46} {:>9.1}", "total per step", total);
+    println!("{:<46} {:>9.1}", "sub-frames rendered per step (mean)", b.subframes);
     // Detector training steps on a frame of the same size, same threads, same run. The ratio
     // compares like with like: the mean joint step with the mean detector step (what a run of
     // either costs per step); the best detector step is shown beside it.
