@@ -19,7 +19,8 @@ mod flow;
 pub enum Target {
     /// Image formation (Eq. 2–3) on a 1280×960 RGB frame.
     Formation,
-    /// The simulator: sub-frames and motion-blurred frames at 320×240 and 640×480, 1 and 2 threads.
+    /// The simulator: sub-frames and motion-blurred frames at 320×240 and 640×480 by day and at
+    /// 320×240 by night, 1 and 2 threads.
     Render,
     /// The detector: inference and training step at 320×240 and 640×480, against PyTorch.
     Detector,
@@ -149,19 +150,18 @@ fn bench_formation(repeats: usize) -> Result<()> {
 }
 
 fn bench_render(repeats: usize) -> Result<()> {
-    let sim =
-        Simulator::new(SimConfig { illumination: Some(Illumination::Day), ..SimConfig::default() });
     // Frames spread over an episode, so that speeds (and so blur) vary as in training.
     let times: Vec<f64> = (0..repeats).map(|k| 2.0 + k as f64 * 2.3).collect();
     let exposure_s = 10e-3;
     println!(
-        "simulator, day, f = 3.6 mm on IMX172 (81° HFoV), exposure {} ms, {} frames over one \
+        "simulator, f = 3.6 mm on IMX172 (81° HFoV), exposure {} ms, {} frames over one \
             episode, best of 3 passes",
         exposure_s * 1e3,
         times.len()
     );
     println!(
-        "{:<10} {:>8} {:>12} {:>14} {:>14} {:>11} {:>9} {:>16}",
+        "{:<6} {:<10} {:>8} {:>12} {:>14} {:>14} {:>11} {:>9} {:>16}",
+        "light",
         "output",
         "threads",
         "sub/frame",
@@ -171,7 +171,14 @@ fn bench_render(repeats: usize) -> Result<()> {
         "2t vs 1t",
         "ground truth ms"
     );
-    for (w, h) in [(320usize, 240usize), (640, 480)] {
+    // At night the ground pass adds street-lamp and head-light terms per pixel.
+    let cases = [
+        (Illumination::Day, 320usize, 240usize),
+        (Illumination::Day, 640, 480),
+        (Illumination::Night, 320, 240),
+    ];
+    for (light, w, h) in cases {
+        let sim = Simulator::new(SimConfig { illumination: Some(light), ..SimConfig::default() });
         let camera = PinholeCamera {
             width_px: w,
             height_px: h,
@@ -211,7 +218,8 @@ fn bench_render(repeats: usize) -> Result<()> {
             }
             let truth_ms = t.elapsed().as_secs_f64() * 1e3 / requests.len() as f64;
             println!(
-                "{:<10} {:>8} {:>12.1} {:>14.0} {:>14.2} {:>11.1} {:>8.2}x {:>16.2}",
+                "{:<6} {:<10} {:>8} {:>12.1} {:>14.0} {:>14.2} {:>11.1} {:>8.2}x {:>16.2}",
+                light.name(),
                 format!("{w}x{h}"),
                 threads,
                 subframes as f64 / requests.len() as f64,
