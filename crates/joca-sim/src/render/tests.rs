@@ -220,11 +220,10 @@ fn a_reused_target_renders_as_a_fresh_one() {
 }
 
 /// Skipping the boxes that nearer ones hide changes no colour, depth or id value, nor the
-/// coverage of any object seen in the id-only pass: street views (the camera on a road, looking
-/// along it or across, in day and at night, where lamps and head lights light the faces)
-/// rendered with and without the skipping. It also asserts that
-/// most of the objects drawn without it are skipped entirely with it, so the shortcut is
-/// exercised.
+/// coverage of any object seen in the id-only pass: street views (the camera on a road, any
+/// heading, in day and at night, where lamps and head lights light the faces) rendered with and
+/// without the skipping. It also asserts that most of the objects drawn without it are skipped
+/// entirely with it, so the shortcut is exercised.
 #[test]
 fn skipping_hidden_boxes_changes_no_pixel() {
     let city = City::generate(
