@@ -188,7 +188,7 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     visible.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let no_shade = |_, _| Shade::Constant([0.0; 3]);
     // Hidden boxes of an id-only target, whose coverage may still be needed.
-    let mut hidden_boxes: Vec<(u32, OrientedBox)> = Vec::new();
+    let mut hidden_boxes: Vec<(u32, OrientedBox, (V3, V3))> = Vec::new();
     for (_, index) in visible {
         let id = index as u32 + 1;
         for (b, material) in city.objects[index].boxes_at(view.time_s) {
@@ -199,7 +199,7 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
             }
             if skip_hidden && hidden(target, reach) {
                 if target.colour.is_empty() {
-                    hidden_boxes.push((id, b));
+                    hidden_boxes.push((id, b, axes));
                 }
             } else if target.colour.is_empty() {
                 draw_faces(&cam, &b, axes, &no_shade, id, target);
@@ -214,9 +214,9 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     // with a box that was drawn can be visible (a hidden box writes no pixel), so only those
     // boxes are rasterised now; the depth buffer has only grown nearer since they were found
     // hidden, so they still write nothing and only add their coverage.
-    for (id, b) in hidden_boxes {
+    for (id, b, axes) in hidden_boxes {
         if target.coverage[id as usize] > 0 {
-            draw_faces(&cam, &b, b.axes(), &no_shade, id, target);
+            draw_faces(&cam, &b, axes, &no_shade, id, target);
         }
     }
     if !target.colour.is_empty() {

@@ -17,6 +17,19 @@ fn camera(rng: &mut impl Rng) -> PinholeCamera {
     }
 }
 
+/// The default town of map seed 5, for views of a whole city.
+fn town() -> City {
+    City::generate(
+        &crate::CityConfig::default(),
+        &mut joca_core::SeedStreams::new(5).stream("city"),
+    )
+}
+
+/// The bits of every colour and depth value of `t`, to compare renders exactly.
+fn value_bits(t: &Target) -> Vec<u32> {
+    t.colour.iter().chain(&t.inv_depth).map(|v| v.to_bits()).collect()
+}
+
 /// A box's screen reach is conservative: a rejected box, rasterised face by face, covers no
 /// pixel centre, and a bounded one draws only inside its rectangle and no nearer than its depth
 /// bound (which makes skipping hidden boxes exact). Boxes of 2 cm to 20 m, anywhere from beside
@@ -170,10 +183,7 @@ fn pixel_centre_spans_match_the_library_rounding() {
 /// and at night (lamps and head lights), colour and id-only targets, from spots all over a town.
 #[test]
 fn a_reused_target_renders_as_a_fresh_one() {
-    let city = City::generate(
-        &crate::CityConfig::default(),
-        &mut joca_core::SeedStreams::new(5).stream("city"),
-    );
+    let city = town();
     let mut rng = joca_core::SeedStreams::new(11).stream("views");
     let pinhole = PinholeCamera {
         width_px: 96,
@@ -209,12 +219,9 @@ fn a_reused_target_renders_as_a_fresh_one() {
             (Target::new(96, 72, objects), Target::ids_only(96, 72, objects));
         render(&city, &v, &mut fresh);
         render(&city, &v, &mut fresh_ids);
-        let bits = |t: &Target| -> Vec<u32> {
-            t.colour.iter().chain(&t.inv_depth).map(|v| v.to_bits()).collect()
-        };
-        assert_eq!(bits(&colour), bits(&fresh));
+        assert_eq!(value_bits(&colour), value_bits(&fresh));
         assert_eq!((&colour.id, &colour.coverage), (&fresh.id, &fresh.coverage));
-        assert_eq!(bits(&ids), bits(&fresh_ids));
+        assert_eq!(value_bits(&ids), value_bits(&fresh_ids));
         assert_eq!((&ids.id, &ids.coverage), (&fresh_ids.id, &fresh_ids.coverage));
     }
 }
@@ -226,10 +233,7 @@ fn a_reused_target_renders_as_a_fresh_one() {
 /// entirely with it, so the shortcut is exercised.
 #[test]
 fn skipping_hidden_boxes_changes_no_pixel() {
-    let city = City::generate(
-        &crate::CityConfig::default(),
-        &mut joca_core::SeedStreams::new(5).stream("city"),
-    );
+    let city = town();
     let mut rng = joca_core::SeedStreams::new(12).stream("views");
     let pinhole = PinholeCamera {
         width_px: 160,
@@ -262,10 +266,7 @@ fn skipping_hidden_boxes_changes_no_pixel() {
             (Target::new(160, 120, objects), Target::new(160, 120, objects));
         draw(&city, &v, &mut with, true);
         draw(&city, &v, &mut without, false);
-        let bits = |t: &Target| -> Vec<u32> {
-            t.colour.iter().chain(&t.inv_depth).map(|v| v.to_bits()).collect()
-        };
-        assert_eq!(bits(&with), bits(&without), "view {k}");
+        assert_eq!(value_bits(&with), value_bits(&without), "view {k}");
         assert_eq!(with.id, without.id, "view {k}");
         let reached = |t: &Target| t.coverage.iter().filter(|&&c| c > 0).count();
         (skipped, drawn) =
@@ -276,7 +277,7 @@ fn skipping_hidden_boxes_changes_no_pixel() {
             (Target::ids_only(160, 120, objects), Target::ids_only(160, 120, objects));
         draw(&city, &v, &mut with, true);
         draw(&city, &v, &mut without, false);
-        assert_eq!(bits(&with), bits(&without), "view {k}");
+        assert_eq!(value_bits(&with), value_bits(&without), "view {k}");
         assert_eq!(with.id, without.id, "view {k}");
         for &id in &with.id {
             let i = id as usize;
