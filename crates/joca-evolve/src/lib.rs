@@ -9,8 +9,9 @@
 //! evaluated again next generation, because in joint training the detector — and so every
 //! fitness — keeps changing); the other half are offspring of two distinct random parents:
 //! uniform crossover (each gene from either parent), then each gene multiplied by a factor
-//! drawn from U(a, b) and, optionally, shifted by a normal draw (`GaConfig::with_shift`),
-//! clipped to its bounds, then the hook. A multiplicative mutation never changes a gene's sign
+//! drawn from U(a, b) and, optionally, shifted by a normal draw (`GaConfig::with_shift`) or by
+//! a uniform one in gene units with a chosen number of elites (`GaConfig::with_additive`,
+//! TaCOS's published operator), clipped to its bounds, then the hook. A multiplicative mutation never changes a gene's sign
 //! and crossover and clipping keep it too, so genes that must cross zero need the shift.
 //!
 //! ```
@@ -73,6 +74,15 @@ pub struct GaConfig {
     /// (0: none, the paper's operators).
     #[serde(default)]
     pub shift: f64,
+    /// Half-widths `a` of an additive uniform mutation per gene, in the gene's own units: each
+    /// gene of an offspring gets `+ U(−a, a)` after the factor (empty: none, the paper's printed
+    /// operator; TaCOS's published GA adds U(−3, 3)).
+    #[serde(default)]
+    pub additive: Vec<f64>,
+    /// Members carried unchanged into the next generation, best first (`None`: every parent,
+    /// the paper's "best 50 % are parents" that stay). Parents still breed the offspring.
+    #[serde(default)]
+    pub elites: Option<usize>,
 }
 
 impl GaConfig {
@@ -82,7 +92,23 @@ impl GaConfig {
         bounds: Vec<(f64, f64)>,
         mutation: (f64, f64),
     ) -> Result<Self, GaError> {
-        let c = Self { population, bounds, mutation, parent_fraction: 0.5, shift: 0.0 };
+        let c = Self {
+            population,
+            bounds,
+            mutation,
+            parent_fraction: 0.5,
+            shift: 0.0,
+            additive: Vec::new(),
+            elites: None,
+        };
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// The same settings with an additive `U(−a, a)` mutation per gene (`additive[i]` for gene
+    /// `i`, gene units) and `elites` members carried unchanged — TaCOS's published operator.
+    pub fn with_additive(self, additive: Vec<f64>, elites: usize) -> Result<Self, GaError> {
+        let c = Self { additive, elites: Some(elites), ..self };
         c.validate()?;
         Ok(c)
     }
@@ -126,6 +152,23 @@ impl GaConfig {
                 field: "shift",
                 value: self.shift.to_string(),
                 allowed: "0 to 1",
+            });
+        }
+        if !self.additive.is_empty()
+            && (self.additive.len() != self.bounds.len()
+                || self.additive.iter().any(|a| !(a.is_finite() && *a >= 0.0)))
+        {
+            return Err(GaError::Config {
+                field: "additive",
+                value: format!("{:?}", self.additive),
+                allowed: "one finite half-width ≥ 0 per gene, or none",
+            });
+        }
+        if self.elites.is_some_and(|e| e == 0 || e >= self.population) {
+            return Err(GaError::Config {
+                field: "elites",
+                value: format!("{:?}", self.elites),
+                allowed: "at least 1 and fewer than the population",
             });
         }
         if !(self.parent_fraction > 0.0 && self.parent_fraction < 1.0) {
@@ -226,7 +269,9 @@ impl Ga {
         }
         let parents: Vec<Vec<f64>> =
             order[..self.config.parents()].iter().map(|&i| self.members[i].clone()).collect();
-        let mut next = parents.clone();
+        let elites = self.config.elites.unwrap_or(parents.len());
+        let mut next: Vec<Vec<f64>> =
+            order[..elites].iter().map(|&i| self.members[i].clone()).collect();
         let (a, b) = self.config.mutation;
         while next.len() < self.config.population {
             let i = rng.random_range(0..parents.len());
@@ -247,6 +292,11 @@ impl Ga {
             if self.config.shift > 0.0 {
                 for (g, &(lo, hi)) in child.iter_mut().zip(&self.config.bounds) {
                     *g += self.config.shift * (hi - lo) * standard_normal(rng);
+                }
+            }
+            for (g, &a) in child.iter_mut().zip(&self.config.additive) {
+                if a > 0.0 {
+                    *g += rng.random_range(-a..a);
                 }
             }
             clip(&mut child, &self.config.bounds);
@@ -391,5 +441,30 @@ mod tests {
                 assert_eq!(both, shift > 0.0, "tied {tied}, shift {shift}: {signs:?}");
             }
         }
+    }
+
+    #[test]
+    fn additive_mutation_moves_genes_by_up_to_its_half_width_and_elites_survive() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let cfg = GaConfig::new(10, vec![(-100.0, 100.0); 2], (1.0, 1.0))
+            .unwrap()
+            .with_additive(vec![3.0, 0.0], 3)
+            .unwrap();
+        // Every member at (10, 10): without the additive term nothing could move.
+        let mut ga = Ga::with_members(cfg, vec![vec![10.0, 10.0]; 10]);
+        let fitness: Vec<f64> = (0..10).map(f64::from).collect();
+        ga.tell(&fitness, &mut rng, |_| {}).unwrap();
+        let next = ga.ask();
+        // Three elites unchanged, seven offspring, each within ±3 on gene 0 and fixed on gene 1.
+        assert!(next[..3].iter().all(|m| m == &vec![10.0, 10.0]));
+        assert_eq!(next.len(), 10);
+        assert!(next[3..].iter().all(|m| (m[0] - 10.0).abs() < 3.0 && m[1] == 10.0));
+        assert!(next[3..].iter().filter(|m| (m[0] - 10.0).abs() > 1.0).count() >= 2);
+        // Settings that cannot work are refused.
+        let base = GaConfig::new(10, vec![(0.0, 1.0); 2], (0.8, 1.2)).unwrap();
+        assert!(base.clone().with_additive(vec![1.0], 3).is_err());
+        assert!(base.clone().with_additive(vec![1.0, f64::NAN], 3).is_err());
+        assert!(base.clone().with_additive(vec![1.0, 1.0], 10).is_err());
+        assert!(base.with_additive(vec![1.0, 1.0], 0).is_err());
     }
 }
