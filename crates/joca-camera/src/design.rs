@@ -7,6 +7,7 @@
 
 use crate::CameraError;
 use crate::catalogue::{Sensor, catalogue, sensor};
+use crate::input::DetectorInput;
 use crate::settings::Bounds;
 use joca_core::PinholeCamera;
 use serde::{Deserialize, Serialize};
@@ -40,23 +41,21 @@ impl CameraDesign {
         self.sensor().vfov_rad(self.focal_length_mm)
     }
 
-    /// Output resolution: the sensor's pixel grid times `render_scale`, rounded, at least 1 px.
-    ///
-    /// One global `render_scale` keeps the resolution trade-off of the real sensors (a 4000-px
-    /// sensor still has 3× the pixels of a 1280-px one) while keeping rendering affordable.
-    pub fn resolution(&self, render_scale: f64) -> (usize, usize) {
+    /// The detector's input size for this design's frames: the sensor's pixel grid scaled to
+    /// `input` (short side, long-side cap, aspect kept). Every design of a run gets about the
+    /// same number of input pixels, whatever its sensor's pixel count.
+    pub fn resolution(&self, input: &DetectorInput) -> (usize, usize) {
         let s = self.sensor();
-        let scaled = |n: usize| ((n as f64 * render_scale).round() as usize).max(1);
-        (scaled(s.res_x), scaled(s.res_y))
+        input.size_for(s.res_x, s.res_y)
     }
 
-    /// The pinhole camera this design gives at `render_scale`.
+    /// The pinhole camera of this design at the detector's input size.
     ///
     /// The focal length in pixels is `f · width_px / width_mm`, so the rendered field of view is
     /// exactly the sensor's, whatever the rounding of the resolution.
-    pub fn pinhole(&self, render_scale: f64) -> PinholeCamera {
+    pub fn pinhole(&self, input: &DetectorInput) -> PinholeCamera {
         let s = self.sensor();
-        let (width_px, height_px) = self.resolution(render_scale);
+        let (width_px, height_px) = self.resolution(input);
         PinholeCamera {
             width_px,
             height_px,
@@ -166,13 +165,23 @@ mod tests {
     #[test]
     fn pinhole_preserves_the_sensor_fov() {
         let d = design("IMX172", 3.6);
-        let cam = d.pinhole(0.08);
+        let input =
+            DetectorInput { short_px: 240, long_max_px: 400, resampler: Default::default() };
+        let cam = d.pinhole(&input);
         assert_eq!((cam.width_px, cam.height_px), (320, 240));
         assert!((cam.hfov_rad() - d.hfov_rad()).abs() < 1e-12);
         assert!((cam.vfov_rad() - d.vfov_rad()).abs() < 1e-12);
         assert_eq!(cam.mount_m, [0.43, 0.0, 1.65]);
         // Square pixels: the same focal length in pixels both ways.
         assert!((cam.fx_px - cam.fy_px).abs() / cam.fx_px < 1e-3);
+        // Every design gets the one input: a 1280 × 960 sensor as a 4000 × 3000 one, a wide one
+        // capped at the long side, each with its own field of view.
+        let basler = design("AR0134", 3.6).pinhole(&input);
+        assert_eq!((basler.width_px, basler.height_px), (320, 240));
+        let wide = design("IMX324", 3.6);
+        let cam = wide.pinhole(&input);
+        assert_eq!((cam.width_px, cam.height_px), (400, 200));
+        assert!((cam.hfov_rad() - wide.hfov_rad()).abs() < 1e-12);
     }
 
     #[test]

@@ -6,6 +6,8 @@
 //! - [`DynamicSettings`], [`AccRanges`] — exposure and gain, per frame.
 //! - [`ImageFormation`] — paper Eq. 2–3: exposure/gain/pixel-area scaling, affine noise, clipping
 //!   and 8-bit quantisation.
+//! - [`DetectorInput`], [`Resampler`] — one detector input size for every design, and the noise
+//!   a native-grid frame keeps through the resize.
 //! - [`compensate_for_pixel_size`] — paper Eq. 4.
 //! - [`ImageFormation::capture`] — render and form one frame (the exposure sets blur and
 //!   brightness alike).
@@ -33,6 +35,7 @@ mod design;
 mod error;
 mod formation;
 mod genome;
+pub mod input;
 mod noise_calibration;
 mod settings;
 
@@ -42,7 +45,10 @@ pub use catalogue::{Sensor, Shutter, sensor_by_name};
 pub use compensation::{compensate_for_pixel_size, limit_exposure};
 pub use design::{CameraDesign, DesignSpace};
 pub use error::CameraError;
-pub use formation::{Calibration, FormationParams, ImageFormation, TILE_ROWS, WHITE_LEVEL};
+pub use formation::{
+    Calibration, FormationParams, ImageFormation, NoiseGain, TILE_ROWS, WHITE_LEVEL,
+};
 pub use genome::{GeneSpec, GenomeCodec, SensorEncoding};
+pub use input::{DetectorInput, Resampler};
 pub use noise_calibration::{ChannelFit, calibrate_noise};
 pub use settings::{AccRanges, Bounds, DynamicSettings};

@@ -279,8 +279,10 @@ fn render_writes_frames_ground_truth_and_a_contact_sheet() {
         "day",
         "--frames",
         "3",
-        "--render-scale",
-        "0.05",
+        "--short-px",
+        "150",
+        "--long-max-px",
+        "200",
         "--out",
         out.to_str().unwrap(),
     ]);
@@ -293,21 +295,13 @@ fn render_writes_frames_ground_truth_and_a_contact_sheet() {
             .unwrap();
     assert_eq!(coco["images"].as_array().unwrap().len(), 3);
     assert_eq!(coco["categories"].as_array().unwrap().len(), 3);
-    // IMX172 (4000x3000) at 0.05: 200x150.
+    // IMX172 (4000x3000) at a 150-px short side: 200x150.
     assert_eq!(coco["images"][0]["width"], 200);
 
     // Rendering fewer frames into the same folder replaces the earlier output as a whole: no
     // stale frame is left beside the new annotations, and no staging folder either.
     let again = |frames: &str, out: &Path| {
-        joca(&[
-            "render",
-            "--frames",
-            frames,
-            "--render-scale",
-            "0.03",
-            "--out",
-            out.to_str().unwrap(),
-        ])
+        joca(&["render", "--frames", frames, "--short-px", "90", "--out", out.to_str().unwrap()])
     };
     assert!(again("2", &out).status.success());
     assert_eq!(std::fs::read_dir(out.join("frames")).unwrap().count(), 2);
@@ -448,15 +442,39 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         "{}",
         stderr(&o)
     );
-    std::fs::write(&cfg, "[run]\nrender_scale = 2.0\n").unwrap();
-    let o = joca(&[
-        "run",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        dir.path().join("r").to_str().unwrap(),
-    ]);
-    assert!(stderr(&o).contains("run.render_scale = 2 is invalid: 0.02 to 1"), "{}", stderr(&o));
+    // The detector input: a size past its maximum, a long side below the short side, an unknown
+    // resampler or hardware mutation, each named with what is allowed and the file; nothing
+    // is written.
+    let cases = [
+        (
+            "input = { short_px = 2000, long_max_px = 3000 }",
+            "run.input.short_px = 2000 is invalid: 16 to 1024 px",
+        ),
+        (
+            "input = { short_px = 0, long_max_px = 400 }",
+            "run.input.short_px = 0 is invalid: 16 to 1024 px",
+        ),
+        (
+            "input = { short_px = 240, long_max_px = 200 }",
+            "run.input.long_max_px = 200 is invalid: 240 to 2048 px",
+        ),
+        (
+            "input = { short_px = 240, long_max_px = 400, resampler = \"lanczos\" }",
+            "unknown variant `lanczos`, expected `bilinear` or `area`",
+        ),
+        (
+            "hardware_mutation = \"gaussian\"",
+            "unknown variant `gaussian`, expected `tacos` or `paper`",
+        ),
+    ];
+    for (line, message) in cases {
+        std::fs::write(&cfg, format!("[run]\n{line}\n")).unwrap();
+        let out = dir.path().join("r");
+        let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains(message) && stderr(&o).contains("mine.toml"), "{}", stderr(&o));
+        assert!(!out.exists(), "{line}: the run directory was created");
+    }
     // An unknown perturbation mutation names the field and the values it may take.
     std::fs::write(&cfg, "[run]\nperturbation_mutation = \"gaussian\"\n").unwrap();
     let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
@@ -813,8 +831,10 @@ fn a_run_on_a_recorded_folder_reports_the_real_image_layout() {
         "render",
         "--frames",
         "8",
-        "--render-scale",
-        "0.2",
+        "--short-px",
+        "600",
+        "--long-max-px",
+        "800",
         "--illumination",
         "day",
         "--out",

@@ -4,7 +4,7 @@
 //! The rendered `I0` (with the motion blur of the exposure it was rendered with) enters as a
 //! constant: its dependence on exposure through blur is not differentiable — the gap DF-Grad's
 //! GA supervision fills. For a given noise field `z` (taken from
-//! `joca_camera::ImageFormation::standard_normals`, i.e. the very sample the 8-bit formation
+//! `joca_camera::ImageFormation::input_normals`, i.e. the very sample the 8-bit formation
 //! uses) the forward value equals the 8-bit frame. Clipping at 0 and 255 keeps the clamp's own
 //! gradient (1 inside, 0 outside, so a saturated pixel passes no gradient to exposure and gain);
 //! rounding to the nearest integer is straight-through (it passes the gradient unchanged).
@@ -17,7 +17,8 @@ use tch::{Device, Kind, Tensor};
 pub struct Scene<'a> {
     /// Interleaved RGB `I0`, `[H·W·3]`, calibrated DN.
     pub i0: &'a [f32],
-    /// The noise sample `z`, same layout.
+    /// The noise sample `z`, same layout: `ImageFormation::input_normals` of the formation
+    /// that forms the frame (the native grid's resize gain included).
     pub normals: &'a [f32],
     /// Width, pixels.
     pub width: usize,
@@ -28,9 +29,9 @@ pub struct Scene<'a> {
 }
 
 /// `[1, 3, H, W]` frame in DN (0–255, integer-valued in the forward pass) of `scene` under
-/// `formation`'s calibration, noise scale and render scale (the very formation the 8-bit path
-/// uses),
-/// differentiable in `exposure_s` and `gain_db` (`[1]` tensors).
+/// `formation`'s calibration and noise scale (the very formation the 8-bit path uses; the
+/// native grid's noise gain arrives in `scene.normals`), differentiable in `exposure_s` and
+/// `gain_db` (`[1]` tensors).
 pub fn form(
     scene: &Scene<'_>,
     exposure_s: &Tensor,
@@ -54,7 +55,7 @@ pub fn form(
     let i0 = to_chw(i0);
     let z = to_chw(normals);
     let c = formation.calibration();
-    let n = formation.variance_scale();
+    let n = formation.noise_scale();
     let g0 = 10f64.powf(c.gain_db / 20.0);
     let gain_ratio = (gain_db / 20.0 * std::f64::consts::LN_10).exp() / g0; // 10^(dB/20) / G0
     let area = (pixel_pitch_um / c.pixel_pitch_um).powi(2);

@@ -17,10 +17,13 @@ fn same_noise_sample_gives_the_same_frame() {
     }
     let cal = Calibration::DEFAULT;
     let settings = DynamicSettings::new(7e-3, 14.0);
-    let formation = ImageFormation::new(cal).unwrap().with_noise_scale(3.0).unwrap();
+    // A sensor grid of 530 × 370 resized to the 53 × 37 input: the noise carries the resize's
+    // gain, which the input normals hold for both paths.
+    let formation =
+        ImageFormation::new(cal).unwrap().with_noise_scale(3.0).unwrap().on_native_grid(530, 370);
     let streams = SeedStreams::new(5);
     let reference = formation.form(&i0, settings, 2.4, &mut streams.stream("n"));
-    let z = ImageFormation::standard_normals(w, h, streams.stream("n").random());
+    let z = formation.input_normals(w, h, streams.stream("n").random());
     let e = Tensor::from_slice(&[7e-3f32]).set_requires_grad(true);
     let g = Tensor::from_slice(&[14.0f32]).set_requires_grad(true);
     let scene = Scene { i0: i0.data(), normals: &z, width: w, height: h, pixel_pitch_um: 2.4 };

@@ -1,6 +1,7 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
 use crate::{Method, Scenario};
+use joca_camera::DetectorInput;
 use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -34,8 +35,13 @@ pub struct RunResults {
     /// Best hardware fitness seen in training.
     #[serde(default)]
     pub best_fitness: f64,
-    /// Output resolution factor.
-    pub render_scale: f64,
+    /// The detector input every design's frames were resized to (absent in runs before it
+    /// existed, which rendered each sensor at `render_scale` × its own grid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<DetectorInput>,
+    /// Older runs only: the fraction of each sensor's grid they rendered.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render_scale: Option<f64>,
     /// The test frames' source: `sim` (or empty, in older runs), `folder:DIR` or `waymo:DIR`.
     #[serde(default)]
     pub source: String,
@@ -78,6 +84,20 @@ pub struct Validated {
 }
 
 impl RunResults {
+    /// How the frames reached the detector, for a report: the input rule, or an older run's
+    /// render scale.
+    pub fn input_note(&self) -> String {
+        match (self.input, self.render_scale) {
+            (Some(i), _) => format!(
+                "detector input short side {} px, long side ≤ {} px, {} resize from each sensor's \
+                 grid",
+                i.short_px, i.long_max_px, i.resampler
+            ),
+            (None, Some(s)) => format!("render scale {s} of each sensor's grid (an older run)"),
+            (None, None) => "input size not recorded".to_owned(),
+        }
+    }
+
     /// Whether the run was tested on recorded frames (the real-image mode).
     pub fn real_images(&self) -> bool {
         self.source.starts_with("folder:") || self.source.starts_with("waymo:")

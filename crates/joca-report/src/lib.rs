@@ -325,8 +325,9 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     let _ = writeln!(
         md,
         "Camera parameters marked ● were optimised, ○ fixed. Test on {tested_on}, closed loop, {} \
-            frames; render scale {}.\n",
-        r.test.frames, r.render_scale
+            frames; {}.\n",
+        r.test.frames,
+        r.input_note()
     );
     let machine = machine_line(r);
     if !machine.is_empty() {
@@ -342,11 +343,11 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     write_text(&run_dir.join("report.md"), &md)?;
     let body = format!(
         "<p>Camera parameters marked <span class=\"opt\">●</span> were optimised, <span \
-            class=\"fix\">○</span> fixed. Test on {}, closed loop, {} frames; render scale {}; \
+            class=\"fix\">○</span> fixed. Test on {}, closed loop, {} frames; {}; \
             AP50 {:.3}.</p>\n<p>{}</p>\n{}",
         table::escape(&tested_on),
         r.test.frames,
-        r.render_scale,
+        table::escape(&r.input_note()),
         r.test.ap50,
         table::escape(&machine),
         table.html()

@@ -3,7 +3,7 @@
 
 use crate::TrainError;
 use crate::control::{AverageControl, ExposureControl};
-use joca_camera::{Calibration, CameraDesign, Capture, ImageFormation};
+use joca_camera::{Calibration, CameraDesign, Capture, DetectorInput, ImageFormation};
 use joca_core::{FrameRequest, FrameSource, SeedStreams};
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::detector::DetectorModel;
@@ -20,8 +20,8 @@ pub struct EvalSpec {
     pub frames_per_episode: usize,
     /// Frames the controller runs before scoring starts (it starts at E0, G0).
     pub warmup_frames: usize,
-    /// Output resolution factor.
-    pub render_scale: f64,
+    /// The detector's input.
+    pub input: DetectorInput,
     /// Noise variance multiplier.
     pub noise_scale: f64,
     /// Motion blur multiplier.
@@ -43,8 +43,9 @@ pub fn evaluate(
     });
     let formation = ImageFormation::new(Calibration::DEFAULT)?
         .with_noise_scale(spec.noise_scale)?
-        .with_render_scale(spec.render_scale)?;
-    let camera = design.pinhole(spec.render_scale);
+        .with_resampler(spec.input.resampler)
+        .for_sensor(design.sensor());
+    let camera = design.pinhole(&spec.input);
     let pitch = design.sensor().pixel_pitch_um;
     let mut metrics = TaskMetrics::default();
     let dt = sim.frame_interval_s();

@@ -83,7 +83,7 @@ proptest! {
         {
             prop_assert!(c.population <= 1000 && c.perturbation_population <= 64);
             prop_assert!(c.generations <= 10_000 && c.test_episodes <= 10_000);
-            prop_assert!(c.render_scale >= 0.02 && c.render_scale <= 1.0);
+            prop_assert!(c.input.short_px >= 16 && c.input.long_max_px <= 2048);
             prop_assert!(c.task_weight.is_finite() && c.max_speed_mps.is_finite());
             prop_assert!((4..=128).contains(&c.detector.width));
         }
@@ -94,7 +94,7 @@ proptest! {
         if let Ok(c) = Value::Table(t).try_into::<PretrainConfig>()
             && c.validate().is_ok()
         {
-            prop_assert!(c.render_scale >= 0.02 && c.data.max_speed_mps.is_finite());
+            prop_assert!(c.input.short_px >= 16 && c.data.max_speed_mps.is_finite());
             prop_assert!((4..=128).contains(&c.detector.width) && c.threads <= 64);
         }
     }

@@ -56,6 +56,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
         ("[run.real]", keys(&run["real"])),
         ("[run.reference]", keys(&run["reference"])),
         ("detector", keys(&run["detector"])),
+        ("input", keys(&run["input"])),
         ("[pretrain]", keys(&pretrain)),
         ("[pretrain.optimizer]", keys(&pretrain["optimizer"])),
         ("[pretrain.data]", keys(&pretrain["data"])),
@@ -73,4 +74,5 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
         );
     }
     assert_eq!(keys(&pretrain["detector"]), keys(&run["detector"]));
+    assert_eq!(keys(&pretrain["input"]), keys(&run["input"]));
 }

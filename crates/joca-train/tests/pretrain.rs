@@ -4,6 +4,7 @@
 mod common;
 
 use common::{poison_first_tensor, snapshot};
+use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision, Regression};
 use joca_train::{
     DataConfig, EvalConfig, ExperimentalConfig, OptimizerConfig, PretrainConfig, PretrainEvent,
@@ -23,7 +24,8 @@ fn tiny() -> PretrainConfig {
         steps: 12,
         batch: 1,
         precision: Precision::Fp32,
-        render_scale: 0.03,
+        // Small frames for a fast test: 120 × 90 for a 4:3 sensor.
+        input: DetectorInput { short_px: 90, long_max_px: 160, resampler: Resampler::Bilinear },
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
         checkpoint_every_designs: 1,
         optimizer: OptimizerConfig {
@@ -36,7 +38,7 @@ fn tiny() -> PretrainConfig {
         data: DataConfig {
             frames_per_design: 4,
             frames_per_episode: 2,
-            train_render_scale: None,
+            exposure_spread: 4.0,
             train_maps: 2,
             max_speed_mps: 15.0,
             walker_density: 2.0,
@@ -234,8 +236,12 @@ fn frame_sizes(run: &std::path::Path) -> (Vec<[usize; 2]>, serde_json::Value) {
     (sizes, lines.iter().rev().find_map(|l| l.get("eval")).unwrap().clone())
 }
 
+/// Every random design's training frames have the detector's input size — short side
+/// `short_px` unless the long side's cap makes it shorter — whatever the sensor's pixel count;
+/// twice the input doubles every frame. The test town's reference objects do not depend on the
+/// input size.
 #[test]
-fn training_frames_follow_train_render_scale_and_the_test_stays_at_render_scale() {
+fn training_frames_have_the_input_size_and_the_test_counts_the_same_objects() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str, cfg: &PretrainConfig| {
@@ -244,32 +250,25 @@ fn training_frames_follow_train_render_scale_and_the_test_stays_at_render_scale(
         (frame_sizes(&dir.path().join(name)), std::fs::read(w).unwrap())
     };
     let coarse = tiny();
-    let fine = tiny_with(|c| c.data.train_render_scale = Some(0.06));
+    let fine_input = DetectorInput { short_px: 180, long_max_px: 320, ..coarse.input };
+    let fine = tiny_with(|c| c.input = fine_input);
     let ((coarse_px, coarse_eval), coarse_w) = run("coarse", &coarse);
     let ((fine_px, fine_eval), fine_w) = run("fine", &fine);
-    // The same designs, each sensor grid × 0.06 instead of × 0.03 (each side rounded).
     assert_eq!(coarse_px.len(), fine_px.len());
     assert!(!coarse_px.is_empty());
     for (c, f) in coarse_px.iter().zip(&fine_px) {
+        let (short, long) = (c[0].min(c[1]), c[0].max(c[1]));
+        assert!(long <= 160 && (short == 90 || long == 160), "{c:?}");
         for k in 0..2 {
-            assert!(f[k].abs_diff(2 * c[k]) <= 1, "{c:?} at 0.03, {f:?} at 0.06");
+            assert!(f[k].abs_diff(2 * c[k]) <= 1, "{c:?} at 90 px, {f:?} at 180 px");
         }
     }
-    // Other frames, other weights; the test is the same test town at render_scale 0.03: the
-    // same reference objects, whatever the weights.
+    // Other frames, other weights; the test town's reference objects are the same: an object
+    // is counted whatever its size in pixels.
     assert_ne!(coarse_w, fine_w);
     for light in ["day", "night"] {
         assert_eq!(coarse_eval[light]["class_objects"], fine_eval[light]["class_objects"]);
     }
-    let at_fine = PretrainConfig { render_scale: 0.06, ..tiny() };
-    let w = dir.path().join("fine.safetensors");
-    let other = evaluate_weights(&at_fine, &w).unwrap();
-    // Twice the resolution, the same reference objects: an object is counted whatever its size
-    // in pixels, so a finer evaluation is not scored on more (or other) objects.
-    assert_eq!(
-        serde_json::to_value(other.day.class_objects).unwrap(),
-        fine_eval["day"]["class_objects"]
-    );
 }
 
 #[test]
@@ -277,11 +276,11 @@ fn invalid_configuration_names_the_field_and_the_range() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
     let mut cfg = tiny();
-    cfg.render_scale = 3.0;
+    cfg.input.short_px = 3;
     let e = pretrain(&cfg, dir.path(), &dir.path().join("w.safetensors"), false, &mut go)
         .unwrap_err()
         .to_string();
-    assert_eq!(e, "pretrain.render_scale = 3 is invalid: 0.02 to 1");
+    assert_eq!(e, "pretrain.input.short_px = 3 is invalid: 16 to 1024 px");
     let mut cfg = tiny();
     cfg.experimental.class_weights = [1.0, 0.0, 1.0];
     let e = cfg.validate().unwrap_err().to_string();
@@ -307,10 +306,10 @@ fn invalid_configuration_names_the_field_and_the_range() {
         "pretrain.threads = 1 is invalid: at least 2 with experimental.pipeline = true (one makes \
          frames, one trains)"
     );
-    let cfg = tiny_with(|c| c.data.train_render_scale = Some(0.0));
+    let cfg = tiny_with(|c| c.data.exposure_spread = 0.5);
     assert_eq!(
         cfg.validate().unwrap_err().to_string(),
-        "pretrain.data.train_render_scale = 0 is invalid: 0.02 to 1"
+        "pretrain.data.exposure_spread = 0.5 is invalid: 1 to 100"
     );
     let cfg = tiny_with(|c| c.experimental.min_box_px = 0.5);
     assert_eq!(

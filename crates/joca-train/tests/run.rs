@@ -4,6 +4,7 @@
 mod common;
 
 use common::{poison_first_tensor, snapshot};
+use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_train::{
     FixedCamera, Method, PerturbationMutation, RealConfig, RunConfig, RunEvent, Scenario, Source,
@@ -35,7 +36,9 @@ fn tiny(method: Method) -> RunConfig {
         clip_gradient: Default::default(),
         ga_every: 2,
         task_weight: 7.0,
-        render_scale: 0.03,
+        // Small frames for a fast test: 120 × 90 for a 4:3 sensor.
+        input: DetectorInput { short_px: 90, long_max_px: 160, resampler: Resampler::Bilinear },
+        hardware_mutation: Default::default(),
         train_maps: 2,
         max_speed_mps: 15.0,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
@@ -236,7 +239,8 @@ fn checkpoint_files(run_dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
 fn a_run_stopped_at_every_checkpoint_resumes_to_the_uninterrupted_run_byte_for_byte() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
-    let cfg = RunConfig { steps_per_candidate: 3, render_scale: 0.08, ..tiny(Method::Joca) };
+    let input = DetectorInput { short_px: 240, long_max_px: 400, resampler: Resampler::Bilinear };
+    let cfg = RunConfig { steps_per_candidate: 3, input, ..tiny(Method::Joca) };
     let whole = dir.path().join("whole");
     run(&cfg, &whole, false, &mut go).unwrap();
     let results = std::fs::read(whole.join("results.json")).unwrap();
@@ -266,7 +270,7 @@ fn a_run_stopped_at_every_checkpoint_resumes_to_the_uninterrupted_run_byte_for_b
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 14] = [
+    let cases: [(Edit, &str); 17] = [
         (|c| c.max_speed_mps = f64::NAN, "run.max_speed_mps = NaN is invalid: 0 to 40"),
         (|c| c.max_speed_mps = -5.0, "run.max_speed_mps = -5 is invalid: 0 to 40"),
         (|c| c.detector.width = 0, "run.detector.width = 0 is invalid: 4 to 128"),
@@ -285,7 +289,10 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
             "run.task_weight = inf is invalid: above 0, at most 1000",
         ),
         (|c| c.task_weight = f64::NAN, "run.task_weight = NaN is invalid: above 0, at most 1000"),
-        (|c| c.render_scale = 1e-9, "run.render_scale = 0.000000001 is invalid: 0.02 to 1"),
+        (|c| c.input.short_px = 0, "run.input.short_px = 0 is invalid: 16 to 1024 px"),
+        (|c| c.input.short_px = 5000, "run.input.short_px = 5000 is invalid: 16 to 1024 px"),
+        (|c| c.input.long_max_px = 60, "run.input.long_max_px = 60 is invalid: 90 to 2048 px"),
+        (|c| c.input.long_max_px = 9999, "run.input.long_max_px = 9999 is invalid: 90 to 2048 px"),
         (|c| c.test_frames_per_episode = 0, "run.test_frames_per_episode = 0 is invalid: 1 to 500"),
         (|c| c.test_episodes = 0, "run.test_episodes = 0 is invalid: 1 to 10000"),
         (|c| c.generations = 0, "run.generations = 0 is invalid: 1 to 10000"),

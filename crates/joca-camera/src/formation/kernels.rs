@@ -6,7 +6,7 @@
 //! and every value consumes exactly one normal, which is what lets
 //! [`standard_normals`] reproduce the field.
 
-use super::{FormationParams, WHITE_LEVEL};
+use super::{FormationParams, NoiseGain, WHITE_LEVEL};
 use joca_core::HdrImage;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
@@ -80,6 +80,13 @@ fn fill_normals(z: &mut [f32], frame_seed: u64, band: usize) {
     z.iter_mut().for_each(|v| *v = rng.sample(StandardNormal));
 }
 
+/// The normals of band `t` scaled by the resize's noise gain, where there is one.
+fn scale_normals(z: &mut [f32], gain: Option<&NoiseGain>, band: usize) {
+    if let Some(g) = gain {
+        g.apply(z, band * TILE_ROWS);
+    }
+}
+
 #[inline(always)]
 fn quantise(v: f32) -> u8 {
     // Clamp first, so NaN-free values in [0, 255] round half up; `as` saturates anyway.
@@ -91,6 +98,7 @@ pub(super) fn form_u8(
     i0: &HdrImage,
     p: &FormationParams,
     seed: u64,
+    gain: Option<&NoiseGain>,
     out: &mut [u8],
     parallel: bool,
 ) {
@@ -104,6 +112,7 @@ pub(super) fn form_u8(
     let work = |z: &mut Vec<f32>, (t, (src, dst)): (usize, (&[f32], &mut [u8]))| {
         z.resize(src.len(), 0.0);
         fill_normals(z, seed, t);
+        scale_normals(z, gain, t);
         pattern.apply(src, z, dst, quantise);
     };
     if parallel {
@@ -134,7 +143,13 @@ pub(super) fn form_u8_with_normals(i0: &HdrImage, p: &FormationParams, z: &[f32]
 }
 
 /// Unclipped, unquantised formation into `out` (interleaved RGB floats).
-pub(super) fn form_linear(i0: &HdrImage, p: &FormationParams, seed: u64, out: &mut [f32]) {
+pub(super) fn form_linear(
+    i0: &HdrImage,
+    p: &FormationParams,
+    seed: u64,
+    gain: Option<&NoiseGain>,
+    out: &mut [f32],
+) {
     let band = TILE_ROWS * i0.width() * 3;
     if band == 0 {
         return;
@@ -144,11 +159,13 @@ pub(super) fn form_linear(i0: &HdrImage, p: &FormationParams, seed: u64, out: &m
     for (t, (src, dst)) in i0.data().chunks(band).zip(out.chunks_mut(band)).enumerate() {
         let z = &mut z[..src.len()];
         fill_normals(z, seed, t);
+        scale_normals(z, gain, t);
         pattern.apply(src, z, dst, |v| v);
     }
 }
 
-/// The normal field that formation with `seed` draws, in interleaved RGB order.
+/// The normal field that formation with `seed` draws, in interleaved RGB order, before any
+/// noise gain.
 pub(super) fn standard_normals(width: usize, height: usize, seed: u64) -> Vec<f32> {
     let band = TILE_ROWS * width * 3;
     let mut out = vec![0.0f32; width * height * 3];

@@ -16,12 +16,14 @@
 //!
 //! The normal samples come from per-tile generators seeded from one draw of the caller's stream,
 //! so a frame is bit-identical whether it is formed on one thread or many, and
-//! [`ImageFormation::standard_normals`] reproduces the exact `z` field a frame used (the
+//! [`ImageFormation::input_normals`] reproduces the exact `z` field a frame used (the
 //! differentiable formation of `joca-nn` consumes it to mirror this one).
 
 mod kernels;
 
 use crate::CameraError;
+use crate::catalogue::Sensor;
+use crate::input::Resampler;
 use crate::settings::DynamicSettings;
 use joca_core::units::linear_from_db;
 use joca_core::{HdrImage, Rgb8Image};
@@ -100,18 +102,51 @@ pub struct FormationParams {
 }
 
 /// Turns calibrated radiometry into camera frames.
+///
+/// Frames are formed at the size of the image they are given (the detector's input). A
+/// formation [`on_native_grid`](ImageFormation::on_native_grid) knows the sensor's own pixel
+/// grid and gives every input pixel the noise of forming the frame on that grid, Eq. 3 per
+/// native pixel, and resizing it with its [`Resampler`] (see [`crate::input`]): the variance of
+/// Eq. 3 times `Σw²` of the resize's weights at that pixel. Without a native grid the image is
+/// taken to be the sensor's own grid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImageFormation {
     calibration: Calibration,
     noise_scale: f64,
-    render_scale: f64,
+    resampler: Resampler,
+    native_px: Option<(usize, usize)>,
+}
+
+/// Per-pixel factors on the noise's standard deviation, `√(Σw²)` of a resize: the value at
+/// input pixel `(x, y)` is `cols[x] · rows[y]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseGain {
+    /// Per column.
+    pub cols: Vec<f32>,
+    /// Per row.
+    pub rows: Vec<f32>,
+}
+
+impl NoiseGain {
+    /// Multiplies the interleaved RGB normals `z` of rows `first_row..` (`width` pixels each)
+    /// by the factors.
+    pub fn apply(&self, z: &mut [f32], first_row: usize) {
+        let width = self.cols.len();
+        for (dy, row) in z.chunks_mut(width * 3).enumerate() {
+            let ry = self.rows[first_row + dy];
+            for (px, col) in row.chunks_exact_mut(3).zip(&self.cols) {
+                let k = ry * col;
+                px.iter_mut().for_each(|v| *v *= k);
+            }
+        }
+    }
 }
 
 impl ImageFormation {
     /// Formation with `calibration` and calibrated noise (×1).
     pub fn new(calibration: Calibration) -> Result<Self, CameraError> {
         calibration.validate()?;
-        Ok(Self { calibration, noise_scale: 1.0, render_scale: 1.0 })
+        Ok(Self { calibration, noise_scale: 1.0, resampler: Resampler::Bilinear, native_px: None })
     }
 
     /// The same formation with σp² and σr² multiplied by `noise_scale` (scenario "noise ×N").
@@ -128,36 +163,44 @@ impl ImageFormation {
         Ok(Self { noise_scale, ..self })
     }
 
-    /// The same formation for frames rendered at `render_scale` times the sensor's pixel grid
-    /// (DESIGN.md: a shortcut must not bend the physics). A rendered pixel then stands for
-    /// `1/s²` sensor pixels, and its noise is that of their area average: the variances of Eq. 3
-    /// are divided by `1/s²`, the mean is unchanged. What differs from forming every sensor pixel
-    /// and averaging: clipping applies to the average instead of to each sensor pixel, so within
-    /// a few σ of 0 or 255 the formed pixel is less biased than the sensor's average (by about
-    /// +0.1 DN at 3 DN and −1.3 DN at 250 DN at E0, G0 in the tests); quantisation rounds the
-    /// average once, as an 8-bit downscaled frame does.
-    pub fn with_render_scale(self, render_scale: f64) -> Result<Self, CameraError> {
-        if !(render_scale > 0.0 && render_scale <= 1.0) {
-            return Err(CameraError::OutOfRange {
-                field: "render_scale".into(),
-                value: render_scale,
-                min: 0.0,
-                max: 1.0,
-                unit: "",
-            });
+    /// The same formation with frames resized from the native grid by `resampler`.
+    pub fn with_resampler(self, resampler: Resampler) -> Self {
+        Self { resampler, ..self }
+    }
+
+    /// The same formation for a sensor whose pixel grid is `width × height`: images given to
+    /// it are that grid resized to the detector's input, and their noise is the native
+    /// formation's carried through the resize. What differs from forming each native pixel and
+    /// resizing: clipping and rounding apply once to the input pixel instead of to each native
+    /// pixel (within a few σ of 0 or 255 the native path's mean carries the clipping's bias),
+    /// the signal under a pixel's taps is taken as uniform, and neighbouring input pixels
+    /// that share native taps (an upscale, or area footprints at r < 2) get independent noise
+    /// where the resize would correlate it.
+    pub fn on_native_grid(self, width: usize, height: usize) -> Self {
+        Self { native_px: Some((width.max(1), height.max(1))), ..self }
+    }
+
+    /// [`on_native_grid`](ImageFormation::on_native_grid) of `sensor`'s pixel grid.
+    pub fn for_sensor(self, sensor: &Sensor) -> Self {
+        self.on_native_grid(sensor.res_x, sensor.res_y)
+    }
+
+    /// The resampler.
+    pub fn resampler(&self) -> Resampler {
+        self.resampler
+    }
+
+    /// The factors on the noise's standard deviation for an input of `width × height`, or
+    /// `None` where the image is the native grid itself.
+    pub fn noise_gain(&self, width: usize, height: usize) -> Option<NoiseGain> {
+        let (nw, nh) = self.native_px?;
+        if (nw, nh) == (width, height) || width == 0 || height == 0 {
+            return None;
         }
-        Ok(Self { render_scale, ..self })
-    }
-
-    /// The render scale s: a formed pixel is the average of `1/s²` sensor pixels.
-    pub fn render_scale(&self) -> f64 {
-        self.render_scale
-    }
-
-    /// The factor on σp² and σr²: the scenario's noise ×N over the `1/s²` sensor pixels a formed
-    /// pixel averages.
-    pub fn variance_scale(&self) -> f64 {
-        self.noise_scale * self.render_scale * self.render_scale
+        let sd = |n_in, n_out| -> Vec<f32> {
+            self.resampler.variance_factors(n_in, n_out).iter().map(|v| v.sqrt() as f32).collect()
+        };
+        Some(NoiseGain { cols: sd(nw, width), rows: sd(nh, height) })
     }
 
     /// The calibration.
@@ -176,7 +219,7 @@ impl ImageFormation {
         let gain_ratio = settings.gain_linear() / linear_from_db(c.gain_db);
         let area_ratio = (pixel_pitch_um / c.pixel_pitch_um).powi(2);
         let scale = settings.exposure_s / c.exposure_s * gain_ratio * area_ratio;
-        let n = self.variance_scale();
+        let n = self.noise_scale;
         FormationParams {
             intensity_scale: scale as f32,
             photon_var_per_dn: c.sigma_p2.map(|v| (gain_ratio * v * n) as f32),
@@ -194,12 +237,19 @@ impl ImageFormation {
     ) -> Rgb8Image {
         let params = self.params(settings, pixel_pitch_um);
         let mut out = Rgb8Image::zeros(i0.width(), i0.height());
-        kernels::form_u8(i0, &params, rng.random(), out.data_mut(), false);
+        kernels::form_u8(
+            i0,
+            &params,
+            rng.random(),
+            self.noise_gain(i0.width(), i0.height()).as_ref(),
+            out.data_mut(),
+            false,
+        );
         out
     }
 
     /// [`ImageFormation::form`] on a noise field drawn beforehand: `normals` is
-    /// [`ImageFormation::standard_normals`] for the seed `form`'s stream would yield, and the
+    /// [`ImageFormation::input_normals`] for the seed `form`'s stream would yield, and the
     /// frame is then bit-identical to `form`'s. Frames of one noise sample under several
     /// settings (DF-Grad's perturbed frames) draw the sample once instead of once per frame.
     ///
@@ -229,7 +279,14 @@ impl ImageFormation {
     ) -> Rgb8Image {
         let params = self.params(settings, pixel_pitch_um);
         let mut out = Rgb8Image::zeros(i0.width(), i0.height());
-        kernels::form_u8(i0, &params, rng.random(), out.data_mut(), true);
+        kernels::form_u8(
+            i0,
+            &params,
+            rng.random(),
+            self.noise_gain(i0.width(), i0.height()).as_ref(),
+            out.data_mut(),
+            true,
+        );
         out
     }
 
@@ -244,7 +301,13 @@ impl ImageFormation {
     ) -> HdrImage {
         let params = self.params(settings, pixel_pitch_um);
         let mut out = HdrImage::zeros(i0.width(), i0.height());
-        kernels::form_linear(i0, &params, rng.random(), out.data_mut());
+        kernels::form_linear(
+            i0,
+            &params,
+            rng.random(),
+            self.noise_gain(i0.width(), i0.height()).as_ref(),
+            out.data_mut(),
+        );
         out
     }
 
@@ -253,7 +316,21 @@ impl ImageFormation {
     pub fn standard_normals(width: usize, height: usize, noise_seed: u64) -> Vec<f32> {
         kernels::standard_normals(width, height, noise_seed)
     }
+
+    /// The noise field of a `width × height` frame in units of Eq. 3's σ at each pixel: the
+    /// [`standard_normals`](ImageFormation::standard_normals) times the resize's
+    /// [`noise_gain`](ImageFormation::noise_gain) (the same values where there is none). This
+    /// is what [`ImageFormation::form`] adds, scaled by σ, when its stream yields `noise_seed`.
+    pub fn input_normals(&self, width: usize, height: usize, noise_seed: u64) -> Vec<f32> {
+        let mut z = kernels::standard_normals(width, height, noise_seed);
+        if let Some(gain) = self.noise_gain(width, height) {
+            gain.apply(&mut z, 0);
+        }
+        z
+    }
 }
 
+#[cfg(test)]
+mod native_grid_tests;
 #[cfg(test)]
 mod tests;

@@ -90,7 +90,7 @@ fn without_noise_formation_is_eq2_exactly() {
 }
 
 /// Abramowitz & Stegun 7.1.26 (|error| < 1.5e-7): an independent reference for Φ.
-fn normal_cdf(x: f64) -> f64 {
+pub(super) fn normal_cdf(x: f64) -> f64 {
     let t = 1.0 / (1.0 + 0.327_591_1 * x.abs() / std::f64::consts::SQRT_2);
     let poly = t
         * (0.254_829_592
@@ -161,7 +161,15 @@ fn parallel_equals_sequential_and_normals_reproduce_the_frame() {
 
     let seed: u64 = streams.stream("f").random();
     let z = ImageFormation::standard_normals(97, 53, seed);
+    assert_eq!(formation.input_normals(97, 53, seed), z);
     assert_eq!(formation.form_with_normals(&img, s, 2.4, &z), a);
+    // On a native grid the input normals carry the resize's gain, and still reproduce the frame.
+    let on_grid = formation.on_native_grid(1000, 530);
+    let zg = on_grid.input_normals(97, 53, seed);
+    let a_grid = on_grid.form(&img, s, 2.4, &mut streams.stream("f"));
+    assert_eq!(on_grid.form_with_normals(&img, s, 2.4, &zg), a_grid);
+    assert_eq!(on_grid.form_parallel(&img, s, 2.4, &mut streams.stream("f")), a_grid);
+    assert_ne!(a_grid, a);
     let linear = formation.form_linear(&img, s, 2.4, &mut streams.stream("f"));
     let p = formation.params(s, 2.4);
     for (k, ((&i0, &zk), &lin)) in img.data().iter().zip(&z).zip(linear.data()).enumerate() {
@@ -181,74 +189,4 @@ fn bad_calibration_names_the_field() {
     let e = ImageFormation::new(c).unwrap_err().to_string();
     assert!(e.contains("calibration.sigma_r2"), "{e}");
     assert!(ImageFormation::new(CAL).unwrap().with_noise_scale(f64::NAN).is_err());
-}
-
-/// Forming at render scale s equals forming every sensor pixel and area-averaging `1/s²` of them,
-/// in mean and in variance per pixel, on flat fields across the range — the noise-against-
-/// resolution trade-off the paper studies. Variances are compared before the final rounding
-/// (the averaged sensor pixels carry their own rounding, 1/12 DN² each, which averaging divides
-/// by 1/s²); means after it, as the 8-bit frame is. Near the white level the two differ by the
-/// clipping, which a sensor applies per pixel, at 0 as at 255: the bounds below are what the test
-/// measures there.
-#[test]
-fn formation_at_render_scale_matches_native_formation_area_averaged() {
-    let (w, h, k) = (64usize, 64usize, 4usize); // s = 1/4: 16 sensor pixels per formed pixel
-    let native = ImageFormation::new(Calibration::DEFAULT).unwrap();
-    let scaled = native.with_render_scale(1.0 / k as f64).unwrap();
-    let s = DynamicSettings::new(5e-3, 10.0);
-    let streams = SeedStreams::new(11);
-    for level in [3.0f32, 30.0, 120.0, 250.0] {
-        let big = native.form(&flat(w * k, h * k, level), s, 3.75, &mut streams.indexed("n", 0));
-        let small = scaled.form(&flat(w, h, level), s, 3.75, &mut streams.indexed("s", 0));
-        let lin = scaled.form_linear(&flat(w, h, level), s, 3.75, &mut streams.indexed("l", 0));
-        for c in 0..3 {
-            // The native frame averaged over k×k blocks and rounded to 8 bits.
-            let mut averaged = Vec::with_capacity(w * h);
-            for y in 0..h {
-                for x in 0..w {
-                    let mut sum = 0.0f64;
-                    for dy in 0..k {
-                        for dx in 0..k {
-                            let i = ((y * k + dy) * w * k + x * k + dx) * 3 + c;
-                            sum += f64::from(big.data()[i]);
-                        }
-                    }
-                    averaged.push(sum / (k * k) as f64);
-                }
-            }
-            let rounded: Vec<f64> = averaged.iter().map(|v| v.round()).collect();
-            let formed: Vec<f64> = (0..w * h).map(|i| f64::from(small.data()[i * 3 + c])).collect();
-            let linear: Vec<f64> = (0..w * h).map(|i| f64::from(lin.data()[i * 3 + c])).collect();
-            let stats = |v: &[f64]| {
-                let m = v.iter().sum::<f64>() / v.len() as f64;
-                (m, v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64)
-            };
-            let ((ma, _), (mf, _)) = (stats(&rounded), stats(&formed));
-            // The formed pixel keeps the mean; the sensor's average carries the bias of clipping
-            // each pixel at 0 and at 255 (closed form for a normal X ~ N(μ, σ²):
-            // E[clip(X, 0, 255)] = μ + σ·(φ(b) − b·Φ(−b)) − σ·(φ(a) − a·Φ(−a)),
-            // b = μ/σ, a = (255 − μ)/σ) — up to +0.09 DN at 3 DN and −1.5 DN at 250 DN here.
-            let (mu, var) = expected_mean_var(f64::from(level), s, 3.75, 1.0, c);
-            let sd = var.sqrt();
-            let phi = |t: f64| (-t * t / 2.0).exp() / (2.0 * std::f64::consts::PI).sqrt();
-            let tail = |t: f64| sd * (phi(t) - t * normal_cdf(-t));
-            let clipped = mu + tail(mu / sd) - tail((255.0 - mu) / sd);
-            assert!((mf - mu).abs() < 0.05, "{level} DN, channel {c}: formed mean {mf} vs {mu}");
-            assert!((ma - clipped).abs() < 0.05, "{level} DN, channel {c}: {ma} vs {clipped}");
-            // Away from the clipping (more than 4 σ of a sensor pixel from 0 and 255).
-            if (20.0..200.0).contains(&level) {
-                let ((_, va), (_, vl)) = (stats(&averaged), stats(&linear));
-                let vl = vl + 1.0 / 12.0 / (k * k) as f64;
-                // 4096 pixels: the variance estimate's standard error is ~2.2 %.
-                assert!((va / vl - 1.0).abs() < 0.1, "{level} DN, channel {c}: var {va} vs {vl}");
-            }
-        }
-    }
-    // And the factor itself: 1/16 of Eq. 3's variance.
-    let p1 = native.params(s, 3.75);
-    let p16 = scaled.params(s, 3.75);
-    for c in 0..3 {
-        assert!((p1.read_var[c] / p16.read_var[c] - 16.0).abs() < 1e-4);
-        assert!((p1.photon_var_per_dn[c] / p16.photon_var_per_dn[c] - 16.0).abs() < 1e-4);
-    }
 }

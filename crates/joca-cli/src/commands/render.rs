@@ -5,8 +5,8 @@ use crate::{draw, io};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use joca_camera::{
-    AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DynamicSettings, ImageFormation,
-    sensor_by_name,
+    AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DetectorInput, DynamicSettings,
+    ImageFormation, Resampler, sensor_by_name,
 };
 use joca_core::units::{ms_from_s, s_from_ms};
 use joca_core::{FrameRequest, FrameSource, Rgb8Image, SeedStreams};
@@ -25,6 +25,24 @@ pub enum Light {
     Tunnel,
     /// Gradual day → night → day over 24 s.
     Cycle,
+}
+
+/// How a sensor's grid is resized to the detector input.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ResamplerArg {
+    /// Two taps per axis, no anti-aliasing (the paper's detector transform).
+    Bilinear,
+    /// Overlap-weighted mean (binning).
+    Area,
+}
+
+impl From<ResamplerArg> for Resampler {
+    fn from(r: ResamplerArg) -> Self {
+        match r {
+            ResamplerArg::Bilinear => Resampler::Bilinear,
+            ResamplerArg::Area => Resampler::Area,
+        }
+    }
 }
 
 impl From<Light> for Illumination {
@@ -62,9 +80,17 @@ pub struct Args {
     /// Camera height above the ground, m (1.3 to 1.7).
     #[arg(long, default_value_t = 1.65)]
     z: f64,
-    /// Output resolution = sensor pixel grid × this factor.
-    #[arg(long, default_value_t = 0.08)]
-    render_scale: f64,
+    /// Detector input short side, px: the frame is the sensor's grid resized to it (aspect
+    /// kept, long side at most --long-max-px).
+    #[arg(long, default_value_t = 240)]
+    short_px: usize,
+    /// Detector input long side at most this, px.
+    #[arg(long, default_value_t = 400)]
+    long_max_px: usize,
+    /// How the sensor's grid is resized to the input: bilinear (the paper's detector
+    /// transform) or area (binning); sets how much of the native pixels' noise remains.
+    #[arg(long, value_enum, default_value_t = ResamplerArg::Bilinear)]
+    resampler: ResamplerArg,
     /// Fixed exposure time, ms (0.1 to 50); without it AverageAE controls exposure and gain.
     #[arg(long, requires = "gain_db")]
     exposure_ms: Option<f64>,
@@ -104,13 +130,14 @@ pub fn run(args: &Args) -> Result<()> {
     space.x_m.check("--x", args.x, " m")?;
     space.z_m.check("--z", args.z, " m")?;
     space.focal_length_mm.check("--focal-mm", args.focal_mm, " mm")?;
-    if !(joca_train::MIN_RENDER_SCALE..=1.0).contains(&args.render_scale) {
-        bail!(
-            "--render-scale = {} is out of range: allowed {} to 1",
-            args.render_scale,
-            joca_train::MIN_RENDER_SCALE
-        );
-    }
+    let input = DetectorInput {
+        short_px: args.short_px,
+        long_max_px: args.long_max_px,
+        resampler: args.resampler.into(),
+    };
+    input.validate("--input").map_err(|e| {
+        anyhow::anyhow!("{}", e.to_string().replace("--input.", "--").replace('_', "-"))
+    })?;
     if !(0.0..=joca_train::MAX_SPEED_MPS).contains(&args.max_speed_mps) {
         bail!(
             "--max-speed-mps = {} is out of range: allowed 0 to {}",
@@ -139,7 +166,7 @@ pub fn run(args: &Args) -> Result<()> {
         focal_length_mm: args.focal_mm,
         sensor_index: sensor.index,
     };
-    let camera = design.pinhole(args.render_scale);
+    let camera = design.pinhole(&input);
     let config = SimConfig {
         map_seed: args.map_seed,
         max_speed_mps: args.max_speed_mps,
@@ -158,7 +185,8 @@ pub fn run(args: &Args) -> Result<()> {
     let formation = ImageFormation::new(Calibration::DEFAULT)?
         .with_noise_scale(args.noise_scale)
         .context("invalid --noise-scale")?
-        .with_render_scale(args.render_scale)?;
+        .with_resampler(input.resampler)
+        .for_sensor(sensor);
     let ae = AverageAe::new(ranges);
     let streams = SeedStreams::new(args.seed);
     // Written in full or not at all: a full disk or a kill leaves the earlier output (or none).

@@ -105,14 +105,16 @@ fn check_run_dir(out: &Path, resume: bool) -> Result<()> {
 pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
     resolve_weights(&mut cfg);
     println!(
-        "joca run: method {}, scenario {}, {} generations x {} candidates x {} steps, render \
-            scale {}, run directory {}",
+        "joca run: method {}, scenario {}, {} generations x {} candidates x {} steps, detector \
+            input short side {} px (long <= {} px, {}), run directory {}",
         cfg.method.name(),
         cfg.scenario.name(),
         cfg.generations,
         cfg.population,
         cfg.steps_per_candidate,
-        cfg.render_scale,
+        cfg.input.short_px,
+        cfg.input.long_max_px,
+        cfg.input.resampler,
         out.display()
     );
     let kernels = joca_nn::kernels::chosen();

@@ -51,13 +51,16 @@ pub fn run(args: &Args) -> Result<()> {
     }
     println!(
         "pre-training the detector: {} frames ({} per step, {}), {} frames per random camera, \
-            render scale {} (test {}), {} threads; run directory {}",
+            detector input short side {} px (long <= {} px, {}), exposure spread {}, {} threads; \
+            run directory {}",
         cfg.steps,
         cfg.batch,
         precision.name(),
         cfg.data.frames_per_design,
-        cfg.train_scale(),
-        cfg.render_scale,
+        cfg.input.short_px,
+        cfg.input.long_max_px,
+        cfg.input.resampler,
+        cfg.data.exposure_spread,
         cfg.threads,
         run_dir.display()
     );

@@ -2,6 +2,7 @@
 //! by field, and the learning-rate schedule.
 
 use crate::TrainError;
+use joca_camera::DetectorInput;
 use joca_nn::detector::{DetectorConfig, Precision, Regression};
 use serde::{Deserialize, Serialize};
 
@@ -27,10 +28,10 @@ pub struct PretrainConfig {
     /// convolutions with float32 weights, optimiser and loss; evaluation stays float32).
     #[serde(default)]
     pub precision: Precision,
-    /// Output resolution = sensor grid × this: the scale of every evaluation (the test
-    /// camera's 320×240 at 0.08), and of the training frames unless `data.train_render_scale`
-    /// says otherwise.
-    pub render_scale: f64,
+    /// The detector's input (`input = { short_px, long_max_px, resampler }`), of the training
+    /// frames and of every evaluation: each random design's frames are rendered at this size
+    /// with its own field of view and the noise of its native grid carried through the resize.
+    pub input: DetectorInput,
     /// Detector size.
     pub detector: DetectorConfig,
     /// Write a checkpoint every this many designs; the designs between two checkpoints have
@@ -76,13 +77,12 @@ pub struct DataConfig {
     /// random training town, with its own drive, time and light), because 45 consecutive frames
     /// at 10 frames/s are nearly the same scene.
     pub frames_per_episode: usize,
-    /// Render scale of the training frames (default: `render_scale`). The random designs'
-    /// frames at 0.08 are 100–330 px wide (median 164) where the test camera's are 320, so
-    /// that most walkers and nearly all traffic signs in view are under the 8-px annotation
-    /// rule; a finer scale shows the detector more annotated objects per frame, at a higher
-    /// cost per frame. The joint runs and every evaluation stay at `render_scale`.
-    #[serde(default)]
-    pub train_render_scale: Option<f64>,
+    /// Spread of the training frames' exposure × gain around AverageAE's: each frame's total
+    /// is AverageAE's times a factor log-uniform in `[1/s, s]`, split at random between
+    /// exposure and gain (clamped to their ranges). 1 (default): AverageAE's frames only; a
+    /// spread shows the detector under- and over-exposed frames, as other controllers make.
+    #[serde(default = "one")]
+    pub exposure_spread: f64,
     /// Number of training towns to draw episodes from.
     pub train_maps: u64,
     /// Ego top speed, m/s.
@@ -172,11 +172,6 @@ impl PretrainConfig {
         self.eval.final_episodes.unwrap_or(self.eval.episodes)
     }
 
-    /// Render scale of the training frames.
-    pub fn train_scale(&self) -> f64 {
-        self.data.train_render_scale.unwrap_or(self.render_scale)
-    }
-
     /// libtorch threads of the gradient steps (with [`ExperimentalConfig::pipeline`], the
     /// threads that do not make frames).
     pub fn trainer_threads(&self) -> usize {
@@ -224,12 +219,9 @@ impl PretrainConfig {
                 "1 to data.frames_per_design",
             );
         }
-        let scales = (crate::MIN_RENDER_SCALE..=1.0, format!("{} to 1", crate::MIN_RENDER_SCALE));
-        if !scales.0.contains(&self.render_scale) {
-            return bad("render_scale", self.render_scale.to_string(), &scales.1);
-        }
-        if let Some(s) = self.data.train_render_scale.filter(|s| !scales.0.contains(s)) {
-            return bad("data.train_render_scale", s.to_string(), &scales.1);
+        crate::run::check_input(&self.input, "pretrain")?;
+        if !(1.0..=100.0).contains(&self.data.exposure_spread) {
+            return bad("data.exposure_spread", self.data.exposure_spread.to_string(), "1 to 100");
         }
         if self.data.train_maps == 0 {
             return bad("data.train_maps", "0".into(), "at least 1");

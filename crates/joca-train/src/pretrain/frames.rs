@@ -6,7 +6,8 @@
 use super::PretrainConfig;
 use crate::TrainError;
 use joca_camera::{
-    AverageAe, Calibration, CameraDesign, Capture, DynamicSettings, GenomeCodec, ImageFormation,
+    AccRanges, AverageAe, Calibration, CameraDesign, Capture, DetectorInput, DynamicSettings,
+    GenomeCodec, ImageFormation,
 };
 use joca_core::{
     Annotation, FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams, training_targets,
@@ -174,15 +175,17 @@ impl<'w> FrameStream<'w> {
                     motion_scale: 1.0,
                 };
                 let mut noise = world.streams.indexed("pretrain-noise", (step + lane) as u64);
-                let Capture { frame, image } = world.formation.capture(
+                let settings = spread(run.settings, config.data.exposure_spread, &mut noise);
+                let request = FrameRequest { exposure_s: settings.exposure_s, ..request };
+                let Capture { frame, image } = run.formation.capture(
                     sim,
                     &run.camera,
                     &request,
-                    run.settings,
+                    settings,
                     run.pitch_um,
                     &mut noise,
                 )?;
-                let next = world.ae.step(run.settings, &image);
+                let next = world.ae.step(settings, &image);
                 let (truth, ignore) = training_targets(
                     &frame.boxes,
                     &frame.ignore,
@@ -248,6 +251,8 @@ struct DesignRun {
     episodes_per_lane: usize,
     design: CameraDesign,
     camera: PinholeCamera,
+    /// The run's formation on the design's native grid.
+    formation: ImageFormation,
     pitch_um: f64,
     settings: DynamicSettings,
     map_seed: u64,
@@ -273,7 +278,8 @@ impl DesignRun {
             index,
             lane,
             episodes_per_lane: lane_frames.div_ceil(config.data.frames_per_episode),
-            camera: design.pinhole(world.config.train_scale()),
+            camera: design.pinhole(&world.config.input),
+            formation: world.formation.for_sensor(design.sensor()),
             pitch_um: design.sensor().pixel_pitch_um,
             design,
             settings: default_settings(),
@@ -311,7 +317,12 @@ impl DesignRun {
         let sim_config = &world.sim_config;
         let span = config.data.frames_per_episode as f64 * sim_config.frame_interval_s;
         self.t0 = rng.random_range(1.0..(sim_config.episode_s - 1.0 - span).max(1.0 + 1e-9));
-        let probe = self.design.pinhole(config.train_scale() / 4.0);
+        let quarter = DetectorInput {
+            short_px: (config.input.short_px / 4).max(1),
+            long_max_px: (config.input.long_max_px / 4).max(1),
+            ..config.input
+        };
+        let probe = self.design.pinhole(&quarter);
         let request = FrameRequest {
             episode: self.episode,
             time_s: self.t0,
@@ -330,12 +341,51 @@ impl DesignRun {
     }
 }
 
+/// `settings` with exposure × gain multiplied by a factor log-uniform in `[1/spread, spread]`,
+/// split at random between the two (a share `u` of the log factor to exposure), each clamped
+/// to its range. A spread of 1 returns `settings` and draws nothing.
+fn spread(settings: DynamicSettings, spread: f64, rng: &mut impl Rng) -> DynamicSettings {
+    if spread <= 1.0 {
+        return settings;
+    }
+    let log_factor = rng.random_range(-spread.ln()..spread.ln());
+    let u: f64 = rng.random();
+    let ranges = AccRanges::PAPER;
+    let exposure_s = ranges.exposure_s.clamp(settings.exposure_s * (u * log_factor).exp());
+    // A linear gain factor g is 20·log10(g) dB.
+    let gain_db = ranges
+        .gain_db
+        .clamp(settings.gain_db + 20.0 * (1.0 - u) * log_factor / std::f64::consts::LN_10);
+    DynamicSettings::new(exposure_s, gain_db)
+}
+
 fn default_settings() -> DynamicSettings {
     DynamicSettings::new(Calibration::DEFAULT.exposure_s, Calibration::DEFAULT.gain_db)
 }
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_spread_moves_exposure_times_gain_within_its_factor() {
+        use joca_core::SeedStreams;
+        let mut rng = SeedStreams::new(4).stream("spread");
+        let base = DynamicSettings::new(5e-3, 10.0);
+        assert_eq!(spread(base, 1.0, &mut rng), base);
+        let total = |s: DynamicSettings| (s.exposure_s * s.gain_linear()).ln();
+        let (mut lower, mut higher) = (0, 0);
+        for _ in 0..2000 {
+            let s = spread(base, 4.0, &mut rng);
+            let d = total(s) - total(base);
+            // Within [1/4, 4] (nothing clamps around 5 ms and 10 dB with a factor of 4).
+            assert!(d.abs() <= 4f64.ln() + 1e-9, "{s:?}");
+            lower += usize::from(d < -1.0);
+            higher += usize::from(d > 1.0);
+        }
+        // Uniform on [−ln 4, ln 4]: P(d < −1) = P(d > 1) = (ln 4 − 1)/(2 ln 4) ≈ 0.139, 278 of
+        // 2000 (binomial standard deviation 15).
+        assert!((218..338).contains(&lower) && (218..338).contains(&higher), "{lower} {higher}");
+    }
+
     use super::*;
 
     #[test]

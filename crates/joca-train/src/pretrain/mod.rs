@@ -141,9 +141,9 @@ pub fn pretrain(
     let world = World {
         config,
         streams: &streams,
-        // Training frames are rendered at the training scale (see `with_render_scale`).
+        // Each design's frames carry its native grid's noise (`DesignRun::formation`).
         formation: ImageFormation::new(Calibration::DEFAULT)?
-            .with_render_scale(config.train_scale())?,
+            .with_resampler(config.input.resampler),
         ae: AverageAe::new(AccRanges::PAPER),
         sim_config: SimConfig {
             max_speed_mps: config.data.max_speed_mps,
@@ -341,7 +341,7 @@ fn evaluate_day_night(
         episodes,
         frames_per_episode: 10,
         warmup_frames: 3,
-        render_scale: config.render_scale,
+        input: config.input,
         noise_scale: 1.0,
         motion_scale: 1.0,
     };

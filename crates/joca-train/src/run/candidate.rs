@@ -8,7 +8,7 @@ use super::perturbation::{self, Probe};
 use super::{Context, RealSources, simulator};
 use crate::TrainError;
 use crate::control::{Decision, SensorLimits, controller};
-use joca_camera::{CameraDesign, ImageFormation};
+use joca_camera::CameraDesign;
 use joca_core::{
     Frame, FrameRequest, FrameSource, SourceError, TRAINING_MIN_BOX_PX, training_targets,
 };
@@ -93,7 +93,8 @@ pub(super) fn train(
     let c = cx.config.clone();
     let stretches = stretches(cx, scenes);
     let real = cx.real.clone();
-    let camera = design.pinhole(c.render_scale);
+    let camera = design.pinhole(&c.input);
+    let formation = cx.formation.for_sensor(design.sensor());
     let pitch = design.sensor().pixel_pitch_um;
     let sim = source(&real, &stretches[0]);
     let sensor = SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s());
@@ -143,7 +144,7 @@ pub(super) fn train(
             .count_subframes(perturbed.iter().map(|f| f.subframes).fold(frame.subframes, u32::max));
         let mut ga_target = None;
         if !members.is_empty() {
-            let probe = Probe { sensor, global_step: global, scene_step: common };
+            let probe = Probe { sensor, formation, global_step: global, scene_step: common };
             let best = perturbation::search(cx, model, perturbation, &probe, &members, &perturbed)?;
             if step % c.ga_every == 0 {
                 ga_target = best;
@@ -152,8 +153,7 @@ pub(super) fn train(
         }
         // 3. Forward mode: differentiable formation, detector, DF-Grad update.
         let noise_seed: u64 = cx.streams.indexed("noise", common).random();
-        let normals =
-            ImageFormation::standard_normals(camera.width_px, camera.height_px, noise_seed);
+        let normals = formation.input_normals(camera.width_px, camera.height_px, noise_seed);
         cx.watch.lap(|t| &mut t.noise_ms);
         let scene = Scene {
             i0: frame.hdr.data(),

@@ -15,7 +15,7 @@ use super::{Context, SettingsByLight, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use crate::control::{ExposureControl, SensorLimits};
-use joca_camera::{CameraDesign, Capture, DynamicSettings};
+use joca_camera::{CameraDesign, Capture, DynamicSettings, ImageFormation};
 use joca_core::units::linear_from_db;
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{BandScores, TaskMetrics, TaskScores};
@@ -42,6 +42,8 @@ struct Driver {
     applied: DynamicSettings,
     previous: Option<Rgb8Image>,
     pixel_pitch_um: f64,
+    /// The run's formation on the design's native grid.
+    formation: ImageFormation,
 }
 
 /// What one closed-loop frame produced.
@@ -66,7 +68,8 @@ impl Driver {
         model.set_max_exposure(sensor.max_exposure_s);
         let mut control = cx.test_controller.control(cx.config.method.neural(), sensor, cx.ranges);
         let applied = control.start();
-        Self { control, applied, previous: None, pixel_pitch_um }
+        let formation = cx.formation.for_sensor(design.sensor());
+        Self { control, applied, previous: None, pixel_pitch_um, formation }
     }
 
     /// Sets this frame's exposure and gain from the previous frame, captures and detects.
@@ -90,7 +93,7 @@ impl Driver {
             exposure_s: self.applied.exposure_s,
             motion_scale: cx.config.scenario.motion_scale(),
         };
-        let Capture { frame, image } = cx.formation.capture(
+        let Capture { frame, image } = self.formation.capture(
             sim,
             camera,
             &request,
@@ -152,7 +155,7 @@ pub(super) fn test(
     out: Option<&Path>,
 ) -> Result<Tested, TrainError> {
     let c = cx.config.clone();
-    let camera = design.pinhole(c.render_scale);
+    let camera = design.pinhole(&c.input);
     let mut metrics = TaskMetrics::default();
     let mut sums: BTreeMap<String, LightSums> = BTreeMap::new();
     let mut trace = String::new();

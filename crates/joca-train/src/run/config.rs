@@ -2,7 +2,7 @@
 
 use super::method::FixedCamera;
 use crate::TrainError;
-use joca_camera::Calibration;
+use joca_camera::{Calibration, CameraError, DetectorInput};
 use joca_data::blur::Linearize;
 use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use joca_nn::detector::{DetectorConfig, Precision};
@@ -11,9 +11,6 @@ use joca_record::{Method, Scenario};
 use joca_sim::VisibilityRules;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
-
-/// The smallest `render_scale`: the catalogue's smallest grid then renders about 26 × 19 px.
-pub const MIN_RENDER_SCALE: f64 = 0.02;
 
 /// The highest ego top speed, m/s (144 km/h).
 pub const MAX_SPEED_MPS: f64 = 40.0;
@@ -35,6 +32,31 @@ pub(crate) fn check_detector(d: &DetectorConfig, table: &str) -> Result<(), Trai
         return bad("classes", d.classes, "3 (vehicle, walker, traffic sign)");
     }
     Ok(())
+}
+
+/// Checks a detector input (`table.input`), naming the field and its range.
+pub(crate) fn check_input(input: &DetectorInput, table: &str) -> Result<(), TrainError> {
+    input.validate(&format!("{table}.input")).map_err(|e| match e {
+        CameraError::OutOfRange { field, value, min, max, unit } => TrainError::Config {
+            field,
+            value: value.to_string(),
+            allowed: format!("{min} to {max}{unit}"),
+        },
+        other => TrainError::Camera(other),
+    })
+}
+
+/// The hardware GA's mutation operator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HardwareMutation {
+    /// TaCOS's published operator: each gene ×U(0.8, 1.2) + U(−a, a), a = 3 in gene units for
+    /// the focal length (mm) and the sensor genes (mm, µm), a third of the range for the mount
+    /// genes (whose ranges are under 3 m); the best 3 in 10 carried unchanged.
+    #[default]
+    Tacos,
+    /// The paper's printed operator: ×U(0.8, 1.2), the best half kept.
+    Paper,
 }
 
 /// Settings of a run (the `[run]` table of a preset).
@@ -85,8 +107,15 @@ pub struct RunConfig {
     pub ga_every: usize,
     /// Task-loss weight of the ACC loss (GA loss weight 1).
     pub task_weight: f64,
-    /// Output resolution = sensor grid × this.
-    pub render_scale: f64,
+    /// The detector's input (`input = { short_px, long_max_px, resampler }`): every design's
+    /// frames are rendered at this size with the design's own field of view, and carry the
+    /// noise of the sensor's native grid through the resize.
+    pub input: DetectorInput,
+    /// The hardware GA's mutation: `tacos` (default: ×U(0.8, 1.2) plus an additive U(−3, 3) in
+    /// gene units, mount genes a third of their range, 3 elites in 10) or `paper` (×U(0.8, 1.2)
+    /// only, the best half kept: offspring cannot leave a sensor their parents share).
+    #[serde(default)]
+    pub hardware_mutation: HardwareMutation,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.
@@ -364,13 +393,7 @@ impl RunConfig {
         if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
             return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");
         }
-        if !(MIN_RENDER_SCALE..=1.0).contains(&self.render_scale) {
-            return bad(
-                "render_scale",
-                self.render_scale.to_string(),
-                &format!("{MIN_RENDER_SCALE} to 1"),
-            );
-        }
+        check_input(&self.input, "run")?;
         if !(0.0..=MAX_SPEED_MPS).contains(&self.max_speed_mps) {
             return bad(
                 "max_speed_mps",

@@ -133,7 +133,8 @@ pub(super) fn test_design(
         exposure_gain_by_illumination: tested.exposure_gain,
         mean_dn_by_illumination: tested.mean_dn,
         best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
-        render_scale: config.render_scale,
+        input: Some(config.input),
+        render_scale: None,
         // Without a recording the test town is used, whatever `test_source` says.
         source: if config.source.is_recording() && config.test_source.is_recording() {
             config.test_source.to_string()

@@ -15,6 +15,7 @@ mod candidate;
 mod closed_loop;
 mod config;
 mod evaluate;
+mod hardware;
 mod method;
 mod perturbation;
 mod results;
@@ -25,11 +26,11 @@ use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
 use crate::control::TestController;
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
-pub(crate) use config::check_detector;
 pub use config::{
-    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MIN_RENDER_SCALE, PerturbationMutation, RealConfig,
+    HardwareMutation, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, RealConfig,
     ReferenceConfig, RunConfig, Source, TieBreak,
 };
+pub(crate) use config::{check_detector, check_input};
 use evaluate::{best_design, test_design};
 pub use evaluate::{cpu_description, evaluate_run};
 use joca_camera::{
@@ -37,7 +38,7 @@ use joca_camera::{
 };
 use joca_core::SeedStreams;
 use joca_data::folder::Recording;
-use joca_evolve::{Ga, GaConfig};
+use joca_evolve::Ga;
 use joca_nn::Engine;
 use joca_nn::joint::JointModel;
 use joca_record::{CandidateRecord, Event, GenerationRecord};
@@ -188,11 +189,9 @@ pub fn run(
     let (mut cx, mut model) = setup(config, Box::new(log), log_path)?;
     let streams = cx.streams;
     let codec = cx.codec.clone();
-    let hw_bounds: Vec<(f64, f64)> =
-        codec.genes().iter().map(|g| (g.bounds.min, g.bounds.max)).collect();
     let mut init_rng = streams.stream("hardware-init");
     let mut hardware = Ga::new(
-        GaConfig::new(config.population, hw_bounds, (0.8, 1.2)).map_err(ga_err)?,
+        hardware::ga_config(config.hardware_mutation, config.population, &codec)?,
         &mut init_rng,
     );
     hardware.apply(|g| {
@@ -356,10 +355,10 @@ fn setup(
     let cal = Calibration::DEFAULT;
     let ranges = AccRanges::PAPER;
     let n = config.scenario.noise_scale();
-    // Frames are rendered at `render_scale`: each formed pixel carries the noise of the sensor
-    // pixels it stands for, averaged.
+    // Frames are rendered at the detector's input; each design's formation (`for_sensor`) gives
+    // them the noise of its native grid carried through the configured resize.
     let formation =
-        ImageFormation::new(cal)?.with_noise_scale(n)?.with_render_scale(config.render_scale)?;
+        ImageFormation::new(cal)?.with_noise_scale(n)?.with_resampler(config.input.resampler);
     let mut model = JointModel::new(&engine, config.detector, ranges, formation);
     if !config.detector_weights.is_empty() {
         model.load_detector(Path::new(&config.detector_weights))?;

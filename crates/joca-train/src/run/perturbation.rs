@@ -50,6 +50,8 @@ pub(super) fn ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainE
 /// The frame being perturbed: the sensor and the step's indices.
 pub(super) struct Probe {
     pub(super) sensor: SensorLimits,
+    /// The run's formation on the design's native grid.
+    pub(super) formation: ImageFormation,
     /// Global step index: seeds the GA's update.
     pub(super) global_step: u64,
     /// The step's scene index, common to the candidates of a generation: seeds the noise.
@@ -141,9 +143,8 @@ pub(super) fn search(
     let images: Vec<Rgb8Image> = match frames.first() {
         Some(first) => {
             let seed: u64 = cx.streams.indexed("perturbation-noise", probe.scene_step).random();
-            let normals =
-                ImageFormation::standard_normals(first.hdr.width(), first.hdr.height(), seed);
-            let (formation, pitch) = (&cx.formation, probe.sensor.pixel_pitch_um);
+            let (formation, pitch) = (&probe.formation, probe.sensor.pixel_pitch_um);
+            let normals = formation.input_normals(first.hdr.width(), first.hdr.height(), seed);
             members
                 .par_iter()
                 .zip(frames.par_iter())

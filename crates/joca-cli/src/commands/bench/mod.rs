@@ -349,14 +349,14 @@ fn bench_step(steps: usize, preset: &str) -> Result<()> {
     cfg.method = Method::Joca;
     crate::commands::run::resolve_weights(&mut cfg);
     let design = FixedCamera::Flir.design();
-    let (w, h) = design.resolution(cfg.render_scale);
+    let (w, h) = design.resolution(&cfg.input);
     cfg.scoring_precision = Precision::Fp32;
     let b = joca_train::bench_step(&cfg, &design, steps, None)?;
     let total = b.total_ms();
     println!(
-        "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (render scale {}), {} threads, mean \
-            of {} steps, perturbed frames scored in fp32",
-        cfg.render_scale, cfg.threads, b.steps
+        "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (detector input, {} resize), {} \
+            threads, mean of {} steps, perturbed frames scored in fp32",
+        cfg.input.resampler, cfg.threads, b.steps
     );
     if !Precision::native_bf16() {
         println!(
