@@ -3,7 +3,7 @@
 //! the tunnel transition with the exposure and gain each controller chose.
 //!
 //! Frames are enlarged with nearest-neighbour sampling so the pixels the detector saw stay
-//! visible (at the presets' render scale a frame is about 150 pixels wide).
+//! visible (at the presets' detector input a frame is 240 to 400 pixels wide).
 
 use crate::ReportError;
 use crate::data::RunData;

@@ -53,7 +53,7 @@ pub struct Args {
     /// for `bench flow` (each is skipped, with a message, where it cannot be imported).
     #[arg(long, default_value = "python3")]
     python: String,
-    /// Preset whose [run] settings `bench step` uses (render scale, threads, weights).
+    /// Preset whose [run] settings `bench step` uses (detector input, threads, weights).
     #[arg(long, default_value = "quick")]
     preset: String,
     /// `bench flow`: a pair of frames to measure on (same size) instead of the built-in one.
