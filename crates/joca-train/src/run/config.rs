@@ -1,5 +1,6 @@
 //! The `[run]` table: every field of a joint run, checked once by [`RunConfig::validate`].
 
+use super::hardware::HardwareMutation;
 use super::method::FixedCamera;
 use crate::TrainError;
 use joca_camera::{Calibration, CameraError, DetectorInput};
@@ -44,19 +45,6 @@ pub(crate) fn check_input(input: &DetectorInput, table: &str) -> Result<(), Trai
         },
         other => TrainError::Camera(other),
     })
-}
-
-/// The hardware GA's mutation operator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum HardwareMutation {
-    /// TaCOS's published operator: each gene ×U(0.8, 1.2) + U(−a, a), a = 3 in gene units for
-    /// the focal length (mm) and the sensor genes (mm, µm), a third of the range for the mount
-    /// genes (whose ranges are under 3 m); the best 3 in 10 carried unchanged.
-    #[default]
-    Tacos,
-    /// The paper's printed operator: ×U(0.8, 1.2), the best half kept.
-    Paper,
 }
 
 /// Settings of a run (the `[run]` table of a preset).

@@ -16,6 +16,7 @@ mod closed_loop;
 mod config;
 mod evaluate;
 mod hardware;
+pub use hardware::HardwareMutation;
 mod method;
 mod perturbation;
 mod results;
@@ -27,8 +28,8 @@ use crate::control::TestController;
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub use config::{
-    HardwareMutation, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, RealConfig,
-    ReferenceConfig, RunConfig, Source, TieBreak,
+    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, RealConfig, ReferenceConfig,
+    RunConfig, Source, TieBreak,
 };
 pub(crate) use config::{check_detector, check_input};
 use evaluate::{best_design, test_design};
