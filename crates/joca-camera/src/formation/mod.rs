@@ -235,17 +235,7 @@ impl ImageFormation {
         pixel_pitch_um: f64,
         rng: &mut impl Rng,
     ) -> Rgb8Image {
-        let params = self.params(settings, pixel_pitch_um);
-        let mut out = Rgb8Image::zeros(i0.width(), i0.height());
-        kernels::form_u8(
-            i0,
-            &params,
-            rng.random(),
-            self.noise_gain(i0.width(), i0.height()).as_ref(),
-            out.data_mut(),
-            false,
-        );
-        out
+        self.form_u8(i0, settings, pixel_pitch_um, rng.random(), false)
     }
 
     /// [`ImageFormation::form`] on a noise field drawn beforehand: `normals` is
@@ -277,16 +267,23 @@ impl ImageFormation {
         pixel_pitch_um: f64,
         rng: &mut impl Rng,
     ) -> Rgb8Image {
+        self.form_u8(i0, settings, pixel_pitch_um, rng.random(), true)
+    }
+
+    /// The 8-bit frame of [`ImageFormation::form`] for the frame seed `seed`, on rayon's
+    /// threads or not (same bits either way).
+    fn form_u8(
+        &self,
+        i0: &HdrImage,
+        settings: DynamicSettings,
+        pixel_pitch_um: f64,
+        seed: u64,
+        parallel: bool,
+    ) -> Rgb8Image {
         let params = self.params(settings, pixel_pitch_um);
+        let gain = self.noise_gain(i0.width(), i0.height());
         let mut out = Rgb8Image::zeros(i0.width(), i0.height());
-        kernels::form_u8(
-            i0,
-            &params,
-            rng.random(),
-            self.noise_gain(i0.width(), i0.height()).as_ref(),
-            out.data_mut(),
-            true,
-        );
+        kernels::form_u8(i0, &params, seed, gain.as_ref(), out.data_mut(), parallel);
         out
     }
 
