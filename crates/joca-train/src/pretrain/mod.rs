@@ -7,6 +7,7 @@
 
 mod config;
 mod frames;
+mod spread;
 
 pub use config::{DataConfig, EvalConfig, ExperimentalConfig, OptimizerConfig, PretrainConfig};
 
