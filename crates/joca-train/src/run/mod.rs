@@ -20,6 +20,7 @@ pub use hardware::HardwareMutation;
 mod method;
 mod perturbation;
 mod results;
+mod source;
 mod timing;
 
 use crate::TrainError;
