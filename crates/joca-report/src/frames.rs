@@ -128,20 +128,20 @@ pub(crate) fn switch_index(show: &Showcase) -> Option<usize> {
 fn grid_columns(run: &RunData) -> Vec<(String, String, usize)> {
     let mut cols = Vec::new();
     for name in ["day", "night"] {
-        if let Some(s) = run.showcase(name) {
-            if let Some(i) = s.frames.iter().rposition(|f| f.image.is_some()) {
-                cols.push((format!("{name}, t = {:.1} s", s.frames[i].time_s), name.to_owned(), i));
-            }
+        if let Some(s) = run.showcase(name)
+            && let Some(i) = s.frames.iter().rposition(|f| f.image.is_some())
+        {
+            cols.push((format!("{name}, t = {:.1} s", s.frames[i].time_s), name.to_owned(), i));
         }
     }
-    if let Some(s) = run.showcase("tunnel") {
-        if let Some(k) = switch_index(s) {
-            let into_dark = s.frames[k].ambient < s.frames[0].ambient;
-            let what = if into_dark { "entering tunnel" } else { "leaving tunnel" };
-            for (offset, when) in [(-5i64, "0.5 s before"), (3, "0.3 s after")] {
-                let i = (k as i64 + offset).clamp(0, s.frames.len() as i64 - 1) as usize;
-                cols.push((format!("{what}, {when}"), "tunnel".to_owned(), i));
-            }
+    if let Some(s) = run.showcase("tunnel")
+        && let Some(k) = switch_index(s)
+    {
+        let into_dark = s.frames[k].ambient < s.frames[0].ambient;
+        let what = if into_dark { "entering tunnel" } else { "leaving tunnel" };
+        for (offset, when) in [(-5i64, "0.5 s before"), (3, "0.3 s after")] {
+            let i = (k as i64 + offset).clamp(0, s.frames.len() as i64 - 1) as usize;
+            cols.push((format!("{what}, {when}"), "tunnel".to_owned(), i));
         }
     }
     cols

@@ -201,8 +201,8 @@ impl PretrainConfig {
             );
         }
         if !(1..=64).contains(&self.batch)
-            || self.data.frames_per_design % self.batch != 0
-            || self.steps % self.batch != 0
+            || !self.data.frames_per_design.is_multiple_of(self.batch)
+            || !self.steps.is_multiple_of(self.batch)
         {
             return bad(
                 "batch",
