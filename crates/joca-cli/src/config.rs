@@ -8,6 +8,18 @@ use anyhow::{Context, Result, bail};
 use serde::de::DeserializeOwned;
 use std::path::Path;
 
+/// The largest motion-blur multiplier a command accepts: 25× the paper's strongest scenario (×4).
+pub const MAX_BLUR_SCALE: f64 = 100.0;
+
+/// A command-line count in `LO..=HI` (clap value parser): anything else is refused naming the
+/// allowed range, before anything runs.
+pub fn count<const LO: usize, const HI: usize>(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if (LO..=HI).contains(&n) => Ok(n),
+        _ => Err(format!("{text:?} is not a whole number from {LO} to {HI}")),
+    }
+}
+
 /// The presets shipped with joca, by name.
 pub const PRESETS: [(&str, &str); 3] = [
     ("quick", include_str!("../../../presets/quick.toml")),

@@ -10,6 +10,7 @@
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
+use joca_core::output::{self, OutputKind};
 use joca_report::{CellSpec, Manifest};
 use joca_train::{Method, RunConfig, Scenario, differing_fields};
 use serde::{Deserialize, Serialize};
@@ -211,12 +212,17 @@ fn scenario_title(s: &str) -> String {
     }
 }
 
-/// Creates the experiment directory: `experiment.json` and each cell's
-/// `cell.toml`. A cell directory that already holds a different configuration is refused.
+/// Fills the experiment directory (claimed by the caller, `joca_core::output`):
+/// `experiment.json` and each cell's `cell.toml`, each cell marked as a run directory. A cell
+/// directory that already holds a different configuration is refused.
 pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for cell in &exp.cells {
         let cell_dir = Manifest::cell_dir(dir, &cell.spec);
+        // The cells of joca's own experiment folder are joca's (older ones had no marker).
+        if output::marked_kind(&cell_dir) != Some(OutputKind::Run) {
+            output::mark(&cell_dir, OutputKind::Run)?;
+        }
         let path = cell_dir.join("cell.toml");
         if path.is_file() {
             let old: CellFile = toml::from_str(&std::fs::read_to_string(&path)?)
@@ -231,7 +237,6 @@ pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
             }
             continue;
         }
-        std::fs::create_dir_all(&cell_dir)?;
         let text = toml::to_string(&CellFile { run: cell.config.clone() })?;
         joca_train::write_atomic(&path, &text)?;
     }

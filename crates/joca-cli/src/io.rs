@@ -2,6 +2,7 @@
 
 use anyhow::{Context, Result, bail};
 use joca_camera::Calibration;
+use joca_core::output::{self, OutputKind};
 use joca_core::{HdrImage, Rgb8Image};
 use std::path::{Path, PathBuf};
 
@@ -69,38 +70,32 @@ pub fn write_png(path: &Path, frame: &Rgb8Image) -> Result<()> {
     write_atomic(path, &bytes)
 }
 
-/// An output folder written in full or not at all: everything goes into a temporary sibling,
-/// which replaces the folder on [`StagedDir::finish`]. The folder must be new, empty, or an
-/// earlier output of the same command (recognised by `marker`), so neither unrelated files
-/// nor stale ones from a larger earlier output survive next to the new ones.
+/// An output folder written in full or not at all: everything goes into a temporary sibling
+/// `.NAME.partial`, which replaces the folder on [`StagedDir::finish`] and is removed if the
+/// command fails first (dropped unfinished). The folder must be new, empty, or an earlier output
+/// of the same command, recognised by its marker (`joca_core::output`), so neither a user's
+/// folder nor stale files from a larger earlier output survive next to the new ones; a sibling
+/// joca did not make is never deleted.
 #[derive(Debug)]
 pub struct StagedDir {
     target: PathBuf,
     staging: PathBuf,
+    kind: OutputKind,
+    finished: bool,
 }
 
 impl StagedDir {
-    /// Starts writing `target`; `marker` is a file every earlier output of the command holds.
-    pub fn create(target: &Path, marker: &str) -> Result<Self> {
-        if let Ok(mut entries) = std::fs::read_dir(target)
-            && entries.next().is_some()
-            && !target.join(marker).is_file()
-        {
-            anyhow::bail!(
-                "{} is not empty and holds no {marker}: it is not an earlier output of this \
-                 command; choose a new --out, or empty it",
-                target.display()
-            );
-        }
+    /// Starts writing `target` as `kind`'s output.
+    pub fn create(target: &Path, kind: OutputKind) -> Result<Self> {
+        output::check(target, kind)?;
         let name = target.file_name().map(|n| n.to_string_lossy().into_owned());
         let name = name.filter(|n| !n.is_empty() && n != "." && n != "..").with_context(|| {
             format!("--out {} must name a folder (not `.` or `..`)", target.display())
         })?;
         let staging = target.with_file_name(format!(".{name}.partial"));
-        let _ = std::fs::remove_dir_all(&staging);
-        std::fs::create_dir_all(&staging)
-            .with_context(|| format!("cannot create {}", staging.display()))?;
-        Ok(Self { target: target.to_owned(), staging })
+        remove_own(&staging, kind)?;
+        output::mark(&staging, kind)?;
+        Ok(Self { target: target.to_owned(), staging, kind, finished: false })
     }
 
     /// Where to write the output's files.
@@ -109,18 +104,44 @@ impl StagedDir {
     }
 
     /// Puts the written folder in place of the target (and of any earlier output there).
-    pub fn finish(self) -> Result<()> {
+    pub fn finish(mut self) -> Result<()> {
         let old = self.staging.with_extension("old");
-        let _ = std::fs::remove_dir_all(&old);
-        if self.target.exists() {
+        remove_own(&old, self.kind)?;
+        if output::check(&self.target, self.kind)?.is_some() {
             std::fs::rename(&self.target, &old)
+                .with_context(|| format!("cannot replace {}", self.target.display()))?;
+        } else if self.target.exists() {
+            // An empty folder: the rename below needs its place.
+            std::fs::remove_dir(&self.target)
                 .with_context(|| format!("cannot replace {}", self.target.display()))?;
         }
         std::fs::rename(&self.staging, &self.target)
             .with_context(|| format!("cannot write {}", self.target.display()))?;
+        self.finished = true;
         let _ = std::fs::remove_dir_all(&old);
         Ok(())
     }
+}
+
+impl Drop for StagedDir {
+    fn drop(&mut self) {
+        if !self.finished {
+            let _ = std::fs::remove_dir_all(&self.staging);
+        }
+    }
+}
+
+/// Removes `dir` if it is absent, empty, or marked as `kind`'s (a staging folder joca left);
+/// refuses anything else, so a user's folder of that name is never deleted.
+fn remove_own(dir: &Path, kind: OutputKind) -> Result<()> {
+    if output::check(dir, kind)
+        .with_context(|| format!("{} is in the way of the output", dir.display()))?
+        .is_some()
+        || dir.is_dir()
+    {
+        std::fs::remove_dir_all(dir).with_context(|| format!("cannot remove {}", dir.display()))?;
+    }
+    Ok(())
 }
 
 /// The PNG files of a directory, sorted by name.
@@ -172,4 +193,36 @@ pub fn write_gif(path: &Path, frames: &[Rgb8Image], delay_cs: u16) -> Result<()>
     }
     drop(encoder);
     write_atomic(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_staged_folder_replaces_only_its_own_kind_and_a_failed_one_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out");
+        // Dropped unfinished (the command failed): no staging, no target.
+        let staged = StagedDir::create(&target, OutputKind::Render).unwrap();
+        std::fs::write(staged.path().join("frame.png"), "x").unwrap();
+        drop(staged);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // Finished: the target holds the files and the marker; a second output replaces it.
+        for file in ["a.png", "b.png"] {
+            let staged = StagedDir::create(&target, OutputKind::Render).unwrap();
+            std::fs::write(staged.path().join(file), "x").unwrap();
+            staged.finish().unwrap();
+        }
+        let mut names: Vec<String> = std::fs::read_dir(&target)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, [output::MARKER, "b.png"]);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        // Another command's output is not replaced.
+        let e = StagedDir::create(&target, OutputKind::Import).unwrap_err().to_string();
+        assert!(e.contains("holds joca render output, not import"), "{e}");
+    }
 }

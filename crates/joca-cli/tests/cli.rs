@@ -315,7 +315,7 @@ fn render_writes_frames_ground_truth_and_a_contact_sheet() {
     std::fs::create_dir_all(&other).unwrap();
     std::fs::write(other.join("notes.txt"), "keep").unwrap();
     let o = again("1", &other);
-    assert!(stderr(&o).contains("not an earlier output"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is not a joca render output"), "{}", stderr(&o));
     assert_eq!(std::fs::read_dir(&other).unwrap().count(), 1);
 }
 
@@ -527,7 +527,7 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
     std::fs::create_dir_all(&other).unwrap();
     std::fs::write(other.join("notes.txt"), "mine").unwrap();
     let o = joca(&["run", "--out", other.to_str().unwrap()]);
-    assert!(stderr(&o).contains("not a joca run directory"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is not a joca run output"), "{}", stderr(&o));
     let left: Vec<_> = std::fs::read_dir(&other).unwrap().collect();
     assert_eq!(left.len(), 1);
     // A speed that is not a number is refused before anything runs.
@@ -788,7 +788,9 @@ fn flow_and_blur_report_motion_and_refuse_bad_input() {
     assert!(o.status.success(), "{}", stderr(&o));
     // 2 px per 100 ms frame interval, 50 ms exposure: a 1 px smear.
     assert!(stdout(&o).contains("mean smear 1.0"), "{}", stdout(&o));
-    assert_eq!(std::fs::read_dir(&blurred).unwrap().count(), 2);
+    // Two blurred frames and joca's output marker.
+    assert_eq!(std::fs::read_dir(&blurred).unwrap().count(), 3);
+    assert!(blurred.join(".joca-output").is_file());
 
     let o = joca(&[
         "flow",

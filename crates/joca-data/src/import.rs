@@ -153,7 +153,23 @@ impl Import {
 impl Import {
     /// Writes the folder format into `dir` (which should be new or empty): every frame copied to
     /// its `file_name`, and `annotations.json` (see [`Import::annotations_json`]).
+    /// Two frames with one `file_name` (two labelled frames naming one picture) are refused
+    /// before anything is copied: one would overwrite the other under the other's labels.
     pub fn write_folder(&self, dir: &Path, exposure_s: Option<f64>) -> Result<(), ImportError> {
+        let mut names = std::collections::HashMap::new();
+        for f in &self.frames {
+            if let Some(first) = names.insert(f.file_name.as_str(), &f.source) {
+                return Err(err(
+                    &f.source,
+                    None,
+                    format!(
+                        "is imported as {} like {}: two frames would be one file",
+                        f.file_name,
+                        first.display()
+                    ),
+                ));
+            }
+        }
         for f in &self.frames {
             let to = dir.join(&f.file_name);
             if let Some(parent) = to.parent() {
@@ -463,10 +479,13 @@ pub fn labelme(
             ));
         }
         let frame = import.frames.len();
-        let name = source.file_name().and_then(|s| s.to_str()).unwrap_or_default();
+        // The path relative to the JSON, kept whole: `a/000000.png` and `b/000000.png` stay two
+        // files.
+        let name: Vec<String> =
+            rel.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
         import.frames.push(ImportedFrame {
             source: source.clone(),
-            file_name: format!("frames/{sequence}/{name}"),
+            file_name: format!("frames/{sequence}/{}", name.join("/")),
             width: size.0,
             height: size.1,
             timestamp_s: (n - first) as f64 * frame_interval_s,

@@ -227,3 +227,43 @@ fn boxes_outside_the_image_or_without_area_are_refused() {
     std::fs::write(&json, &original).unwrap();
     assert!(Recording::open(&dir, FolderConfig::default()).is_ok());
 }
+
+/// Recorded settings out of any camera's range, an id declared twice and two images naming one
+/// file are refused naming the image and the field (a whole run once trained on such a folder's
+/// black frames without a word).
+#[test]
+fn impossible_settings_and_duplicate_images_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), 3, true);
+    let path = dir.path().join("annotations.json");
+    let good: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let open_with = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut coco = good.clone();
+        edit(&mut coco);
+        std::fs::write(&path, coco.to_string()).unwrap();
+        Recording::open(dir.path(), FolderConfig::default()).map(|_| ()).map_err(|e| e.to_string())
+    };
+    assert!(open_with(&|_| {}).is_ok());
+    for (field, value, shown, allowed) in [
+        ("gain_db", 1e300, "1e300", "allowed from -20 to 60"),
+        ("gain_db", -21.0, "-21", "allowed from -20 to 60"),
+        ("exposure_s", 1e300, "1e300", "allowed above 0 to 10"),
+        ("exposure_s", 0.0, "0", "allowed above 0 to 10"),
+        ("timestamp_s", -1e300, "-1e300", "allowed from -1e10 to 1e10"),
+    ] {
+        let e = open_with(&|c| c["images"][1][field] = serde_json::json!(value)).unwrap_err();
+        assert!(
+            e.contains("annotations.json")
+                && e.contains(&format!("image 2 (frames/001.png) has {field} = {shown};"))
+                && e.contains(allowed),
+            "{e}"
+        );
+    }
+    let e = open_with(&|c| c["images"][2]["id"] = serde_json::json!(1)).unwrap_err();
+    assert!(e.contains("image id 1 is declared twice"), "{e}");
+    for name in ["frames/000.png", "frames/./000.png"] {
+        let e = open_with(&|c| c["images"][2]["file_name"] = serde_json::json!(name)).unwrap_err();
+        assert!(e.contains("image 3: file_name") && e.contains("another image's"), "{e}");
+    }
+}

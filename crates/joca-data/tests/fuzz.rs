@@ -98,3 +98,70 @@ proptest! {
         open(dir.path(), &bytes);
     }
 }
+
+/// A header size token: ordinary, zero, negative, past the limit, past `usize`, or not a number.
+fn size_token() -> impl Strategy<Value = String> {
+    prop_oneof![
+        (1u32..6).prop_map(|v| v.to_string()),
+        Just("0".to_owned()),
+        Just("-3".to_owned()),
+        Just("32769".to_owned()),
+        Just("4294967296".to_owned()),
+        Just("18446744073709551615".to_owned()),
+        Just("99999999999999999999999".to_owned()),
+        Just("1e30".to_owned()),
+        Just("x".to_owned()),
+    ]
+}
+
+/// Reads a disparity file holding `bytes` as `name`: a map whose size matches the header, or an
+/// error naming the file; never a panic or an allocation the header alone asks for.
+fn read_disparity(name: &str, bytes: &[u8]) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    match joca_data::flow::read_disparity(&path) {
+        Ok((w, h, values)) => assert_eq!(values.len(), w * h),
+        Err(e) => assert!(e.to_string().contains(name), "{e}"),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    #[test]
+    fn pfm_headers_never_panic(
+        w in size_token(),
+        h in size_token(),
+        scale in prop_oneof![Just("-1.0"), Just("1"), Just("0"), Just("nan"), Just("")],
+        body in prop::collection::vec(any::<u8>(), 0..80),
+    ) {
+        let mut bytes = format!("Pf\n{w} {h}\n{scale}\n").into_bytes();
+        bytes.extend_from_slice(&body);
+        read_disparity("d.pfm", &bytes);
+    }
+
+    #[test]
+    fn npy_headers_never_panic(
+        w in size_token(),
+        h in size_token(),
+        body in prop::collection::vec(any::<u8>(), 0..80),
+    ) {
+        let header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({h}, {w}), }}");
+        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+        bytes.extend_from_slice(&u16::try_from(header.len()).unwrap().to_le_bytes());
+        bytes.extend_from_slice(header.as_bytes());
+        bytes.extend_from_slice(&body);
+        read_disparity("d.npy", &bytes);
+    }
+}
+
+#[test]
+fn a_pfm_whose_size_overflows_is_refused_naming_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("huge.pfm");
+    // 2^32 × 2^32 × 4 wraps to 0 in 64 bits: the old size check accepted an empty body.
+    std::fs::write(&path, b"Pf\n4294967296 4294967296\n-1.0\n").unwrap();
+    let e = joca_data::flow::read_disparity(&path).unwrap_err().to_string();
+    assert!(e.contains("huge.pfm") && e.contains("1 to 32768"), "{e}");
+}

@@ -155,3 +155,51 @@ fn labelme_polygons_rectangles_and_circles_become_boxes_and_labels_map_to_classe
     let e = labelme(&seq, 0.1, &[("track".into(), "lorry".into())]).unwrap_err().to_string();
     assert!(e.contains("--class track=lorry") && e.contains("vehicle, walker"), "{e}");
 }
+
+/// Two labelled frames in two subfolders with one file name stay two frames (their labels on
+/// their own pictures); two JSON files naming one picture are refused before anything is copied.
+#[test]
+fn labelme_frames_of_one_name_in_two_folders_stay_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = dir.path().join("seq");
+    for (n, sub, shade) in [(0u32, "a", 40u8), (1, "b", 200)] {
+        std::fs::create_dir_all(seq.join(sub)).unwrap();
+        image::RgbImage::from_pixel(80, 50, image::Rgb([shade; 3]))
+            .save(seq.join(sub).join("000000.png"))
+            .unwrap();
+        let file = serde_json::json!({
+            "version": "5.8.3", "flags": {}, "shapes": [],
+            "imagePath": format!("{sub}/000000.png"), "imageData": null,
+            "imageHeight": 50, "imageWidth": 80,
+        });
+        std::fs::write(seq.join(format!("{n:08}.json")), file.to_string()).unwrap();
+    }
+    let import = labelme(&seq, 0.1, &[]).unwrap();
+    let out = dir.path().join("out");
+    import.write_folder(&out, Some(0.005)).unwrap();
+    let coco: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("annotations.json")).unwrap())
+            .unwrap();
+    let names: Vec<&str> = coco["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["file_name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["frames/seq/a/000000.png", "frames/seq/b/000000.png"]);
+    let shade = |name: &str| image::open(out.join(name)).unwrap().to_rgb8().get_pixel(0, 0)[0];
+    assert_eq!((shade(names[0]), shade(names[1])), (40, 200));
+
+    // Both JSON files name the same picture: refused, nothing written.
+    let text = std::fs::read_to_string(seq.join("00000001.json")).unwrap();
+    std::fs::write(seq.join("00000001.json"), text.replace("b/000000.png", "a/000000.png"))
+        .unwrap();
+    let import = labelme(&seq, 0.1, &[]).unwrap();
+    let fresh = dir.path().join("fresh");
+    let e = import.write_folder(&fresh, Some(0.005)).unwrap_err().to_string();
+    assert!(
+        e.contains("frames/seq/a/000000.png") && e.contains("two frames would be one file"),
+        "{e}"
+    );
+    assert!(!fresh.exists());
+}

@@ -44,6 +44,8 @@ pub struct RunData {
     pub steps: Vec<StepLog>,
     /// Showcase sequences (empty for runs made before they existed).
     pub showcases: Vec<Showcase>,
+    /// `events.jsonl` lines (1-based) that could not be read and were left out.
+    pub skipped_events: Vec<usize>,
 }
 
 impl RunData {
@@ -51,14 +53,36 @@ impl RunData {
     pub fn load(dir: &Path) -> Result<Self, ReportError> {
         let results_path = dir.join("results.json");
         let results: RunResults = parse(&results_path, &read(&results_path)?)?;
-        let (generations, steps) = match std::fs::read_to_string(dir.join("events.jsonl")) {
-            Ok(text) => parse_events(&text),
-            Err(_) => (Vec::new(), Vec::new()),
+        let events_path = dir.join("events.jsonl");
+        let (generations, steps, skipped_events) = match std::fs::read(&events_path) {
+            Ok(bytes) => parse_events(&bytes),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => (Vec::new(), Vec::new(), vec![]),
+            Err(source) => {
+                return Err(ReportError::Io { path: events_path.display().to_string(), source });
+            }
         };
         let show_path = dir.join("test").join("showcase.json");
         let showcases =
             if show_path.exists() { parse(&show_path, &read(&show_path)?)? } else { Vec::new() };
-        Ok(Self { dir: dir.to_owned(), results, generations, steps, showcases })
+        Ok(Self { dir: dir.to_owned(), results, generations, steps, showcases, skipped_events })
+    }
+
+    /// A sentence naming the `events.jsonl` lines left out, if any.
+    pub fn skipped_events_note(&self) -> Option<String> {
+        let lines = &self.skipped_events;
+        let (first, more) = (lines.iter().take(8), lines.len().saturating_sub(8));
+        let mut list = first.map(ToString::to_string).collect::<Vec<_>>().join(", ");
+        if more > 0 {
+            list.push_str(&format!(" and {more} more"));
+        }
+        (!lines.is_empty()).then(|| {
+            format!(
+                "{}: {} line(s) could not be read and are left out of the figures (line {list}; a \
+                 run killed while writing leaves one cut line per resume)",
+                self.dir.join("events.jsonl").display(),
+                lines.len()
+            )
+        })
     }
 
     /// The showcase sequence called `name`.
@@ -87,22 +111,32 @@ pub(crate) fn parse<T: serde::de::DeserializeOwned>(
     })
 }
 
-/// Generation and step records of `events.jsonl`. A resumed run repeats the candidate it was
-/// killed in, so a later record of the same step or generation replaces an earlier one;
-/// unparsable lines (a line cut by the kill) are skipped.
-fn parse_events(text: &str) -> (Vec<GenerationFitness>, Vec<StepLog>) {
+/// Generation and step records of `events.jsonl`, and the (1-based) numbers of the lines that
+/// could not be read. A resumed run repeats the candidate it was killed in, so a later record of
+/// the same step or generation replaces an earlier one; an unreadable line (one cut by a kill,
+/// bytes that are not UTF-8, JSON of no known event) is left out and named, the rest kept.
+fn parse_events(bytes: &[u8]) -> (Vec<GenerationFitness>, Vec<StepLog>, Vec<usize>) {
     let mut generations = BTreeMap::new();
     let mut steps = BTreeMap::new();
-    for line in text.lines() {
-        match serde_json::from_str::<Event>(line) {
-            Ok(Event::Generation(g)) if !g.fitness.is_empty() => {
+    let mut skipped = Vec::new();
+    for (k, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        if line.iter().all(u8::is_ascii_whitespace) {
+            continue;
+        }
+        let event: Option<Event> =
+            std::str::from_utf8(line).ok().and_then(|l| serde_json::from_str(l).ok());
+        if event.is_none() {
+            skipped.push(k + 1);
+        }
+        match event {
+            Some(Event::Generation(g)) if !g.fitness.is_empty() => {
                 let f = &g.fitness;
                 let best = f.iter().copied().fold(f64::NEG_INFINITY, f64::max);
                 let mean = f.iter().sum::<f64>() / f.len() as f64;
                 let generation = g.generation_done as u64;
                 generations.insert(generation, GenerationFitness { generation, best, mean });
             }
-            Ok(Event::Step(s)) => {
+            Some(Event::Step(s)) => {
                 steps.insert(
                     s.step,
                     StepLog {
@@ -116,7 +150,7 @@ fn parse_events(text: &str) -> (Vec<GenerationFitness>, Vec<StepLog>) {
             _ => {}
         }
     }
-    (generations.into_values().collect(), steps.into_values().collect())
+    (generations.into_values().collect(), steps.into_values().collect(), skipped)
 }
 
 #[cfg(test)]
@@ -138,12 +172,23 @@ mod tests {
             loss(1.0),
             loss(0.5)
         );
-        let (g, s) = parse_events(&text);
+        let (g, s, skipped) = parse_events(text.as_bytes());
         assert_eq!(
             g,
             vec![GenerationFitness { generation: 0, best: 0.4, mean: 0.30000000000000004 }]
         );
         assert_eq!(s.len(), 2);
         assert_eq!((s[1].step, s[1].loss, s[1].exposure_ms), (5, 0.5, 4.0));
+        assert_eq!(skipped, vec![3]);
+    }
+
+    #[test]
+    fn a_line_that_is_not_utf8_is_named_and_the_rest_kept() {
+        let mut bytes = b"{\"generation_done\":0,\"fitness\":[0.2]}\n".to_vec();
+        bytes.extend_from_slice(b"{\"step\":\xff\xfe}\n\n{\"surprise\":1}\n");
+        bytes.extend_from_slice(b"{\"generation_done\":1,\"fitness\":[0.3]}");
+        let (g, _, skipped) = parse_events(&bytes);
+        assert_eq!(g.len(), 2);
+        assert_eq!(skipped, vec![2, 4]);
     }
 }

@@ -333,6 +333,9 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     if !machine.is_empty() {
         let _ = writeln!(md, "{machine}\n");
     }
+    if let Some(note) = run.skipped_events_note() {
+        let _ = writeln!(md, "{note}.\n");
+    }
     md.push_str(&table.markdown());
     let _ = writeln!(md, "\nAP50 {:.3}.\n", r.test.ap50);
     md.push_str(&settings_markdown(r));

@@ -35,6 +35,9 @@ pub enum TrainError {
         #[source]
         source: std::io::Error,
     },
+    /// The output folder is not joca's, or another process writes it.
+    #[error(transparent)]
+    Output(#[from] joca_core::output::OutputError),
     /// The caller stopped the run (work since the last checkpoint is discarded, as after a kill).
     #[error("stopped at step {step}; resume from the last checkpoint with --resume")]
     Interrupted {

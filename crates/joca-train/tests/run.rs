@@ -92,7 +92,9 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     )
     .unwrap();
     assert_eq!(e, a);
-    assert_eq!(test_dir, dir.path().join("a").join("test"));
+    // Into its own files: the run's `results.json` and `test/` stay the run's.
+    assert_eq!(test_dir, dir.path().join("a").join("test-eval"));
+    assert!(dir.path().join("a/results-eval.json").is_file());
     // Another controller on the same trained design: its own files, the run's left alone.
     let before = std::fs::read(dir.path().join("a").join("results.json")).unwrap();
     let average = joca_train::TestController::from_name("average:60").unwrap();

@@ -142,6 +142,9 @@ impl NoiseGain {
     }
 }
 
+/// The largest noise-variance multiplier accepted: 50× the paper's strongest scenario (×20).
+pub const MAX_NOISE_SCALE: f64 = 1000.0;
+
 impl ImageFormation {
     /// Formation with `calibration` and calibrated noise (×1).
     pub fn new(calibration: Calibration) -> Result<Self, CameraError> {
@@ -151,12 +154,12 @@ impl ImageFormation {
 
     /// The same formation with σp² and σr² multiplied by `noise_scale` (scenario "noise ×N").
     pub fn with_noise_scale(self, noise_scale: f64) -> Result<Self, CameraError> {
-        if !(noise_scale.is_finite() && noise_scale >= 0.0) {
+        if !(0.0..=MAX_NOISE_SCALE).contains(&noise_scale) {
             return Err(CameraError::OutOfRange {
                 field: "noise_scale".into(),
                 value: noise_scale,
                 min: 0.0,
-                max: f64::INFINITY,
+                max: MAX_NOISE_SCALE,
                 unit: "",
             });
         }

@@ -2,11 +2,12 @@
 //! `joca metrics` can score them with all 12 COCO numbers (AP by object size included).
 
 use crate::io::read_rgb8;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use joca_nn::AdamConfig;
 use joca_nn::Engine;
 use joca_nn::detector::{DetectorConfig, DetectorModel};
 use serde::Deserialize;
+use std::collections::HashSet;
 use std::path::PathBuf;
 
 /// Arguments of `joca detect`.
@@ -22,13 +23,13 @@ pub struct Args {
     /// Output: a COCO results list (`image_id`, `category_id`, `bbox`, `score`).
     #[arg(long)]
     out: PathBuf,
-    /// Detector width; by default the one the weights file was saved with (as are the class
-    /// count and the stride-32 stage).
-    #[arg(long)]
+    /// Detector width, 4 to 128; by default the one the weights file was saved with (as are the
+    /// class count and the stride-32 stage).
+    #[arg(long, value_parser = clap::value_parser!(i64).range(4..=128))]
     width: Option<i64>,
-    /// libtorch threads.
-    #[arg(long, default_value_t = 2)]
-    threads: usize,
+    /// libtorch threads, 1 to 64.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=64))]
+    threads: u64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -44,9 +45,6 @@ struct Image {
 
 /// Runs `joca detect`.
 pub fn run(args: &Args) -> Result<()> {
-    if args.width.is_some_and(|w| w < 1) {
-        bail!("--width must be at least 1");
-    }
     let mut config = DetectorConfig::of_weights(&args.weights)
         .with_context(|| format!("cannot load {}", args.weights.display()))?;
     config.width = args.width.unwrap_or(config.width);
@@ -56,14 +54,26 @@ pub fn run(args: &Args) -> Result<()> {
         format!("{} is not a COCO file with an images list", args.images.display())
     })?;
     let root = args.images.parent().map(PathBuf::from).unwrap_or_default();
-    let engine = Engine::cpu(args.threads.max(1));
+    // Every frame is checked before the detector starts: inside the list's folder (the folder
+    // source's rule: relative, no `..`, no symbolic link out), and each id once.
+    let mut seen = HashSet::new();
+    let mut paths = Vec::with_capacity(list.images.len());
+    for image in &list.images {
+        if !seen.insert(image.id) {
+            bail!("{}: image id {} is listed twice", args.images.display(), image.id);
+        }
+        let path = joca_data::folder::path_inside(&root, &image.file_name)
+            .map_err(|e| anyhow!("{}: image {}: {e}", args.images.display(), image.id))?;
+        paths.push(path);
+    }
+    let engine = Engine::cpu(usize::try_from(args.threads)?);
     let mut model = DetectorModel::new(&engine, config, AdamConfig::DETECTOR);
     model
         .load_weights(&args.weights)
         .with_context(|| format!("cannot load {}", args.weights.display()))?;
     let mut out = Vec::new();
-    for image in &list.images {
-        let frame = read_rgb8(&root.join(&image.file_name))?;
+    for (image, path) in list.images.iter().zip(&paths) {
+        let frame = read_rgb8(path)?;
         for d in model.detect(&frame) {
             let b = d.bbox;
             out.push(serde_json::json!({

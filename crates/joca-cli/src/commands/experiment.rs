@@ -9,6 +9,7 @@ use crate::commands::run::execute;
 use crate::commands::slurm;
 use crate::grid::{Cell, CellFile, Experiment, prepare, resolve};
 use anyhow::{Context, Result, bail};
+use joca_core::output::{self, DirLock, OutputKind};
 use joca_report::Manifest;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -33,8 +34,8 @@ pub struct Args {
     /// over seeds and ours paired with each baseline (1 to 100).
     #[arg(long, default_value_t = 1)]
     seeds: u64,
-    /// Cells run at once, each in its own process (each uses the cell's `threads`).
-    #[arg(long, default_value_t = 1)]
+    /// Cells run at once, each in its own process (each uses the cell's `threads`), 1 to 64.
+    #[arg(long, default_value_t = 1, value_parser = crate::config::count::<1, 64>)]
     jobs: usize,
     /// Print where each cell stands (and the Slurm job's, if one was submitted); run nothing.
     #[arg(long)]
@@ -48,8 +49,8 @@ pub struct Args {
     /// Slurm time limit per cell, e.g. 02:00:00 [default: the partition's].
     #[arg(long, requires = "slurm")]
     time: Option<String>,
-    /// Most array tasks running at once.
-    #[arg(long, requires = "slurm")]
+    /// Most array tasks running at once (1 to 100000).
+    #[arg(long, requires = "slurm", value_parser = crate::config::count::<1, 100000>)]
     max_parallel: Option<usize>,
     /// With --slurm: wait until the job has left the queue, then write the report.
     #[arg(long, requires = "slurm")]
@@ -73,9 +74,9 @@ pub fn run(args: &Args) -> Result<()> {
     if args.status {
         return print_status(&exp, &dir);
     }
-    if args.jobs == 0 {
-        bail!("--jobs must be at least 1");
-    }
+    // A new or empty folder, or an experiment of joca's; one `joca experiment` at a time.
+    output::claim(&dir, OutputKind::Experiment)?;
+    let _lock = DirLock::acquire(&dir, "joca experiment")?;
     prepare(&exp, &dir)?;
     let todo: Vec<&Cell> = exp
         .cells

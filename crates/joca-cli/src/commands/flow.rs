@@ -3,6 +3,7 @@
 
 use crate::io::{read_rgb8, write_png};
 use anyhow::{Context, Result, anyhow, bail};
+use joca_core::output::{self, OutputKind};
 use joca_core::{HdrImage, Rgb8Image};
 use joca_data::blur::{Linearize, motion_blur, samples_for};
 use joca_data::flow::{
@@ -46,13 +47,13 @@ pub struct FlowArgs {
 pub struct BlurArgs {
     /// A folder of consecutive frames (PNG or JPEG, sorted by name).
     frames: PathBuf,
-    /// Exposure time to emulate, milliseconds.
+    /// Exposure time to emulate, milliseconds (above 0 to 1000).
     #[arg(long)]
     exposure_ms: f64,
-    /// Time between the recorded frames, milliseconds (Waymo: 100).
+    /// Time between the recorded frames, milliseconds, above 0 to 10000 (Waymo: 100).
     #[arg(long, default_value_t = 100.0)]
     frame_interval_ms: f64,
-    /// Motion-blur multiplier of the scenario (blur2 = 2, blur4 = 4).
+    /// Motion-blur multiplier of the scenario, 0 to 100 (blur2 = 2, blur4 = 4).
     #[arg(long, default_value_t = 1.0)]
     blur_scale: f64,
     /// How the 8-bit values map to linear intensity: srgb or none.
@@ -98,6 +99,18 @@ fn mean_abs_diff(a: &Rgb8Image, b: &Rgb8Image) -> f64 {
 /// Runs `joca flow`.
 pub fn run_flow(args: &FlowArgs) -> Result<()> {
     let params = preset(&args.preset)?;
+    let outputs = [Some(&args.out), args.warped.as_ref(), args.flo.as_ref()];
+    let inputs =
+        [Some(&args.first), Some(&args.second), args.gt.as_ref(), args.gt_disparity.as_ref()];
+    for out in outputs.into_iter().flatten() {
+        if let Some(input) = inputs.into_iter().flatten().find(|i| same_file(i, out)) {
+            bail!(
+                "{} is an input of this command ({}); choose another output path",
+                out.display(),
+                input.display()
+            );
+        }
+    }
     let a = read_rgb8(&args.first)?;
     let b = read_rgb8(&args.second)?;
     if (a.width(), a.height()) != (b.width(), b.height()) {
@@ -127,8 +140,9 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
     let flow = dis(&Gray::from_rgb8(&a), &Gray::from_rgb8(&b), &params);
     let ms = started.elapsed().as_secs_f64() * 1e3;
     let colours = Rgb8Image::from_vec(a.width(), a.height(), colour_code(&flow, None))?;
-    write_png(&args.out, &colours)?;
     let warped = warp_back(&b, &flow);
+    // Every check that can fail comes before the first file is written.
+    let acc = truth.as_ref().map(|t| accuracy(&flow, t).map_err(|e| anyhow!(e))).transpose()?;
     println!(
         "{}×{} frames, preset {}: mean displacement {:.2} px, {:.0} ms",
         a.width(),
@@ -143,8 +157,7 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
         mean_abs_diff(&a, &b),
         mean_abs_diff(&a, &warped)
     );
-    if let Some(truth) = &truth {
-        let acc = accuracy(&flow, truth).map_err(|e| anyhow!(e))?;
+    if let Some(acc) = acc {
         println!(
             "against the ground truth: end-point error {:.3} px, {:.2} % of pixels off by more \
              than 3 px ({} known pixels)",
@@ -153,6 +166,7 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
             acc.known
         );
     }
+    write_png(&args.out, &colours)?;
     if let Some(path) = &args.warped {
         write_png(path, &warped)?;
     }
@@ -162,6 +176,11 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
     }
     println!("flow: {}", args.out.display());
     Ok(())
+}
+
+/// Whether `a` and `b` name one existing file (or folder).
+fn same_file(a: &Path, b: &Path) -> bool {
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
 }
 
 fn frames_in(dir: &Path) -> Result<Vec<PathBuf>> {
@@ -182,9 +201,23 @@ fn frames_in(dir: &Path) -> Result<Vec<PathBuf>> {
 pub fn run_blur(args: &BlurArgs) -> Result<()> {
     let params = preset(&args.preset)?;
     let lin = Linearize::from_name(&args.linearize).map_err(|e| anyhow!(e))?;
-    if !(args.exposure_ms > 0.0 && args.frame_interval_ms > 0.0 && args.blur_scale >= 0.0) {
-        bail!("--exposure-ms and --frame-interval-ms must be above 0 and --blur-scale at least 0");
+    let max_blur = crate::config::MAX_BLUR_SCALE;
+    for (flag, value, max, closed) in [
+        ("--exposure-ms", args.exposure_ms, 1000.0, false),
+        ("--frame-interval-ms", args.frame_interval_ms, 10_000.0, false),
+        ("--blur-scale", args.blur_scale, max_blur, true),
+    ] {
+        let inside = value <= max && if closed { value >= 0.0 } else { value > 0.0 };
+        if !inside {
+            let from = if closed { "from" } else { "above" };
+            bail!("{flag} = {value} is out of range: allowed {from} 0 to {max}");
+        }
     }
+    if same_file(&args.frames, &args.out) {
+        bail!("--out {} is the input folder; choose another folder", args.out.display());
+    }
+    // A new or empty folder, or an earlier `joca blur` output: never a user's folder of frames.
+    output::check(&args.out, OutputKind::Blur)?;
     let files = frames_in(&args.frames)?;
     if files.len() < 2 {
         bail!(
@@ -195,8 +228,7 @@ pub fn run_blur(args: &BlurArgs) -> Result<()> {
     }
     let table = lin.table();
     let travel = (args.exposure_ms / args.frame_interval_ms * args.blur_scale) as f32;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    output::claim(&args.out, OutputKind::Blur)?;
     let mut next = read_rgb8(&files[0])?;
     for (k, pair) in files.windows(2).enumerate() {
         let frame = next;

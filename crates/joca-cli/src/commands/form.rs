@@ -23,7 +23,8 @@ pub struct Args {
     /// Catalogue sensor whose pixel pitch scales the collected light by (p/p0)² (`joca sensors`).
     #[arg(long, value_name = "NAME")]
     sensor: String,
-    /// Multiply the calibrated noise variances σp², σr² by N (the "noise ×N" scenarios).
+    /// Multiply the calibrated noise variances σp², σr² by N, 0 to 1000 (the "noise ×N"
+    /// scenarios).
     #[arg(long, value_name = "N", default_value_t = 1.0)]
     noise_scale: f64,
     /// Seed of the noise realisation.

@@ -60,6 +60,9 @@ struct Output {
 
 /// Runs `joca import`.
 pub fn run(args: &Args) -> Result<()> {
+    // A folder that is not an earlier import is refused before any label is read.
+    let (Format::Kitti { out, .. } | Format::Labelme { out, .. }) = &args.format;
+    joca_core::output::check(&out.out, joca_core::output::OutputKind::Import)?;
     let (import, out): (Import, &Output) = match &args.format {
         Format::Kitti { labels, images, frame_interval_ms, out } => {
             (kitti_tracking(labels, images, frame_interval_ms / 1e3).map_err(|e| anyhow!(e))?, out)
@@ -83,7 +86,7 @@ pub fn run(args: &Args) -> Result<()> {
         other => other.map(|ms| ms / 1e3),
     };
     // Everything was read and checked above; the folder is written whole or not at all.
-    let staged = StagedDir::create(&out.out, "annotations.json")?;
+    let staged = StagedDir::create(&out.out, joca_core::output::OutputKind::Import)?;
     import.write_folder(staged.path(), exposure_s).map_err(|e| anyhow!(e))?;
     staged.finish()?;
     let ignore = import.boxes.iter().filter(|b| b.class.is_none()).count();

@@ -109,10 +109,10 @@ pub struct Args {
     /// Ego top speed, m/s.
     #[arg(long, default_value_t = 15.0)]
     max_speed_mps: f64,
-    /// Motion during the shutter × this factor (the "motion blur ×N" scenarios).
+    /// Motion during the shutter × this factor, 0 to 100 (the "motion blur ×N" scenarios).
     #[arg(long, default_value_t = 1.0)]
     blur_scale: f64,
-    /// Noise variances × this factor (the "noise ×N" scenarios).
+    /// Noise variances × this factor, 0 to 1000 (the "noise ×N" scenarios).
     #[arg(long, default_value_t = 1.0)]
     noise_scale: f64,
     /// Seed of the noise.
@@ -145,8 +145,12 @@ pub fn run(args: &Args) -> Result<()> {
             joca_train::MAX_SPEED_MPS
         );
     }
-    if !(args.blur_scale >= 0.0 && args.blur_scale.is_finite()) {
-        bail!("--blur-scale = {} is out of range: allowed 0 or more", args.blur_scale);
+    if !(0.0..=crate::config::MAX_BLUR_SCALE).contains(&args.blur_scale) {
+        bail!(
+            "--blur-scale = {} is out of range: allowed 0 to {}",
+            args.blur_scale,
+            crate::config::MAX_BLUR_SCALE
+        );
     }
     if args.frames == 0 {
         bail!("--frames must be at least 1");
@@ -190,7 +194,7 @@ pub fn run(args: &Args) -> Result<()> {
     let ae = AverageAe::new(ranges);
     let streams = SeedStreams::new(args.seed);
     // Written in full or not at all: a full disk or a kill leaves the earlier output (or none).
-    let staged = io::StagedDir::create(&args.out, "annotations.json")?;
+    let staged = io::StagedDir::create(&args.out, joca_core::output::OutputKind::Render)?;
     let out = staged.path().to_owned();
     let frames_dir = out.join("frames");
 

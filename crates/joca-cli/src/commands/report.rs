@@ -1,32 +1,48 @@
 //! `joca report`: regenerate the report of a run or an experiment from its saved files.
 
 use anyhow::{Context, Result, bail};
+use joca_core::output::{self, OutputKind};
 use std::path::PathBuf;
 
 /// Arguments of `joca report`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A run directory (with results.json) or an experiment directory (with experiment.json).
+    /// A finished run directory or an experiment directory (joca's marker names which).
     dir: PathBuf,
 }
 
 /// Runs `joca report`.
 pub fn run(args: &Args) -> Result<()> {
     let dir = &args.dir;
-    if dir.join(joca_report::Manifest::FILE).is_file() {
-        joca_report::write_experiment_report(dir)
-            .with_context(|| format!("cannot write the report of {}", dir.display()))?;
-    } else if dir.join("results.json").is_file() {
-        joca_report::write_run_report(dir)
-            .with_context(|| format!("cannot write the report of {}", dir.display()))?;
-    } else {
-        bail!(
-            "{} is neither a finished run directory (no results.json) nor an experiment \
-             directory (no {}); a run that has not finished its test has nothing to report yet \
-             (`joca run --resume` continues it)",
+    // Reports are written only into folders joca marked as its own (joca_core::output).
+    match output::marked_kind(dir) {
+        Some(OutputKind::Experiment) => {
+            joca_report::write_experiment_report(dir)
+                .with_context(|| format!("cannot write the report of {}", dir.display()))?;
+        }
+        Some(OutputKind::Run) if dir.join("results.json").is_file() => {
+            joca_report::write_run_report(dir)
+                .with_context(|| format!("cannot write the report of {}", dir.display()))?;
+            if let Some(note) =
+                joca_report::RunData::load(dir).ok().and_then(|r| r.skipped_events_note())
+            {
+                eprintln!("warning: {note}");
+            }
+        }
+        Some(OutputKind::Run) => bail!(
+            "{} is a run directory that has not finished its test (no results.json): nothing to \
+             report yet (`joca run --resume` continues it)",
+            dir.display()
+        ),
+        _ => bail!(
+            "{} is neither a run directory nor an experiment directory of joca's (no {} marker \
+             naming one); a folder joca wrote before markers existed is marked with `printf \
+             'joca-output run\\n' > {}/{}` (or `experiment`)",
             dir.display(),
-            joca_report::Manifest::FILE
-        );
+            output::MARKER,
+            dir.display(),
+            output::MARKER
+        ),
     }
     println!(
         "wrote {}, {} and {}",

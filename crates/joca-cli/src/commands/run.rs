@@ -73,22 +73,15 @@ pub fn run(args: &Args) -> Result<()> {
     execute(cfg, &out, args.resume)
 }
 
-/// `--out` must be a new or empty folder, or a run directory of joca's (`config.toml`); with
-/// `--resume` it must hold a checkpoint. So a mistyped path neither overwrites a folder of
-/// other files nor silently starts a fresh run.
+/// `--out` must be a new or empty folder, or a run directory of joca's (its marker,
+/// `joca_core::output`); with `--resume` it must hold a checkpoint. So a mistyped path neither
+/// overwrites a folder of other files nor silently starts a fresh run.
 fn check_run_dir(out: &Path, resume: bool) -> Result<()> {
-    let entries: Vec<String> = match std::fs::read_dir(out) {
-        Ok(entries) => entries
-            .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
-            .collect(),
-        Err(_) => Vec::new(),
-    };
-    if !entries.is_empty() && !entries.iter().any(|e| e == "config.toml") {
-        bail!(
-            "{} is not empty and is not a joca run directory (no config.toml): choose a new \
-             --out, or empty it",
-            out.display()
-        );
+    use joca_core::output::{self, Claimed, DirLock, OutputKind};
+    if output::check(out, OutputKind::Run)? == Some(Claimed::Earlier) {
+        // A run still writing there is named now, before any other message (the run takes the
+        // lock again for itself).
+        drop(DirLock::acquire(out, "joca run")?);
     }
     if resume && joca_train::CheckpointDir::new(out.join("checkpoint")).existing().is_none() {
         bail!(

@@ -20,8 +20,8 @@ pub struct Args {
     /// Override the number of training steps (frames).
     #[arg(long)]
     steps: Option<usize>,
-    /// Override the thread count.
-    #[arg(long)]
+    /// Override the thread count (1 to 64).
+    #[arg(long, value_parser = crate::config::count::<1, 64>)]
     threads: Option<usize>,
     /// Where to write the trained weights (safetensors). The run directory (log, checkpoint,
     /// results) is this path with `.run` in place of the extension.
@@ -97,8 +97,8 @@ pub struct EvalArgs {
     /// Test episodes per light (10 scored frames each); default: the preset's final evaluation.
     #[arg(long)]
     episodes: Option<u64>,
-    /// Override the thread count.
-    #[arg(long)]
+    /// Override the thread count (1 to 64).
+    #[arg(long, value_parser = crate::config::count::<1, 64>)]
     threads: Option<usize>,
 }
 

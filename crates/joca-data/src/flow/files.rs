@@ -126,12 +126,12 @@ fn parse_npy(b: &[u8]) -> Result<(usize, usize, Vec<f32>), String> {
         return Err("not a NumPy .npy file (no \\x93NUMPY magic)".into());
     }
     let (header_len, start) = match b[6] {
-        1 => (usize::from(u16::from_le_bytes([b[8], b[9]])), 10),
+        1 => (usize::from(u16::from_le_bytes([b[8], b[9]])), 10usize),
         2 | 3 if b.len() >= 12 => (u32::from_le_bytes([b[8], b[9], b[10], b[11]]) as usize, 12),
         v => return Err(format!(".npy version {v} is not supported (1 to 3)")),
     };
     let header = b
-        .get(start..start + header_len)
+        .get(start..start.saturating_add(header_len))
         .map(String::from_utf8_lossy)
         .ok_or("the .npy header is cut short")?;
     let descr = field(&header, "descr").ok_or("the .npy header has no descr")?;
@@ -158,12 +158,15 @@ fn parse_npy(b: &[u8]) -> Result<(usize, usize, Vec<f32>), String> {
     let [h, w] = dims[..] else {
         return Err(format!("a disparity map is 2-D; this array has shape {dims:?}"));
     };
-    let body = &b[start + header_len..];
-    if body.len() != w * h * width {
+    if !(1..=MAX_SIDE).contains(&w) || !(1..=MAX_SIDE).contains(&h) {
+        return Err(format!("shape ({h}, {w}): each side must be 1 to {MAX_SIDE}"));
+    }
+    let body = &b[start + header_len..]; // inside `b`: the header slice above exists
+    let expected = sized(&[w, h, width])?;
+    if body.len() != expected {
         return Err(format!(
-            "{} data bytes, but {h}×{w} of {width} bytes take {}",
-            body.len(),
-            w * h * width
+            "{} data bytes, but {h}×{w} of {width} bytes take {expected}",
+            body.len()
         ));
     }
     let values = body
@@ -184,6 +187,14 @@ fn field<'a>(header: &'a str, key: &str) -> Option<&'a str> {
     Some(rest.trim_start().split(',').next()?.trim())
 }
 
+/// The product of a header's sizes, refused (not wrapped) where it overflows.
+fn sized(factors: &[usize]) -> Result<usize, String> {
+    factors
+        .iter()
+        .try_fold(1usize, |p, &f| p.checked_mul(f))
+        .ok_or_else(|| format!("sizes {factors:?} overflow: the header is corrupt"))
+}
+
 /// A one-channel PFM (`Pf`): header lines, then rows bottom first.
 fn parse_pfm(b: &[u8]) -> Result<(usize, usize, Vec<f32>), String> {
     let mut lines = 0;
@@ -201,13 +212,24 @@ fn parse_pfm(b: &[u8]) -> Result<(usize, usize, Vec<f32>), String> {
         Some("PF") => return Err("a colour PFM (PF) is not a disparity map; expected Pf".into()),
         _ => return Err("not a PFM file (no Pf header)".into()),
     }
-    let mut num = |what: &str| -> Result<f64, String> {
-        tokens.next().and_then(|t| t.parse().ok()).ok_or(format!("the PFM header has no {what}"))
+    let mut token = |what: &str| tokens.next().ok_or(format!("the PFM header has no {what}"));
+    let mut side = |what: &str| -> Result<usize, String> {
+        let t = token(what)?;
+        t.parse::<usize>()
+            .ok()
+            .filter(|v| (1..=MAX_SIDE).contains(v))
+            .ok_or(format!("PFM {what} {t:?}: must be a whole number from 1 to {MAX_SIDE}"))
     };
-    let (w, h, scale) = (num("width")? as usize, num("height")? as usize, num("scale")?);
+    let (w, h) = (side("width")?, side("height")?);
+    let scale: f64 = tokens
+        .next()
+        .and_then(|t| t.parse().ok())
+        .filter(|v: &f64| v.is_finite() && *v != 0.0)
+        .ok_or("the PFM header has no scale (a finite number other than 0)")?;
     let body = &b[end..];
-    if w == 0 || h == 0 || body.len() != 4 * w * h {
-        return Err(format!("{} data bytes, but {w}×{h} floats take {}", body.len(), 4 * w * h));
+    let floats = sized(&[w, h, 4])?;
+    if body.len() != floats {
+        return Err(format!("{} data bytes, but {w}×{h} floats take {floats}", body.len()));
     }
     let little = scale < 0.0;
     let mut values = vec![0.0f32; w * h];
@@ -311,7 +333,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         // NumPy 1.0 header for a (2, 3) float32 array, padded to 64 bytes as numpy does.
         let mut header = "{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3), }".to_owned();
-        while (10 + header.len() + 1) % 64 != 0 {
+        while !(10 + header.len() + 1).is_multiple_of(64) {
             header.push(' ');
         }
         header.push('\n');

@@ -78,10 +78,46 @@ fn check_box([x, y, w, h]: [f32; 4], (width, height): (u32, u32)) -> Result<(), 
     Ok(())
 }
 
+/// Recorded capture times, in seconds: finite and within ±1e10 s (Unix time or time since the
+/// recording's start both fit).
+pub const TIMESTAMP_RANGE_S: (f64, f64) = (-1e10, 1e10);
+/// Recorded exposure times, in seconds: above 0 and at most 10 s.
+pub const EXPOSURE_RANGE_S: (f64, f64) = (0.0, 10.0);
+/// Recorded gains, in dB: −20 to 60 dB (every catalogue sensor's analog and digital gain fit).
+pub const GAIN_RANGE_DB: (f64, f64) = (-20.0, 60.0);
+
+/// An image's recorded timestamp, exposure and gain must be finite and in range (NaN is out of
+/// every range); the error names the image, the field, the value and the range.
+fn check_settings(img: &CocoImage, default_exposure_s: Option<f64>) -> Result<(), String> {
+    let fields = [
+        ("timestamp_s", img.timestamp_s, TIMESTAMP_RANGE_S, true),
+        ("exposure_s", img.exposure_s.or(default_exposure_s), EXPOSURE_RANGE_S, false),
+        ("gain_db", img.gain_db, GAIN_RANGE_DB, true),
+    ];
+    for (field, value, (lo, hi), closed) in fields {
+        let Some(v) = value else { continue };
+        let inside = if closed { (lo..=hi).contains(&v) } else { v > lo && v <= hi };
+        if !inside {
+            let from = if closed { "from" } else { "above" };
+            let (v, lo, hi) = (short(v), short(lo), short(hi));
+            return Err(format!(
+                "image {} ({}) has {field} = {v}; allowed {from} {lo} to {hi}",
+                img.id, img.file_name
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A number as a message shows it: plain, or in exponent form where plain would be long.
+fn short(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) { format!("{v:e}") } else { format!("{v}") }
+}
+
 /// `dir/name`, where `name` (an annotation's `file_name`) must stay inside `dir`: relative, with
 /// no `..`, and not leading out through a symbolic link. A recording's annotation file is input
 /// like any other, and nothing outside the dataset folder is opened on its word.
-fn inside(dir: &Path, name: &str) -> Result<PathBuf, String> {
+pub fn inside(dir: &Path, name: &str) -> Result<PathBuf, String> {
     let rel = Path::new(name);
     let plain = rel.components().all(|c| matches!(c, Component::Normal(_) | Component::CurDir));
     if name.is_empty() || rel.is_absolute() || !plain {
@@ -114,8 +150,12 @@ impl Recording {
         }
         let mut boxes: HashMap<u64, Vec<Annotation>> = HashMap::new();
         let mut crowds: HashMap<u64, Vec<Annotation>> = HashMap::new();
-        let sizes: HashMap<u64, (u32, u32)> =
-            coco.images.iter().map(|i| (i.id, (i.width, i.height))).collect();
+        let mut sizes: HashMap<u64, (u32, u32)> = HashMap::new();
+        for img in &coco.images {
+            if sizes.insert(img.id, (img.width, img.height)).is_some() {
+                return Err(read_err(&json_path, format!("image id {} is declared twice", img.id)));
+            }
+        }
         for a in &coco.annotations {
             let size = sizes.get(&a.image_id).copied().ok_or_else(|| {
                 read_err(
@@ -155,8 +195,22 @@ impl Recording {
         }
         let mut sequences: BTreeMap<String, Vec<RecordedFrame>> = BTreeMap::new();
         let mut skipped = Vec::new();
+        let mut files = HashSet::new();
         for img in &coco.images {
             let path = inside(dir, &img.file_name).map_err(|e| read_err(&json_path, e))?;
+            // `a/./b.png` and `a/b.png` are one file: compare the normalised relative path.
+            let normal: PathBuf = Path::new(&img.file_name).components().collect();
+            if !files.insert(normal) {
+                return Err(read_err(
+                    &json_path,
+                    format!(
+                        "image {}: file_name {:?} is already another image's; each frame is one \
+                         file",
+                        img.id, img.file_name
+                    ),
+                ));
+            }
+            check_settings(img, config.default_exposure_s).map_err(|e| read_err(&json_path, e))?;
             let timestamp_s = img.timestamp_s.ok_or_else(|| {
                 read_err(
                     &json_path,
@@ -178,12 +232,6 @@ impl Recording {
                     ),
                 )
             })?;
-            if exposure_s.is_nan() || exposure_s <= 0.0 {
-                return Err(read_err(
-                    &json_path,
-                    format!("image {} has exposure_s = {exposure_s}; it must be above 0", img.id),
-                ));
-            }
             let origin = FrameOrigin::File(path);
             if let Err(why) = check_header(&origin, (img.width, img.height), img.id) {
                 match config.on_bad_frame {

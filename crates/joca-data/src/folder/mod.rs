@@ -22,6 +22,7 @@
 
 mod coco;
 pub(crate) use coco::class_named;
+pub use coco::inside as path_inside;
 
 use crate::blur::{Linearize, motion_blur};
 use crate::flow::{DisParams, DisPreset, Gray, dis};
@@ -29,7 +30,7 @@ use joca_core::{
     Annotation, BBox, Class, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError,
 };
 use serde::Deserialize;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Component, Path, PathBuf};
 use std::sync::{Arc, Mutex};
 

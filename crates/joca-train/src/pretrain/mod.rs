@@ -21,6 +21,7 @@ use joca_camera::{
     SensorEncoding, sensor_by_name,
 };
 use joca_core::SeedStreams;
+use joca_core::output::{self, DirLock, OutputKind};
 use joca_metrics::TaskScores;
 use joca_nn::detector::{
     DetectorConfig, DetectorModel, LossParts, Precision, TrainFrame, WeightAverage,
@@ -91,7 +92,8 @@ pub fn pretrain(
     progress: &mut dyn FnMut(&PretrainEvent) -> ControlFlow<()>,
 ) -> Result<EvalReport, TrainError> {
     config.validate()?;
-    std::fs::create_dir_all(run_dir).map_err(|e| TrainError::io(run_dir, e))?;
+    output::claim(run_dir, OutputKind::Pretrain)?;
+    let _lock = DirLock::acquire(run_dir, "joca train-detector")?;
     let engine = Engine::cpu(config.trainer_threads());
     let streams = SeedStreams::new(config.seed);
     engine.seed(streams.stream("detector-init").random());

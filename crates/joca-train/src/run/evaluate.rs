@@ -9,6 +9,7 @@ use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, read_json, write_atomic};
 use crate::control::TestController;
 use joca_camera::CameraDesign;
+use joca_core::output::{self, DirLock, OutputKind};
 use joca_nn::joint::JointModel;
 use joca_record::Validated;
 use std::path::{Path, PathBuf};
@@ -17,15 +18,25 @@ use std::path::{Path, PathBuf};
 /// trained detector and NeuralAE in closed loop on the test town, optionally under another
 /// scenario, with another number of frames, or with another controller (`controller`: AverageAE
 /// at a chosen frame mean in place of the trained one; the design is still chosen with the run's
-/// own controller). Writes `results.json` (for another scenario `results-<scenario>.json`, for
-/// another controller `results-<controller>.json` or `results-<scenario>-<controller>.json`, its
-/// trace and showcases in the matching `test-…` folder) and returns the results and that folder.
+/// own controller). Never rewrites the run's own `results.json`: writes `results-eval.json`
+/// (for another scenario `results-<scenario>.json`, for another controller
+/// `results-<controller>.json`, for another frame count `results-frames<N>.json`, or these
+/// joined: `results-<scenario>-<controller>-frames<N>.json`), its trace and showcases in the
+/// matching `test-…` folder, and returns the results and that folder. Holds the run
+/// directory's lock while it works, so it never reads a checkpoint a run is writing.
 pub fn evaluate_run(
     run_dir: &Path,
     scenario: Option<Scenario>,
     frames_per_episode: Option<usize>,
     controller: TestController,
 ) -> Result<(RunResults, PathBuf), TrainError> {
+    if output::check(run_dir, OutputKind::Run)? != Some(output::Claimed::Earlier) {
+        return Err(TrainError::Corrupt {
+            path: run_dir.display().to_string(),
+            reason: "not a run directory of joca's (it does not exist or is empty)".into(),
+        });
+    }
+    let _lock = DirLock::acquire(run_dir, "joca eval")?;
     let config_path = run_dir.join("config.toml");
     let text =
         std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
@@ -37,6 +48,7 @@ pub fn evaluate_run(
     if let Some(s) = scenario {
         config.scenario = s;
     }
+    let run_frames = config.test_frames_per_episode;
     if let Some(f) = frames_per_episode {
         config.test_frames_per_episode = f;
     }
@@ -58,11 +70,14 @@ pub fn evaluate_run(
     if controller != TestController::Trained {
         tags.push(controller.name());
     }
-    let (name, test_dir) = if tags.is_empty() {
-        ("results.json".to_owned(), "test".to_owned())
-    } else {
-        (format!("results-{}.json", tags.join("-")), format!("test-{}", tags.join("-")))
-    };
+    if config.test_frames_per_episode != run_frames {
+        tags.push(format!("frames{}", config.test_frames_per_episode));
+    }
+    if tags.is_empty() {
+        tags.push("eval".to_owned());
+    }
+    let (name, test_dir) =
+        (format!("results-{}.json", tags.join("-")), format!("test-{}", tags.join("-")));
     let out = run_dir.join(test_dir);
     cx.test_controller = controller;
     let mut results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;

@@ -39,6 +39,7 @@ use joca_camera::{
     AccRanges, Calibration, DesignSpace, GenomeCodec, ImageFormation, SensorEncoding,
 };
 use joca_core::SeedStreams;
+use joca_core::output::{self, DirLock, OutputKind};
 use joca_data::folder::Recording;
 use joca_evolve::Ga;
 use joca_nn::Engine;
@@ -181,7 +182,9 @@ pub fn run(
     progress: &mut dyn FnMut(&RunEvent) -> ControlFlow<()>,
 ) -> Result<RunResults, TrainError> {
     config.validate()?;
-    std::fs::create_dir_all(run_dir).map_err(|e| TrainError::io(run_dir, e))?;
+    output::claim(run_dir, OutputKind::Run)?;
+    // One writer per run directory, for the whole run (released however the process ends).
+    let _lock = DirLock::acquire(run_dir, "joca run")?;
     let log_path = run_dir.join("events.jsonl");
     let log = std::fs::OpenOptions::new()
         .create(true)

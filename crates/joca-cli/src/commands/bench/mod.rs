@@ -36,11 +36,11 @@ pub struct Args {
     /// Component to measure.
     #[arg(value_enum)]
     target: Target,
-    /// Timed repetitions per row (the best is reported).
-    #[arg(long, default_value_t = 20)]
+    /// Timed repetitions per row (the best is reported), 1 to 10000.
+    #[arg(long, default_value_t = 20, value_parser = crate::config::count::<1, 10000>)]
     repeats: usize,
-    /// Threads for the detector benchmark (libtorch intra-op threads).
-    #[arg(long, default_value_t = 2)]
+    /// Threads for the detector benchmark (libtorch intra-op threads), 1 to 64.
+    #[arg(long, default_value_t = 2, value_parser = crate::config::count::<1, 64>)]
     threads: usize,
     /// `bench detector`: the variant with the stride-32 stage (`detector.deep`, the shipped
     /// weights' architecture).
