@@ -101,10 +101,10 @@ fn the_crate_layering_holds() {
 fn references(text: &str) -> Vec<(String, String)> {
     let mut refs = Vec::new();
     for quoted in text.split('`').skip(1).step_by(2) {
-        if let Some((file, symbol)) = quoted.split_once(".rs:") {
-            if file.starts_with("crates/") {
-                refs.push((format!("{file}.rs"), symbol.to_owned()));
-            }
+        if let Some((file, symbol)) = quoted.split_once(".rs:")
+            && file.starts_with("crates/")
+        {
+            refs.push((format!("{file}.rs"), symbol.to_owned()));
         }
     }
     refs

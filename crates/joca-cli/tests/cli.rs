@@ -686,21 +686,26 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     );
 }
 
-#[test]
-fn flow_and_blur_report_motion_and_refuse_bad_input() {
-    let dir = tempfile::tempdir().unwrap();
-    // A smooth pattern shifted 2 px to the right between the frames.
+/// Three 96×64 frames of a smooth pattern shifted 2 px to the right from one to the next.
+fn shifted_frames(dir: &Path) -> PathBuf {
     let frame = |shift: f32| {
         image::RgbImage::from_fn(96, 64, |x, y| {
             let v = 128.0 + 60.0 * ((x as f32 - shift) * 0.21).sin() * (y as f32 * 0.17).cos();
             image::Rgb([v as u8, v as u8, v as u8])
         })
     };
-    let frames = dir.path().join("frames");
+    let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).unwrap();
     for k in 0..3 {
         frame(2.0 * k as f32).save(frames.join(format!("{k:03}.png"))).unwrap();
     }
+    frames
+}
+
+#[test]
+fn flow_reports_motion_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = shifted_frames(dir.path());
     let a = frames.join("000.png");
     let b = frames.join("001.png");
     let out = dir.path().join("flow.png");
@@ -776,22 +781,6 @@ fn flow_and_blur_report_motion_and_refuse_bad_input() {
         stderr(&o)
     );
 
-    let blurred = dir.path().join("blurred");
-    let o = joca(&[
-        "blur",
-        frames.to_str().unwrap(),
-        "--exposure-ms",
-        "50",
-        "--out",
-        blurred.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    // 2 px per 100 ms frame interval, 50 ms exposure: a 1 px smear.
-    assert!(stdout(&o).contains("mean smear 1.0"), "{}", stdout(&o));
-    // Two blurred frames and joca's output marker.
-    assert_eq!(std::fs::read_dir(&blurred).unwrap().count(), 3);
-    assert!(blurred.join(".joca-output").is_file());
-
     let o = joca(&[
         "flow",
         a.to_str().unwrap(),
@@ -810,6 +799,28 @@ fn flow_and_blur_report_motion_and_refuse_bad_input() {
     image::RgbImage::new(10, 10).save(&small).unwrap();
     let o = joca(&["flow", a.to_str().unwrap(), small.to_str().unwrap(), "--out", "x.png"]);
     assert!(stderr(&o).contains("96×64 but") && stderr(&o).contains("10×10"), "{}", stderr(&o));
+}
+
+#[test]
+fn blur_smears_along_the_flow_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = shifted_frames(dir.path());
+    let blurred = dir.path().join("blurred");
+    let o = joca(&[
+        "blur",
+        frames.to_str().unwrap(),
+        "--exposure-ms",
+        "50",
+        "--out",
+        blurred.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // 2 px per 100 ms frame interval, 50 ms exposure: a 1 px smear.
+    assert!(stdout(&o).contains("mean smear 1.0"), "{}", stdout(&o));
+    // Two blurred frames and joca's output marker.
+    assert_eq!(std::fs::read_dir(&blurred).unwrap().count(), 3);
+    assert!(blurred.join(".joca-output").is_file());
+
     let o = joca(&[
         "blur",
         frames.to_str().unwrap(),

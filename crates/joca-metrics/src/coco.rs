@@ -216,19 +216,9 @@ impl CocoEvaluator {
                     })
                     .collect();
                 if a == 0 {
-                    ground_truths +=
-                        evals.iter().flat_map(|e| &e.gt_ignored).filter(|&&i| !i).count();
-                    true_positives_50 += evals
-                        .iter()
-                        .map(|e| {
-                            e.matched[0]
-                                .iter()
-                                .zip(&e.ignored[0])
-                                .take(100)
-                                .filter(|(m, i)| **m && !**i)
-                                .count()
-                        })
-                        .sum::<usize>();
+                    let (g, tp) = counts_at_50(&evals);
+                    ground_truths += g;
+                    true_positives_50 += tp;
                 }
                 let npig = evals.iter().flat_map(|e| &e.gt_ignored).filter(|&&i| !i).count();
                 if npig == 0 {
@@ -244,36 +234,10 @@ impl CocoEvaluator {
                     }
                     merged.sort_by(|x, y| y.0.total_cmp(&x.0));
                     for t in 0..nt {
-                        let mut tp = 0.0f64;
-                        let mut fp = 0.0f64;
-                        let mut rc = Vec::with_capacity(merged.len());
-                        let mut pr = Vec::with_capacity(merged.len());
-                        for &(_, e, d) in &merged {
-                            let (matched, ignored) =
-                                (evals[e].matched[t][d], evals[e].ignored[t][d]);
-                            // Ignored detections neither add nor cost, but, as numpy's cumsum
-                            // does, still emit a (repeated) point of the curve.
-                            if !ignored {
-                                if matched {
-                                    tp += 1.0;
-                                } else {
-                                    fp += 1.0;
-                                }
-                            }
-                            rc.push(tp / npig as f64);
-                            pr.push(tp / (fp + tp + f64::EPSILON));
-                        }
-                        recall[r_index(t, k, a, m)] = rc.last().copied().unwrap_or(0.0);
-                        for i in (1..pr.len()).rev() {
-                            if pr[i] > pr[i - 1] {
-                                pr[i - 1] = pr[i];
-                            }
-                        }
-                        for (r, &threshold) in recall_points.iter().enumerate() {
-                            // searchsorted(rc, threshold, side="left"); recall points out of
-                            // reach keep precision 0, as in pycocotools.
-                            let pi = rc.partition_point(|&v| v < threshold);
-                            precision[p_index(t, r, k, a, m)] = pr.get(pi).copied().unwrap_or(0.0);
+                        let (rec, prec) = accumulate(&evals, &merged, t, npig, &recall_points);
+                        recall[r_index(t, k, a, m)] = rec;
+                        for (r, p) in prec.into_iter().enumerate() {
+                            precision[p_index(t, r, k, a, m)] = p;
                         }
                     }
                 }
@@ -409,4 +373,61 @@ fn evaluate_image(
         }
     }
     Some(ImageEval { scores: d.iter().map(|x| x.score).collect(), matched, ignored, gt_ignored })
+}
+
+/// Ground-truth objects not ignored, and true positives at IoU 0.5 among each image's first 100
+/// detections (area "all").
+fn counts_at_50(evals: &[ImageEval]) -> (usize, usize) {
+    let ground_truths = evals.iter().flat_map(|e| &e.gt_ignored).filter(|&&i| !i).count();
+    let true_positives = evals
+        .iter()
+        .map(|e| {
+            e.matched[0].iter().zip(&e.ignored[0]).take(100).filter(|(m, i)| **m && !**i).count()
+        })
+        .sum::<usize>();
+    (ground_truths, true_positives)
+}
+
+/// pycocotools' accumulate for one category, area range, detection cap and IoU threshold `t`:
+/// the precision–recall curve over the merged detections (`(score, image, detection)`, by
+/// score), its final recall, and its interpolated precision at each of `recall_points`.
+fn accumulate(
+    evals: &[ImageEval],
+    merged: &[(f64, usize, usize)],
+    t: usize,
+    npig: usize,
+    recall_points: &[f64],
+) -> (f64, Vec<f64>) {
+    let mut tp = 0.0f64;
+    let mut fp = 0.0f64;
+    let mut rc = Vec::with_capacity(merged.len());
+    let mut pr = Vec::with_capacity(merged.len());
+    for &(_, e, d) in merged {
+        let (matched, ignored) = (evals[e].matched[t][d], evals[e].ignored[t][d]);
+        // Ignored detections neither add nor cost, but, as numpy's cumsum
+        // does, still emit a (repeated) point of the curve.
+        if !ignored {
+            if matched {
+                tp += 1.0;
+            } else {
+                fp += 1.0;
+            }
+        }
+        rc.push(tp / npig as f64);
+        pr.push(tp / (fp + tp + f64::EPSILON));
+    }
+    let final_recall = rc.last().copied().unwrap_or(0.0);
+    for i in (1..pr.len()).rev() {
+        if pr[i] > pr[i - 1] {
+            pr[i - 1] = pr[i];
+        }
+    }
+    let mut precision = Vec::with_capacity(recall_points.len());
+    for &threshold in recall_points {
+        // searchsorted(rc, threshold, side="left"); recall points out of
+        // reach keep precision 0, as in pycocotools.
+        let pi = rc.partition_point(|&v| v < threshold);
+        precision.push(pr.get(pi).copied().unwrap_or(0.0));
+    }
+    (final_recall, precision)
 }

@@ -106,150 +106,14 @@ pub fn write_figures(
     let mut figures = Vec::new();
     let name = |stem: &str, ext: &str| format!("figures/{prefix}{stem}.{ext}");
 
-    let mut fitness = Vec::new();
-    for (i, (label, run)) in runs.iter().enumerate() {
-        if run.generations.is_empty() {
-            continue;
-        }
-        let g = &run.generations;
-        if g.iter().all(|g| g.best == g.mean) {
-            // One candidate per generation (a fixed camera): best and mean coincide.
-            fitness.push(plot::Series {
-                label: format!("{label} (one candidate)"),
-                colour: i,
-                dashed: false,
-                points: g.iter().map(|g| (g.generation as f64, g.best)).collect(),
-            });
-            continue;
-        }
-        fitness.push(plot::Series {
-            label: format!("{label} (best)"),
-            colour: i,
-            dashed: false,
-            points: g.iter().map(|g| (g.generation as f64, g.best)).collect(),
-        });
-        fitness.push(plot::Series {
-            label: format!("{label} (mean)"),
-            colour: i,
-            dashed: true,
-            points: g.iter().map(|g| (g.generation as f64, g.mean)).collect(),
-        });
-    }
-    if !fitness.is_empty() {
-        let file = name("fitness", "png");
-        plot::stacked_chart(
-            &dir.join(&file),
-            &format!("Hardware GA fitness per generation — {what}"),
-            "generation",
-            &[plot::Panel { y_label: "fitness = mAP + 1.1 × TP ratio".into(), series: fitness }],
-            (900, 480),
-        )?;
-        figures.push(Figure {
-            section: what.to_owned(),
-            file,
-            caption: format!(
-                "Fitness of the hardware GA's candidates per generation (solid: best, dashed: \
-                 mean; {what}). Each candidate is trained and scored on its own k frames, so the \
-                 curves are noisy; a fixed-camera method drives its one camera as many times per \
-                 generation as the GA has candidates, so every method trains on as many frames."
-            ),
-        });
-    }
-
+    figures.extend(fitness_figure(dir, &name("fitness", "png"), what, runs)?);
     let tunnel: Vec<(usize, &String, &Showcase)> = runs
         .iter()
         .enumerate()
         .filter_map(|(i, (l, r))| r.showcase("tunnel").map(|s| (i, l, s)))
         .collect();
-    if let Some((_, _, first)) = tunnel.first() {
-        let light = plot::Series {
-            label: "ambient light".into(),
-            colour: 7,
-            dashed: false,
-            points: first.frames.iter().map(|f| (f.time_s, f64::from(f.ambient).log10())).collect(),
-        };
-        let series = |value: fn(&ShowcaseFrame) -> f64| {
-            tunnel
-                .iter()
-                .map(|(i, l, s)| plot::Series {
-                    label: (*l).clone(),
-                    colour: *i,
-                    dashed: false,
-                    points: s.frames.iter().map(|f| (f.time_s, value(f))).collect(),
-                })
-                .collect::<Vec<_>>()
-        };
-        let file = name("settings", "png");
-        plot::stacked_chart(
-            &dir.join(&file),
-            &format!("Exposure and gain through a tunnel transition (test town) — {what}"),
-            "time (s)",
-            &[
-                plot::Panel {
-                    y_label: "ambient, log10 (0 = daylight)".into(),
-                    series: vec![light],
-                },
-                plot::Panel {
-                    y_label: "exposure time (ms)".into(),
-                    series: series(|f| f.exposure_ms),
-                },
-                plot::Panel { y_label: "gain (dB)".into(), series: series(|f| f.gain_db) },
-                // On the ambient panel's log scale: a controller that keeps the image level
-                // moves this by as much as the ambient light moves, the other way.
-                plot::Panel {
-                    y_label: "exposure × gain, log10 (ms)".into(),
-                    series: series(|f| (f.exposure_ms * linear_from_db(f.gain_db)).log10()),
-                },
-            ],
-            (900, 1060),
-        )?;
-        figures.push(Figure {
-            section: what.to_owned(),
-            file,
-            caption: format!(
-                "What each exposure controller chose, frame by frame, while driving through an \
-                    abrupt change of illumination on the test town (closed loop: each frame's \
-                    settings come from the previous frame; {what}). The last panel, exposure × \
-                    linear gain on the ambient panel's log scale, falls by as much as the light \
-                    rises when a controller keeps the image level."
-            ),
-        });
-    }
-
-    let mut losses = Vec::new();
-    for (i, (label, run)) in runs.iter().enumerate() {
-        if run.steps.is_empty() {
-            continue;
-        }
-        let raw: Vec<(f64, f64)> = run.steps.iter().map(|s| (s.step as f64, s.loss)).collect();
-        losses.push(plot::Series {
-            label: label.clone(),
-            colour: i,
-            dashed: false,
-            points: smooth(&raw, 20),
-        });
-    }
-    if !losses.is_empty() {
-        let file = name("loss", "png");
-        plot::stacked_chart(
-            &dir.join(&file),
-            &format!("Detector task loss during joint training — {what}"),
-            "training step",
-            &[plot::Panel {
-                y_label: "task loss (moving average of 20 logs)".into(),
-                series: losses,
-            }],
-            (900, 480),
-        )?;
-        figures.push(Figure {
-            section: what.to_owned(),
-            file,
-            caption: format!(
-                "The detector's task loss (focal heat-map + size + offset) during \
-                joint training, logged every fifth step, moving average over 20 logs; {what}."
-            ),
-        });
-    }
+    figures.extend(settings_figure(dir, &name("settings", "png"), what, &tunnel)?);
+    figures.extend(loss_figure(dir, &name("loss", "png"), what, runs)?);
 
     if runs.iter().any(|(_, r)| !r.showcases.is_empty()) {
         let file = name("frames", "png");
@@ -490,4 +354,171 @@ fn write_text(path: &Path, text: &str) -> Result<(), ReportError> {
     let tmp = path.with_extension("partial");
     std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+}
+
+/// The hardware GA's best and mean fitness per generation (None: no run logged a generation).
+fn fitness_figure(
+    dir: &Path,
+    file: &str,
+    what: &str,
+    runs: &[(String, &RunData)],
+) -> Result<Option<Figure>, ReportError> {
+    let mut fitness = Vec::new();
+    for (i, (label, run)) in runs.iter().enumerate() {
+        if run.generations.is_empty() {
+            continue;
+        }
+        let g = &run.generations;
+        if g.iter().all(|g| g.best == g.mean) {
+            // One candidate per generation (a fixed camera): best and mean coincide.
+            fitness.push(plot::Series {
+                label: format!("{label} (one candidate)"),
+                colour: i,
+                dashed: false,
+                points: g.iter().map(|g| (g.generation as f64, g.best)).collect(),
+            });
+            continue;
+        }
+        fitness.push(plot::Series {
+            label: format!("{label} (best)"),
+            colour: i,
+            dashed: false,
+            points: g.iter().map(|g| (g.generation as f64, g.best)).collect(),
+        });
+        fitness.push(plot::Series {
+            label: format!("{label} (mean)"),
+            colour: i,
+            dashed: true,
+            points: g.iter().map(|g| (g.generation as f64, g.mean)).collect(),
+        });
+    }
+    if !fitness.is_empty() {
+        let file = file.to_owned();
+        plot::stacked_chart(
+            &dir.join(&file),
+            &format!("Hardware GA fitness per generation — {what}"),
+            "generation",
+            &[plot::Panel { y_label: "fitness = mAP + 1.1 × TP ratio".into(), series: fitness }],
+            (900, 480),
+        )?;
+        return Ok(Some(Figure {
+            section: what.to_owned(),
+            file,
+            caption: format!(
+                "Fitness of the hardware GA's candidates per generation (solid: best, dashed: \
+                 mean; {what}). Each candidate is trained and scored on its own k frames, so the \
+                 curves are noisy; a fixed-camera method drives its one camera as many times per \
+                 generation as the GA has candidates, so every method trains on as many frames."
+            ),
+        }));
+    }
+    Ok(None)
+}
+
+/// Exposure, gain and their product through the tunnel showcase (None: no run has it).
+fn settings_figure(
+    dir: &Path,
+    file: &str,
+    what: &str,
+    tunnel: &[(usize, &String, &Showcase)],
+) -> Result<Option<Figure>, ReportError> {
+    if let Some((_, _, first)) = tunnel.first() {
+        let light = plot::Series {
+            label: "ambient light".into(),
+            colour: 7,
+            dashed: false,
+            points: first.frames.iter().map(|f| (f.time_s, f64::from(f.ambient).log10())).collect(),
+        };
+        let series = |value: fn(&ShowcaseFrame) -> f64| {
+            tunnel
+                .iter()
+                .map(|(i, l, s)| plot::Series {
+                    label: (*l).clone(),
+                    colour: *i,
+                    dashed: false,
+                    points: s.frames.iter().map(|f| (f.time_s, value(f))).collect(),
+                })
+                .collect::<Vec<_>>()
+        };
+        let file = file.to_owned();
+        plot::stacked_chart(
+            &dir.join(&file),
+            &format!("Exposure and gain through a tunnel transition (test town) — {what}"),
+            "time (s)",
+            &[
+                plot::Panel {
+                    y_label: "ambient, log10 (0 = daylight)".into(),
+                    series: vec![light],
+                },
+                plot::Panel {
+                    y_label: "exposure time (ms)".into(),
+                    series: series(|f| f.exposure_ms),
+                },
+                plot::Panel { y_label: "gain (dB)".into(), series: series(|f| f.gain_db) },
+                // On the ambient panel's log scale: a controller that keeps the image level
+                // moves this by as much as the ambient light moves, the other way.
+                plot::Panel {
+                    y_label: "exposure × gain, log10 (ms)".into(),
+                    series: series(|f| (f.exposure_ms * linear_from_db(f.gain_db)).log10()),
+                },
+            ],
+            (900, 1060),
+        )?;
+        return Ok(Some(Figure {
+            section: what.to_owned(),
+            file,
+            caption: format!(
+                "What each exposure controller chose, frame by frame, while driving through an \
+                    abrupt change of illumination on the test town (closed loop: each frame's \
+                    settings come from the previous frame; {what}). The last panel, exposure × \
+                    linear gain on the ambient panel's log scale, falls by as much as the light \
+                    rises when a controller keeps the image level."
+            ),
+        }));
+    }
+    Ok(None)
+}
+
+/// The detector's task loss during joint training (None: no run logged a step).
+fn loss_figure(
+    dir: &Path,
+    file: &str,
+    what: &str,
+    runs: &[(String, &RunData)],
+) -> Result<Option<Figure>, ReportError> {
+    let mut losses = Vec::new();
+    for (i, (label, run)) in runs.iter().enumerate() {
+        if run.steps.is_empty() {
+            continue;
+        }
+        let raw: Vec<(f64, f64)> = run.steps.iter().map(|s| (s.step as f64, s.loss)).collect();
+        losses.push(plot::Series {
+            label: label.clone(),
+            colour: i,
+            dashed: false,
+            points: smooth(&raw, 20),
+        });
+    }
+    if !losses.is_empty() {
+        let file = file.to_owned();
+        plot::stacked_chart(
+            &dir.join(&file),
+            &format!("Detector task loss during joint training — {what}"),
+            "training step",
+            &[plot::Panel {
+                y_label: "task loss (moving average of 20 logs)".into(),
+                series: losses,
+            }],
+            (900, 480),
+        )?;
+        return Ok(Some(Figure {
+            section: what.to_owned(),
+            file,
+            caption: format!(
+                "The detector's task loss (focal heat-map + size + offset) during \
+                joint training, logged every fifth step, moving average over 20 logs; {what}."
+            ),
+        }));
+    }
+    Ok(None)
 }

@@ -12,7 +12,7 @@ use joca_core::units::{ms_from_s, s_from_ms};
 use joca_core::{FrameRequest, FrameSource, Rgb8Image, SeedStreams};
 use joca_sim::{Illumination, SimConfig, Simulator};
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Illumination schedule of the episode.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -123,8 +123,10 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// Runs `joca render`.
-pub fn run(args: &Args) -> Result<()> {
+/// The checked flags: the sensor, the detector input and the fixed settings (None: AverageAE).
+fn checked(
+    args: &Args,
+) -> Result<(&'static joca_camera::Sensor, DetectorInput, Option<DynamicSettings>)> {
     let space = DesignSpace::synthetic();
     let sensor = sensor_by_name(&args.sensor).context("invalid --sensor")?;
     space.x_m.check("--x", args.x, " m")?;
@@ -164,6 +166,12 @@ pub fn run(args: &Args) -> Result<()> {
         }
         _ => None,
     };
+    Ok((sensor, input, fixed))
+}
+
+/// Runs `joca render`.
+pub fn run(args: &Args) -> Result<()> {
+    let (sensor, input, fixed) = checked(args)?;
     let design = CameraDesign {
         x_m: args.x,
         z_m: args.z,
@@ -191,7 +199,7 @@ pub fn run(args: &Args) -> Result<()> {
         .context("invalid --noise-scale")?
         .with_resampler(input.resampler)
         .for_sensor(sensor);
-    let ae = AverageAe::new(ranges);
+    let ae = AverageAe::new(AccRanges::PAPER);
     let streams = SeedStreams::new(args.seed);
     // Written in full or not at all: a full disk or a kill leaves the earlier output (or none).
     let staged = io::StagedDir::create(&args.out, joca_core::output::OutputKind::Render)?;
@@ -277,6 +285,24 @@ pub fn run(args: &Args) -> Result<()> {
             settings = ae.step(settings, &image);
         }
     }
+    write_outputs(&out, images, annotations, &shown, sim.frame_interval_s())?;
+    staged.finish()?;
+    println!(
+        "wrote {} frames, annotations.json, contact_sheet.png and sequence.gif to {}",
+        args.frames,
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// `annotations.json` (COCO, with joca's frame fields), the contact sheet and the animation.
+fn write_outputs(
+    out: &Path,
+    images: Vec<serde_json::Value>,
+    annotations: Vec<serde_json::Value>,
+    shown: &[Rgb8Image],
+    frame_interval_s: f64,
+) -> Result<()> {
     let categories: Vec<_> = joca_core::Class::ALL
         .iter()
         .map(|c| json!({"id": c.coco_id(), "name": c.name()}))
@@ -290,16 +316,6 @@ pub fn run(args: &Args) -> Result<()> {
         shown.iter().step_by(shown.len().div_ceil(16).max(1)).cloned().collect();
     let sheet = draw::tile(&sheet_frames, 4);
     io::write_png(&out.join("contact_sheet.png"), &sheet)?;
-    io::write_gif(
-        &out.join("sequence.gif"),
-        &shown,
-        (sim.frame_interval_s() * 100.0).round() as u16,
-    )?;
-    staged.finish()?;
-    println!(
-        "wrote {} frames, annotations.json, contact_sheet.png and sequence.gif to {}",
-        args.frames,
-        args.out.display()
-    );
+    io::write_gif(&out.join("sequence.gif"), shown, (frame_interval_s * 100.0).round() as u16)?;
     Ok(())
 }

@@ -166,6 +166,15 @@ fn one_frame() -> usize {
     1
 }
 
+/// A `pretrain.<field>` error naming the value and what is allowed.
+fn bad(field: &str, value: String, allowed: &str) -> Result<(), TrainError> {
+    Err(TrainError::Config {
+        field: format!("pretrain.{field}"),
+        value,
+        allowed: allowed.to_owned(),
+    })
+}
+
 impl PretrainConfig {
     /// Test episodes per illumination of the final evaluation.
     pub fn final_episodes(&self) -> u64 {
@@ -180,13 +189,6 @@ impl PretrainConfig {
 
     /// Checks every field; the error names the field and what is allowed.
     pub fn validate(&self) -> Result<(), TrainError> {
-        let bad = |field: &str, value: String, allowed: &str| {
-            Err(TrainError::Config {
-                field: format!("pretrain.{field}"),
-                value,
-                allowed: allowed.to_owned(),
-            })
-        };
         if !(1..=64).contains(&self.threads) {
             return bad("threads", self.threads.to_string(), "1 to 64");
         }
@@ -226,27 +228,7 @@ impl PretrainConfig {
         if self.data.train_maps == 0 {
             return bad("data.train_maps", "0".into(), "at least 1");
         }
-        for (name, v) in
-            [("optimizer.lr", self.optimizer.lr), ("optimizer.lr_final", self.optimizer.lr_final)]
-        {
-            if !(v > 0.0 && v < 1.0) {
-                return bad(name, v.to_string(), "between 0 and 1");
-            }
-        }
-        if !(self.optimizer.ema_decay >= 0.0 && self.optimizer.ema_decay < 1.0) {
-            return bad(
-                "optimizer.ema_decay",
-                self.optimizer.ema_decay.to_string(),
-                "0 (off) up to below 1",
-            );
-        }
-        if !(self.optimizer.weight_decay >= 0.0 && self.optimizer.weight_decay < 1.0) {
-            return bad(
-                "optimizer.weight_decay",
-                self.optimizer.weight_decay.to_string(),
-                "0 to 1",
-            );
-        }
+        self.validate_optimizer()?;
         crate::run::check_detector(&self.detector, "pretrain")?;
         if !(1..=10_000).contains(&self.eval.episodes) {
             return bad("eval.episodes", self.eval.episodes.to_string(), "1 to 10000");
@@ -277,6 +259,35 @@ impl PretrainConfig {
         if !(self.data.sign_density >= 0.0 && self.data.sign_density <= 8.0) {
             return bad("data.sign_density", self.data.sign_density.to_string(), "0 to 8");
         }
+        self.validate_experimental()
+    }
+
+    fn validate_optimizer(&self) -> Result<(), TrainError> {
+        for (name, v) in
+            [("optimizer.lr", self.optimizer.lr), ("optimizer.lr_final", self.optimizer.lr_final)]
+        {
+            if !(v > 0.0 && v < 1.0) {
+                return bad(name, v.to_string(), "between 0 and 1");
+            }
+        }
+        if !(self.optimizer.ema_decay >= 0.0 && self.optimizer.ema_decay < 1.0) {
+            return bad(
+                "optimizer.ema_decay",
+                self.optimizer.ema_decay.to_string(),
+                "0 (off) up to below 1",
+            );
+        }
+        if !(self.optimizer.weight_decay >= 0.0 && self.optimizer.weight_decay < 1.0) {
+            return bad(
+                "optimizer.weight_decay",
+                self.optimizer.weight_decay.to_string(),
+                "0 to 1",
+            );
+        }
+        Ok(())
+    }
+
+    fn validate_experimental(&self) -> Result<(), TrainError> {
         if !(self.experimental.min_box_px >= 1.0 && self.experimental.min_box_px <= 64.0) {
             return bad(
                 "experimental.min_box_px",

@@ -84,6 +84,10 @@ struct State {
 }
 
 /// Runs (or resumes) pre-training into `run_dir` and writes the final weights to `weights_out`.
+#[expect(
+    clippy::too_many_lines,
+    reason = "to be split into named steps with byte-identical weights (issue 42)"
+)]
 pub fn pretrain(
     config: &PretrainConfig,
     run_dir: &Path,
