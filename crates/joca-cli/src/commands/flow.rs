@@ -210,7 +210,7 @@ pub fn run_blur(args: &BlurArgs) -> Result<()> {
         let inside = value <= max && if closed { value >= 0.0 } else { value > 0.0 };
         if !inside {
             let from = if closed { "from" } else { "above" };
-            bail!("{flag} = {value} is out of range: allowed {from} 0 to {max}");
+            bail!("{flag} = {value:?} is out of range: allowed {from} 0 to {max}");
         }
     }
     if same_file(&args.frames, &args.out) {

@@ -142,14 +142,14 @@ fn checked(
     })?;
     if !(0.0..=joca_train::MAX_SPEED_MPS).contains(&args.max_speed_mps) {
         bail!(
-            "--max-speed-mps = {} is out of range: allowed 0 to {}",
+            "--max-speed-mps = {:?} is out of range: allowed 0 to {}",
             args.max_speed_mps,
             joca_train::MAX_SPEED_MPS
         );
     }
     if !(0.0..=crate::config::MAX_BLUR_SCALE).contains(&args.blur_scale) {
         bail!(
-            "--blur-scale = {} is out of range: allowed 0 to {}",
+            "--blur-scale = {:?} is out of range: allowed 0 to {}",
             args.blur_scale,
             crate::config::MAX_BLUR_SCALE
         );
