@@ -70,7 +70,7 @@ w,h=8,8; raw=b''.join(b'\x00'+b'\x80'*3*w for _ in range(h))
 def c(t,d): return struct.pack('>I',len(d))+t+d+struct.pack('>I',zlib.crc32(t+d)&0xffffffff)
 open(sys.argv[1],'wb').write(b'\x89PNG\r\n\x1a\n'+c(b'IHDR',struct.pack('>IIBBBBB',w,h,8,2,0,0,0))+c(b'IDAT',zlib.compress(raw))+c(b'IEND',b''))" "$1"; }
 convert_png pfm/a.png; convert_png pfm/b.png
-probe "flow --gt-disparity (PFM w*h overflows)" "each side must be 1 to 32768" -- flow pfm/a.png pfm/b.png --out pfm/f.png --gt-disparity pfm/huge.pfm
+probe "flow --gt-disparity (PFM w*h overflows)" "from 1 to 32768" -- flow pfm/a.png pfm/b.png --out pfm/f.png --gt-disparity pfm/huge.pfm
 [[ ! -e pfm/f.png ]] && echo "  no flow PNG written before the failed check: ok" || { echo "  f.png written: FAIL"; fails=$((fails+1)); }
 probe "detect --width 100000" "4..=128" -- detect --weights "$weights" --images det/list.json --out det/dt.json --width 100000
 probe "detect --threads 100000" "1..=64" -- detect --weights "$weights" --images det/list.json --out det/dt.json --threads 100000
