@@ -43,7 +43,8 @@ pub fn save_weights(vs: &VarStore, path: &Path) -> Result<(), NnError> {
 /// nothing else.
 pub fn load_weights(vs: &mut VarStore, path: &Path) -> Result<(), NnError> {
     let err = |reason: String| NnError::Weights { path: path.display().to_string(), reason };
-    let size = std::fs::metadata(path).map_err(|_| err("file not found".into()))?.len();
+    // The cause as the OS gives it: not found, permission denied, not a directory, …
+    let size = std::fs::metadata(path).map_err(|e| err(format!("cannot read: {e}")))?.len();
     // The whole file is read into memory; no joca model comes near this size.
     if size > MAX_WEIGHTS_BYTES {
         return Err(err(format!(
@@ -118,6 +119,21 @@ mod tests {
         Tensor::write_safetensors(&[("layer.weight", &good)], &path).unwrap();
         load_weights(&mut vs, &path).unwrap();
         assert_eq!(w.mean(Kind::Float).double_value(&[]), 1.0);
+    }
+
+    /// A path that cannot be read is named with the OS's reason, not always "not found".
+    #[test]
+    fn an_unreadable_path_is_named_with_its_cause() {
+        let mut vs = VarStore::new(Device::Cpu);
+        let missing = std::env::temp_dir().join("joca-nn-no-such-dir/w.safetensors");
+        let e = load_weights(&mut vs, &missing).unwrap_err().to_string();
+        assert!(e.contains("w.safetensors") && e.contains("No such file"), "{e}");
+        // A path through a file: "Not a directory", which "file not found" used to hide.
+        let file = std::env::temp_dir().join(format!("joca-nn-plain-{}", std::process::id()));
+        std::fs::write(&file, b"x").unwrap();
+        let e = load_weights(&mut vs, &file.join("w.safetensors")).unwrap_err().to_string();
+        assert!(e.contains("Not a directory"), "{e}");
+        std::fs::remove_file(&file).unwrap();
     }
 
     /// A safetensors header as the format lays it out: an 8-byte little-endian length, then
