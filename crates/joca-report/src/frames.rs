@@ -287,12 +287,9 @@ fn write_gif(path: &Path, w: u32, h: u32, frames: &[Vec<u8>]) -> Result<(), Repo
     let sample: Vec<u8> = frames.iter().step_by(5).flat_map(|f| rgba(f)).collect();
     let quant = color_quant::NeuQuant::new(10, 256, &sample);
     let palette = quant.color_map_rgb();
-    let tmp = path.with_extension("gif.partial");
-    let io = |source| ReportError::Io { path: tmp.display().to_string(), source };
-    let file = std::fs::File::create(&tmp).map_err(io)?;
-    let mut encoder =
-        gif::Encoder::new(std::io::BufWriter::new(file), w as u16, h as u16, &palette)
-            .map_err(|e| draw_err(path, e))?;
+    let mut bytes = Vec::new();
+    let mut encoder = gif::Encoder::new(&mut bytes, w as u16, h as u16, &palette)
+        .map_err(|e| draw_err(path, e))?;
     encoder.set_repeat(gif::Repeat::Infinite).map_err(|e| draw_err(path, e))?;
     for f in frames {
         let indices: Vec<u8> =
@@ -307,6 +304,6 @@ fn write_gif(path: &Path, w: u32, h: u32, frames: &[Vec<u8>]) -> Result<(), Repo
         encoder.write_frame(&frame).map_err(|e| draw_err(path, e))?;
     }
     drop(encoder);
-    std::fs::rename(&tmp, path)
+    joca_core::fs::write_atomic(path, &bytes)
         .map_err(|source| ReportError::Io { path: path.display().to_string(), source })
 }

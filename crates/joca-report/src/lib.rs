@@ -351,9 +351,7 @@ fn figures_markdown(figures: &[Figure]) -> String {
 }
 
 fn write_text(path: &Path, text: &str) -> Result<(), ReportError> {
-    let tmp = path.with_extension("partial");
-    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+    joca_core::fs::write_atomic(path, text.as_bytes()).map_err(|e| io_err(path, e))
 }
 
 /// The hardware GA's best and mean fitness per generation (None: no run logged a generation).

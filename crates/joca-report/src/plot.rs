@@ -61,7 +61,7 @@ pub(crate) fn draw_err(path: &Path, e: impl std::fmt::Display) -> ReportError {
     ReportError::Draw { path: path.display().to_string(), reason: e.to_string() }
 }
 
-/// Saves an RGB buffer as PNG (temporary file, then rename).
+/// Saves an RGB buffer as PNG, atomically (`joca_core::fs::write_atomic`).
 pub(crate) fn save_png(path: &Path, buf: &[u8], w: u32, h: u32) -> Result<(), ReportError> {
     use image::ImageEncoder as _;
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
@@ -69,10 +69,7 @@ pub(crate) fn save_png(path: &Path, buf: &[u8], w: u32, h: u32) -> Result<(), Re
     PngEncoder::new_with_quality(&mut bytes, CompressionType::Best, FilterType::Adaptive)
         .write_image(buf, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| draw_err(path, e))?;
-    let tmp = path.with_extension("png.partial");
-    std::fs::write(&tmp, &bytes)
-        .map_err(|source| ReportError::Io { path: tmp.display().to_string(), source })?;
-    std::fs::rename(&tmp, path)
+    joca_core::fs::write_atomic(path, &bytes)
         .map_err(|source| ReportError::Io { path: path.display().to_string(), source })
 }
 
