@@ -23,6 +23,10 @@ pub struct RunResults {
     /// Test scores per distance band (simulator; empty for recordings without depth).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub test_bands: Vec<BandScores>,
+    /// Test scores by illumination (`day`, `night`, `tunnel`, `cycle`; `recorded` for
+    /// recordings): the same frames as `test`, split by the episode's light. Empty in older runs.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub test_by_illumination: BTreeMap<String, TaskScores>,
     /// Mean exposure (ms) and gain (dB) by illumination during the test.
     pub settings_by_illumination: BTreeMap<String, (f64, f64)>,
     /// Mean of exposure (ms) × linear gain (10^(G/20)) over the test frames, by illumination:

@@ -23,6 +23,9 @@ pub struct CellSpec {
     /// The cell's `seed`.
     #[serde(default)]
     pub seed: u64,
+    /// The panel design the cell's hardware is fixed to (its id); empty outside a panel.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub design: String,
 }
 
 /// `experiment.json`: what an experiment directory contains.
@@ -144,6 +147,7 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
             group: cell.group.clone(),
             label: cell.label.clone(),
             cell: cell.id.clone(),
+            design: cell.design.clone(),
             results: run.results.clone(),
         });
         runs.push((cell.clone(), run));
@@ -208,7 +212,15 @@ mod tests {
 
     fn cell(label: &str, group: &str, seed: u64) -> (CellSpec, u64) {
         let id = format!("{label}-{group}-s{seed}");
-        (CellSpec { id: id.clone(), label: label.into(), group: group.into(), dir: id, seed }, seed)
+        let spec = CellSpec {
+            id: id.clone(),
+            label: label.into(),
+            group: group.into(),
+            dir: id,
+            seed,
+            design: String::new(),
+        };
+        (spec, seed)
     }
 
     #[test]

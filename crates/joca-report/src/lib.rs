@@ -22,6 +22,7 @@ mod experiment;
 mod figures;
 mod frames;
 mod html;
+mod paired;
 mod plot;
 mod seeds;
 mod table;
@@ -95,6 +96,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
             group: r.scenario.name().to_owned(),
             label: r.method.name().to_owned(),
             cell: run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            design: String::new(),
             results: r.clone(),
         }],
     };

@@ -8,23 +8,17 @@
 //! per seed the difference ours − baseline (same seed, same test scenes) and gives its mean, its
 //! t interval and on how many seeds ours was ahead.
 
+use crate::paired::{LIGHTS, comparisons, light_map, variants};
 use crate::table::{Row, escape};
-use joca_record::Method;
 use std::fmt::Write as _;
 
-/// Two-sided 95 % quantiles of Student's t, t(0.975, df) for df = 1…30.
-const T_975: [f64; 30] = [
-    12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-    2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-    2.052, 2.048, 2.045, 2.042,
-];
-
-/// t(0.975, df); the normal quantile 1.960 beyond df = 30 (within 2 % of t there).
+/// t(0.975, df), the two-sided 95 % quantile of Student's t with `df` degrees of freedom (statrs'
+/// inverse CDF); NaN for df = 0.
 pub fn t_975(df: usize) -> f64 {
-    match df {
-        0 => f64::NAN,
-        1..=30 => T_975[df - 1],
-        _ => 1.960,
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    match StudentsT::new(0.0, 1.0, df as f64) {
+        Ok(t) if df > 0 => t.inverse_cdf(0.975),
+        _ => f64::NAN,
     }
 }
 
@@ -43,26 +37,17 @@ pub fn mean_interval(values: &[f64]) -> (f64, f64) {
 }
 
 fn cell((mean, half): (f64, f64)) -> String {
+    if mean.is_nan() {
+        return "–".to_owned();
+    }
     if half.is_nan() { format!("{mean:.3}") } else { format!("{mean:.3} ± {half:.3}") }
 }
 
-/// The variants of each group in order, each with its rows (one per seed).
-fn variants(rows: &[Row]) -> Vec<(String, String, Vec<&Row>)> {
-    let mut out: Vec<(String, String, Vec<&Row>)> = Vec::new();
-    for r in rows {
-        match out.iter_mut().find(|(g, l, _)| *g == r.group && *l == r.label) {
-            Some(v) => v.2.push(r),
-            None => out.push((r.group.clone(), r.label.clone(), vec![r])),
-        }
-    }
-    out
-}
-
-/// The two tables as header and rows: over seeds, and paired.
+/// The two tables as header and rows: over seeds (and designs), and paired.
 fn tables(rows: &[Row]) -> (Vec<Vec<String>>, Vec<Vec<String>>) {
     let groups = variants(rows);
     let mut summary = vec![
-        ["scenario", "variant", "seeds", "mAP@[.5:.95]", "AP50", "TP ratio"]
+        ["scenario", "variant", "cells", "mAP@[.5:.95]", "AP50", "TP ratio"]
             .map(str::to_owned)
             .to_vec(),
     ];
@@ -79,42 +64,136 @@ fn tables(rows: &[Row]) -> (Vec<Vec<String>>, Vec<Vec<String>>) {
         ]);
     }
     let mut paired = vec![
-        ["scenario", "ours − baseline", "paired seeds", "Δ mAP", "Δ AP50", "ours ahead (mAP)"]
+        ["scenario", "ours − baseline", "paired on", "Δ mAP", "Δ AP50", "ours ahead (mAP)"]
             .map(str::to_owned)
             .to_vec(),
     ];
-    for (group, label, ours) in &groups {
-        if !ours.iter().all(|r| r.results.method == Method::Joca) {
-            continue;
-        }
-        for (g, other, theirs) in &groups {
-            if g != group || other == label {
-                continue;
-            }
-            let pairs: Vec<(&Row, &Row)> = ours
-                .iter()
-                .filter_map(|a| {
-                    theirs.iter().find(|b| b.results.seed == a.results.seed).map(|b| (*a, *b))
-                })
-                .collect();
-            if pairs.is_empty() {
-                continue;
-            }
-            let diff = |f: fn(&Row) -> f64| {
-                mean_interval(&pairs.iter().map(|(a, b)| f(a) - f(b)).collect::<Vec<_>>())
-            };
-            let ahead = pairs.iter().filter(|(a, b)| a.results.test.map > b.results.test.map);
-            paired.push(vec![
-                group.clone(),
-                format!("{label} − {other}"),
-                pairs.len().to_string(),
-                cell(diff(|r| r.results.test.map)),
-                cell(diff(|r| r.results.test.ap50)),
-                format!("{} of {}", ahead.count(), pairs.len()),
-            ]);
-        }
+    for c in comparisons(rows) {
+        let (ahead, of) = c.ahead();
+        paired.push(vec![
+            c.group.clone(),
+            format!("{} − {}", c.ours, c.other),
+            c.describe(),
+            cell(c.difference(|r| Some(r.results.test.map))),
+            cell(c.difference(|r| Some(r.results.test.ap50))),
+            format!("{ahead} of {of} {}", c.unit_name()),
+        ]);
     }
     (summary, paired)
+}
+
+/// Δ mAP of ours against each baseline per illumination (empty when no pair recorded it).
+fn light_table(rows: &[Row]) -> Vec<Vec<String>> {
+    let mut header = vec!["scenario".to_owned(), "ours − baseline".to_owned()];
+    header.extend(LIGHTS.iter().map(|l| format!("Δ mAP {l}")));
+    let mut table = vec![header];
+    for c in comparisons(rows) {
+        if c.pairs.iter().all(|(a, _)| a.results.test_by_illumination.is_empty()) {
+            continue;
+        }
+        let mut row = vec![c.group.clone(), format!("{} − {}", c.ours, c.other)];
+        row.extend(LIGHTS.iter().map(|l| cell(c.difference(|r| light_map(r, l)))));
+        table.push(row);
+    }
+    if table.len() == 1 { Vec::new() } else { table }
+}
+
+/// Per design (panel only): each variant's mean over its seeds.
+fn design_table(rows: &[Row]) -> Vec<Vec<String>> {
+    if rows.iter().all(|r| r.design.is_empty()) {
+        return Vec::new();
+    }
+    let mut table = vec![
+        ["scenario", "design", "sensor, f, pitch", "variant", "seeds", "mAP", "AP50"]
+            .map(str::to_owned)
+            .to_vec(),
+    ];
+    let mut keys: Vec<(&str, &str, &str)> = Vec::new();
+    for r in rows {
+        let k = (r.group.as_str(), r.design.as_str(), r.label.as_str());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    keys.sort_by_key(|(g, d, _)| (rows.iter().position(|r| r.group == *g), *d));
+    for (group, design, label) in keys {
+        let of: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.group == group && r.design == design && r.label == label)
+            .collect();
+        let d = &of[0].results.design;
+        let mean =
+            |f: fn(&Row) -> f64| cell(mean_interval(&of.iter().map(|r| f(r)).collect::<Vec<_>>()));
+        table.push(vec![
+            group.to_owned(),
+            design.to_owned(),
+            format!("{}, {:.2} mm, {} µm", d.sensor, d.focal_length_mm, d.pixel_pitch_um),
+            label.to_owned(),
+            of.len().to_string(),
+            mean(|r| r.results.test.map),
+            mean(|r| r.results.test.ap50),
+        ]);
+    }
+    table
+}
+
+/// "What the answer rests on": seeds, designs, test frames and objects per class, and which
+/// paired differences these cells resolve.
+fn rests_on(rows: &[Row]) -> String {
+    let mut seeds: Vec<u64> = rows.iter().map(|r| r.results.seed).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    let mut designs: Vec<&str> =
+        rows.iter().map(|r| r.design.as_str()).filter(|d| !d.is_empty()).collect();
+    designs.sort_unstable();
+    designs.dedup();
+    let frames: Vec<u64> = rows.iter().map(|r| r.results.test.frames).collect();
+    let range = |v: &[u64]| {
+        let (lo, hi) = (v.iter().min().copied().unwrap_or(0), v.iter().max().copied().unwrap_or(0));
+        if lo == hi { lo.to_string() } else { format!("{lo}–{hi}") }
+    };
+    let objects: Vec<String> = ["vehicle", "walker", "traffic sign"]
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let v: Vec<u64> = rows.iter().map(|r| r.results.test.class_objects[k]).collect();
+            format!("{name} {}", range(&v))
+        })
+        .collect();
+    let design_line = if designs.is_empty() {
+        "each cell's own design (chosen by its hardware search, or its fixed camera)".to_owned()
+    } else {
+        format!("{} panel designs ({})", designs.len(), designs.join(", "))
+    };
+    let seed_list = seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", ");
+    let mut md = format!(
+        "**What the answer rests on.** {} cells; seeds {seed_list}; {design_line}; {} test \
+         frames per cell, the same test scenes for every cell; reference objects per cell (summed \
+         over frames): {}.",
+        rows.len(),
+        range(&frames),
+        objects.join(", ")
+    );
+    let (mut resolved, mut open) = (Vec::new(), Vec::new());
+    for c in comparisons(rows) {
+        let (m, h) = c.difference(|r| Some(r.results.test.map));
+        let what = format!("{} − {} ({}, {:+.3} ± {:.3})", c.ours, c.other, c.group, m, h);
+        if h.is_finite() && (m - h > 0.0 || m + h < 0.0) {
+            resolved.push(what);
+        } else {
+            open.push(what);
+        }
+    }
+    if !resolved.is_empty() || !open.is_empty() {
+        let list = |v: &[String]| if v.is_empty() { "none".to_owned() } else { v.join("; ") };
+        md.push_str(&format!(
+            " Resolved (95 % interval of Δ mAP excludes 0): {}. Not resolved: {}.",
+            list(&resolved),
+            list(&open)
+        ));
+    }
+    md.push_str("\n\n");
+    md
 }
 
 fn markdown_table(t: &[Vec<String>]) -> String {
@@ -142,26 +221,54 @@ fn html_table(t: &[Vec<String>]) -> String {
     h
 }
 
-const EXPLAIN: &str = "Mean ± 95 % interval, Student's t over seeds (test scenes fixed, so the \
-    interval holds the run-to-run variation only). Paired: per seed ours − baseline on the same \
-    seed and test scenes; an interval that excludes 0 is a difference these seeds resolve.";
+const EXPLAIN: &str = "Mean ± 95 % interval, Student's t (statrs' quantile) over the cells of \
+    a variant (test scenes fixed, so the interval holds the run-to-run variation and, in a panel, \
+    the spread between designs). Paired: ours − baseline on the same seed and, in a panel, the \
+    same design; over seeds, or in a panel per design the mean over its seeds and the t interval \
+    over designs. An interval that excludes 0 is a difference these cells resolve.";
+
+/// A titled table in Markdown and HTML.
+fn section(md: &mut String, html: &mut String, title: &str, note: &str, table: &[Vec<String>]) {
+    md.push_str(&format!("\n### {title}\n\n"));
+    html.push_str(&format!("<h3>{}</h3>\n", escape(title)));
+    if !note.is_empty() {
+        md.push_str(&format!("{note}\n\n"));
+        html.push_str(&format!("<p class=\"meta\">{}</p>\n", escape(note)));
+    }
+    md.push_str(&markdown_table(table));
+    html.push_str(&html_table(table));
+}
 
 /// The over-seeds section of an experiment report, Markdown and HTML; empty when no variant has
-/// more than one seed.
+/// more than one cell.
 pub fn seeds_sections(rows: &[Row]) -> (String, String) {
     if variants(rows).iter().all(|(_, _, m)| m.len() < 2) {
         return (String::new(), String::new());
     }
     let (summary, paired) = tables(rows);
-    let mut md = format!("## Over seeds\n\n{EXPLAIN}\n\n");
+    let panel = rows.iter().any(|r| !r.design.is_empty());
+    let title = if panel { "Over designs and seeds" } else { "Over seeds" };
+    let rests = rests_on(rows);
+    let mut md = format!("## {title}\n\n{rests}{EXPLAIN}\n\n");
     md.push_str(&markdown_table(&summary));
-    let mut html = format!("<h2>Over seeds</h2>\n<p class=\"meta\">{}</p>\n", escape(EXPLAIN));
+    let mut html = format!(
+        "<h2>{title}</h2>\n<p>{}</p>\n<p class=\"meta\">{}</p>\n",
+        escape(rests.trim().trim_start_matches("**What the answer rests on.**").trim()),
+        escape(EXPLAIN)
+    );
     html.push_str(&html_table(&summary));
     if paired.len() > 1 {
-        md.push_str("\n### Ours paired with each baseline\n\n");
-        md.push_str(&markdown_table(&paired));
-        html.push_str("<h3>Ours paired with each baseline</h3>\n");
-        html.push_str(&html_table(&paired));
+        section(&mut md, &mut html, "Ours paired with each baseline", "", &paired);
+    }
+    let lights = light_table(rows);
+    if !lights.is_empty() {
+        let note = "The same test frames split by the episode's light (episode e drives day, \
+            night, tunnel, cycle for e mod 4); paired and aggregated as above.";
+        section(&mut md, &mut html, "Paired, by illumination", note, &lights);
+    }
+    let designs = design_table(rows);
+    if !designs.is_empty() {
+        section(&mut md, &mut html, "Per design", "Each variant's mean over its seeds.", &designs);
     }
     md.push('\n');
     (md, html)
@@ -170,15 +277,21 @@ pub fn seeds_sections(rows: &[Row]) -> (String, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use joca_record::Method;
 
     #[test]
     fn the_t_interval_matches_a_hand_computation() {
         // 0.1, 0.2, 0.3: mean 0.2, s = 0.1, half-width t(0.975, 2)·0.1/√3 = 4.303·0.057735.
         let (m, h) = mean_interval(&[0.1, 0.2, 0.3]);
         assert!((m - 0.2).abs() < 1e-12);
-        assert!((h - 4.303 * 0.1 / 3f64.sqrt()).abs() < 1e-12, "{h}");
+        assert!((h - 4.302_653 * 0.1 / 3f64.sqrt()).abs() < 1e-7, "{h}");
         assert!(mean_interval(&[0.5]).1.is_nan());
-        assert_eq!(t_975(100), 1.960);
+        // Published quantiles (e.g. NIST/SEMATECH e-Handbook, Table of t, 1 − α/2 = 0.975).
+        for (df, t) in [(1, 12.706_2), (2, 4.302_7), (5, 2.570_6), (10, 2.228_1), (30, 2.042_3)] {
+            assert!((t_975(df) - t).abs() < 1e-4, "df {df}: {}", t_975(df));
+        }
+        assert!((t_975(100) - 1.984).abs() < 1e-3);
+        assert!(t_975(0).is_nan());
     }
 
     #[test]
@@ -191,6 +304,7 @@ mod tests {
                 group: "Calibrated".into(),
                 label: label.into(),
                 cell: format!("{label}-s{seed}"),
+                design: String::new(),
                 results,
             }
         };
@@ -205,7 +319,7 @@ mod tests {
         ];
         let (summary, paired) = tables(&rows);
         assert_eq!(summary.len(), 3);
-        let h = 4.303 * 0.02 / 3f64.sqrt();
+        let h = t_975(2) * 0.02 / 3f64.sqrt();
         assert_eq!(summary[1][..3], ["Calibrated", "Ours", "3"]);
         assert_eq!(summary[1][3], format!("0.320 ± {h:.3}"));
         // Differences 0.05, 0.01, 0.01: mean 0.0233, s = 0.02309.
@@ -214,11 +328,64 @@ mod tests {
         let (m, hw) = mean_interval(&[0.05, 0.01, 0.01]);
         assert!((m - 0.07 / 3.0).abs() < 1e-12);
         assert_eq!(paired[1][3], format!("{m:.3} ± {hw:.3}"));
-        assert_eq!(paired[1][5], "3 of 3");
+        assert_eq!(paired[1][5], "3 of 3 seeds");
+        assert_eq!(paired[1][2], "3 seeds");
         let (md, html) = seeds_sections(&rows);
         assert!(md.contains("## Over seeds") && md.contains("Student's t"));
         assert!(html.contains("<th>Δ mAP</th>"));
         // One seed per variant: no section.
         assert_eq!(seeds_sections(&rows[..1]).0, "");
+    }
+
+    #[test]
+    fn a_panel_pairs_on_design_and_seed_and_takes_the_interval_over_designs() {
+        let row = |label: &str, method: Method, design: &str, seed: u64, map: f64, night: f64| {
+            let mut results = crate::table::tests::results(map, 0.3, false);
+            results.method = method;
+            results.seed = seed;
+            let mut n = results.test;
+            n.map = night;
+            results.test_by_illumination.insert("night".into(), n);
+            Row {
+                group: "Calibrated".into(),
+                label: label.into(),
+                cell: format!("{label}-{design}-s{seed}"),
+                design: design.into(),
+                results,
+            }
+        };
+        let (o, a) = (Method::Joca, Method::TacosAverage);
+        // Design "a": ours − AverageAE 0.02 and 0.04 (mean 0.03); "b": −0.01 (one seed); "c":
+        // 0.05 and 0.03 (mean 0.04). A baseline cell on another design or seed has no pair.
+        let rows = vec![
+            row("Ours", o, "a", 0, 0.32, 0.10),
+            row("Ours", o, "a", 1, 0.34, 0.12),
+            row("Ours", o, "b", 0, 0.20, 0.05),
+            row("Ours", o, "c", 0, 0.45, 0.20),
+            row("Ours", o, "c", 1, 0.43, 0.20),
+            row("AverageAE", a, "a", 1, 0.30, 0.10),
+            row("AverageAE", a, "a", 0, 0.30, 0.09),
+            row("AverageAE", a, "b", 0, 0.21, 0.06),
+            row("AverageAE", a, "c", 0, 0.40, 0.15),
+            row("AverageAE", a, "c", 1, 0.40, 0.14),
+            row("AverageAE", a, "d", 0, 0.90, 0.90),
+        ];
+        let (_, paired) = tables(&rows);
+        let (m, h) = mean_interval(&[0.03, -0.01, 0.04]);
+        assert!((m - 0.02).abs() < 1e-12);
+        assert_eq!(paired[1][2], "3 designs × ≤ 2 seeds");
+        assert_eq!(paired[1][3], format!("{m:.3} ± {h:.3}"));
+        assert_eq!(paired[1][5], "2 of 3 designs");
+        // Night: a 0.015 (0.01, 0.02), b −0.01, c 0.055 (0.05, 0.06).
+        let lights = light_table(&rows);
+        let (m, h) = mean_interval(&[0.015, -0.01, 0.055]);
+        assert_eq!(lights[1][3], format!("{m:.3} ± {h:.3}"));
+        assert_eq!(lights[1][2], "–", "no day scores recorded: {:?}", lights[1]);
+        let designs = design_table(&rows);
+        assert_eq!(designs.len(), 1 + 7, "4 designs of AverageAE, 3 of ours");
+        let (md, _) = seeds_sections(&rows);
+        assert!(md.contains("## Over designs and seeds"), "{md}");
+        assert!(md.contains("4 panel designs (a, b, c, d)"), "{md}");
+        assert!(md.contains("Not resolved: Ours − AverageAE"), "{md}");
     }
 }

@@ -15,6 +15,8 @@ pub struct Row {
     pub label: String,
     /// Cell id (the run directory's name), for the CSV.
     pub cell: String,
+    /// The panel design the cell's hardware was fixed to (its id); empty outside a panel.
+    pub design: String,
     /// The run's results.
     pub results: RunResults,
 }
@@ -298,6 +300,7 @@ pub(crate) mod tests {
                 class_objects: [0; 3],
             },
             test_bands: Vec::new(),
+            test_by_illumination: Default::default(),
             settings_by_illumination: Default::default(),
             exposure_gain_by_illumination: Default::default(),
             mean_dn_by_illumination: Default::default(),
@@ -321,6 +324,7 @@ pub(crate) mod tests {
             group: group.into(),
             label: label.into(),
             cell: format!("{label}-{group}"),
+            design: String::new(),
             results: results(map, tp, o),
         };
         Table {

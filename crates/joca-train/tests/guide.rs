@@ -46,7 +46,14 @@ fn preset(name: &str) -> toml::Table {
 fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     let guide = guide_fields();
     let table = preset("standard");
-    let run: RunConfig = table["run"].clone().try_into().expect("the standard [run] parses");
+    let mut run: RunConfig = table["run"].clone().try_into().expect("the standard [run] parses");
+    // Optional fields that serialise only when set.
+    run.design = Some(joca_train::DesignSpec {
+        sensor: "IMX172".into(),
+        focal_length_mm: 3.6,
+        x_m: 0.43,
+        z_m: 1.65,
+    });
     let pretrain: PretrainConfig =
         table["pretrain"].clone().try_into().expect("the standard [pretrain] parses");
     let run = serde_json::to_value(&run).expect("serialisable");

@@ -7,8 +7,8 @@ use common::{poison_first_tensor, snapshot};
 use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_train::{
-    FixedCamera, Method, PerturbationMutation, RealConfig, RunConfig, RunEvent, Scenario, Source,
-    TrainError, run,
+    DesignSpec, FixedCamera, Method, PerturbationMutation, RealConfig, RunConfig, RunEvent,
+    Scenario, Source, TrainError, run,
 };
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -24,6 +24,7 @@ fn tiny(method: Method) -> RunConfig {
         method,
         scenario: Scenario::Blur2,
         camera: FixedCamera::Flir,
+        design: None,
         generations: 2,
         population: 2,
         steps_per_candidate: 5,
@@ -159,6 +160,26 @@ fn every_method_runs() {
         let candidates = events.lines().filter(|l| l.contains("\"candidate\":")).count();
         assert_eq!(candidates, cfg.generations * cfg.population, "{}", method.name());
     }
+    // A design panel's cell: ours with the hardware held to a given design.
+    let mut cfg = tiny(Method::Joca);
+    cfg.generations = 1;
+    cfg.design =
+        Some(DesignSpec { sensor: "IMX546".into(), focal_length_mm: 5.0, x_m: 1.0, z_m: 1.5 });
+    let r = run(&cfg, &dir.path().join("panel"), false, &mut go).unwrap();
+    assert_eq!((r.design.sensor.as_str(), r.design.focal_length_mm), ("IMX546", 5.0));
+    assert!(!r.design.optimised);
+    let events = std::fs::read_to_string(dir.path().join("panel/events.jsonl")).unwrap();
+    let designs: Vec<serde_json::Value> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v.get("candidate").is_some())
+        .map(|v| v["design"].clone())
+        .collect();
+    assert_eq!(designs.len(), cfg.population);
+    assert!(
+        designs.iter().all(|d| d["sensor"] == "IMX546" && d["focal_length_mm"] == 5.0),
+        "{designs:?}"
+    );
     // The frozen detector needs weights to freeze.
     let e = run(&tiny(Method::FrozenDetector), &dir.path().join("f"), false, &mut go)
         .unwrap_err()
@@ -272,7 +293,29 @@ fn a_run_stopped_at_every_checkpoint_resumes_to_the_uninterrupted_run_byte_for_b
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 17] = [
+    let cases: [(Edit, &str); 19] = [
+        (
+            |c| {
+                c.design = Some(DesignSpec {
+                    sensor: "IMX172".into(),
+                    focal_length_mm: 30.0,
+                    x_m: 0.4,
+                    z_m: 1.6,
+                })
+            },
+            "run.design.focal_length_mm = 30 is invalid: 1 to 10 mm (the paper's design space)",
+        ),
+        (
+            |c| {
+                c.design = Some(DesignSpec {
+                    sensor: "nope".into(),
+                    focal_length_mm: 3.0,
+                    x_m: 0.4,
+                    z_m: 1.6,
+                })
+            },
+            "run.design.sensor = \"nope\" is invalid: a catalogue sensor: ",
+        ),
         (|c| c.max_speed_mps = f64::NAN, "run.max_speed_mps = NaN is invalid: 0 to 40"),
         (|c| c.max_speed_mps = -5.0, "run.max_speed_mps = -5 is invalid: 0 to 40"),
         (|c| c.detector.width = 0, "run.detector.width = 0 is invalid: 4 to 128"),
@@ -303,7 +346,8 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     for (edit, message) in cases {
         let mut c = tiny(Method::Joca);
         edit(&mut c);
-        assert_eq!(c.validate().unwrap_err().to_string(), message);
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e == message || (message.ends_with(": ") && e.starts_with(message)), "{e}");
     }
     assert!(tiny(Method::Joca).validate().is_ok());
 }
@@ -329,6 +373,9 @@ fn the_test_gives_every_illumination_its_share_of_episodes() {
         .collect();
     assert_eq!(lights, ["\"day\"", "\"night\"", "\"tunnel\"", "\"cycle\""]);
     assert_eq!(r.settings_by_illumination.len(), 4);
+    // The same frames scored per light: one frame each.
+    assert_eq!(r.test_by_illumination.len(), 4);
+    assert!(r.test_by_illumination.values().all(|s| s.frames == 1));
 }
 
 /// Common random numbers: every candidate of a generation drives the same scenes, its k steps in

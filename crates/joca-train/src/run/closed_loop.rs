@@ -157,6 +157,9 @@ pub(super) fn test(
     let c = cx.config.clone();
     let camera = design.pinhole(&c.input);
     let mut metrics = TaskMetrics::default();
+    // The same frames scored per illumination (the tunnel exit and the day–night cycle are
+    // where the paper claims a controller's gain).
+    let mut by_light: BTreeMap<String, TaskMetrics> = BTreeMap::new();
     let mut sums: BTreeMap<String, LightSums> = BTreeMap::new();
     let mut trace = String::new();
     let real = cx.real.clone();
@@ -199,6 +202,12 @@ pub(super) fn test(
                 _ => ("recorded", None),
             };
             sums.entry(illumination.to_owned()).or_default().add(s.settings, s.mean_dn);
+            by_light.entry(illumination.to_owned()).or_default().update(
+                &s.frame.boxes,
+                &s.frame.ignore,
+                &s.detections,
+                s.frame.visible_180,
+            );
             let record = TraceRecord {
                 episode,
                 frame: k - WARMUP_FRAMES,
@@ -240,6 +249,7 @@ pub(super) fn test(
     Ok(Tested {
         scores: metrics.compute(),
         bands: metrics.bands(),
+        by_light: by_light.iter().map(|(k, m)| (k.clone(), m.compute())).collect(),
         settings,
         exposure_gain,
         mean_dn,
@@ -274,6 +284,8 @@ pub(super) struct Tested {
     pub(super) scores: TaskScores,
     /// Scores per distance band.
     pub(super) bands: Vec<BandScores>,
+    /// Scores by illumination.
+    pub(super) by_light: BTreeMap<String, TaskScores>,
     /// Mean exposure and gain by illumination.
     pub(super) settings: SettingsByLight,
     /// Mean exposure × linear gain (ms) by illumination.

@@ -1,10 +1,10 @@
 //! The `[run]` table: every field of a joint run, checked once by [`RunConfig::validate`].
 
 use super::hardware::HardwareMutation;
-use super::method::FixedCamera;
+use super::method::{DesignSpec, FixedCamera};
 pub use super::source::{RealConfig, Source};
 use crate::TrainError;
-use joca_camera::{CameraError, DetectorInput};
+use joca_camera::{CameraDesign, CameraError, DetectorInput};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
@@ -59,6 +59,11 @@ pub struct RunConfig {
     pub scenario: Scenario,
     /// Camera of `fixed-neural`.
     pub camera: FixedCamera,
+    /// A fixed design for any method (`design = { sensor, focal_length_mm, x_m, z_m }`): the
+    /// hardware GA is off and every candidate drives this design, so methods can be compared on
+    /// identical hardware (a design panel). `fixed-neural` drives it in place of `camera`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub design: Option<DesignSpec>,
     /// Hardware GA generations.
     pub generations: usize,
     /// Hardware GA population.
@@ -274,8 +279,43 @@ impl RunConfig {
                 "a weights file from `joca train-detector` (frozen-detector freezes it)",
             );
         }
+        if let Some(d) = &self.design {
+            d.design().map_err(|e| design_error(e, d))?;
+        }
         self.real.folder_config()?;
         Ok(())
+    }
+
+    /// Whether the hardware GA designs the camera: the method searches and no `design` is
+    /// fixed.
+    pub fn hardware_search(&self) -> bool {
+        self.method.hardware_ga() && self.design.is_none()
+    }
+
+    /// The design every candidate drives when the hardware is not searched: `design`, else
+    /// `camera`'s.
+    pub fn fixed_design(&self) -> Result<CameraDesign, TrainError> {
+        match &self.design {
+            Some(d) => d.design().map_err(|e| design_error(e, d)),
+            None => Ok(self.camera.design()),
+        }
+    }
+}
+
+/// A `[run] design` error, naming the field.
+fn design_error(e: CameraError, d: &DesignSpec) -> TrainError {
+    match e {
+        CameraError::OutOfRange { field, value, min, max, unit } => TrainError::Config {
+            field: format!("run.design.{field}"),
+            value: value.to_string(),
+            allowed: format!("{min} to {max}{unit} (the paper's design space)"),
+        },
+        CameraError::UnknownSensor { valid, .. } => TrainError::Config {
+            field: "run.design.sensor".into(),
+            value: format!("{:?}", d.sensor),
+            allowed: format!("a catalogue sensor: {valid}"),
+        },
+        other => TrainError::Camera(other),
     }
 }
 

@@ -106,7 +106,7 @@ pub(super) fn best_design(
     if state.top.len() < 2 || cx.real.is_some() {
         return Ok((cx.codec.decode(&fallback)?, Vec::new()));
     }
-    let optimised = cx.config.method.hardware_ga();
+    let optimised = cx.config.hardware_search();
     let mut scored = Vec::with_capacity(state.top.len());
     for (genes, fitness) in &state.top {
         let design = cx.codec.decode(genes)?;
@@ -141,9 +141,10 @@ pub(super) fn test_design(
         method: config.method,
         scenario: config.scenario,
         seed: config.seed,
-        design: summary(design, config.method.hardware_ga()),
+        design: summary(design, config.hardware_search()),
         test: tested.scores,
         test_bands: tested.bands,
+        test_by_illumination: tested.by_light,
         settings_by_illumination: tested.settings,
         exposure_gain_by_illumination: tested.exposure_gain,
         mean_dn_by_illumination: tested.mean_dn,

@@ -47,7 +47,7 @@ use joca_nn::joint::JointModel;
 use joca_record::{CandidateRecord, Event, GenerationRecord};
 pub use joca_record::{Method, Scenario};
 use joca_sim::{Illumination, SimConfig, Simulator};
-pub use method::FixedCamera;
+pub use method::{DesignSpec, FixedCamera};
 use rand::Rng;
 use results::summary;
 pub use results::{DesignSummary, RunResults};
@@ -243,10 +243,10 @@ pub fn run(
     // candidates per generation (each on its own scenes) as the hardware GA evaluates.
     let total = config.generations * config.population;
     while state.generation < config.generations {
-        let members: Vec<Vec<f64>> = if config.method.hardware_ga() {
+        let members: Vec<Vec<f64>> = if config.hardware_search() {
             state.hardware.ask().to_vec()
         } else {
-            vec![cx.codec.encode(&config.camera.design())?; config.population]
+            vec![cx.codec.encode(&config.fixed_design()?)?; config.population]
         };
         while state.candidate < members.len() {
             let design = cx.codec.decode(&members[state.candidate])?;
@@ -284,13 +284,13 @@ pub fn run(
             cx.log(&Event::Candidate(CandidateRecord {
                 generation: state.generation,
                 candidate: state.candidate,
-                design: summary(&design, config.method.hardware_ga()),
+                design: summary(&design, config.hardware_search()),
                 scores,
                 fitness,
             }))?;
             state.candidate += 1;
             if state.candidate == members.len() {
-                if config.method.hardware_ga() {
+                if config.hardware_search() {
                     let codec = cx.codec.clone();
                     let mut rng = cx.streams.indexed("hardware-ga", state.generation as u64);
                     state
@@ -337,7 +337,7 @@ pub fn run(
     let (design, validation) = best_design(&mut cx, &mut model, &state)?;
     write_atomic(
         &run_dir.join("best_design.json"),
-        &serde_json::to_string_pretty(&summary(&design, config.method.hardware_ga()))
+        &serde_json::to_string_pretty(&summary(&design, config.hardware_search()))
             .unwrap_or_default(),
     )?;
     let out = run_dir.join("test");

@@ -7,23 +7,28 @@
 //! `<variant>-<scenario>`'s configuration is the preset's `[run]`, then the user's `--config`,
 //! then the file's `[run]`, then the variant's `run`, then the scenario. It is written to
 //! `cells/<id>/cell.toml` once; a cell directory holding another configuration is refused.
+//! With a `[panel]` of designs ([`panel`]) every variant runs on every design with the hardware
+//! held fixed (`run.design`), as cell `<variant>-<scenario>-<design>`.
+
+mod panel;
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
 use joca_core::output::{self, OutputKind};
 use joca_report::{CellSpec, Manifest};
 use joca_train::{Method, RunConfig, Scenario, differing_fields};
+use panel::{PanelDesign, PanelFile, valid_id};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The experiments shipped with joca, by name.
 pub const EXPERIMENTS: [(&str, &str); 6] = [
-    ("table1", include_str!("../../../experiments/table1.toml")),
-    ("ablation", include_str!("../../../experiments/ablation.toml")),
-    ("sweep-weight", include_str!("../../../experiments/sweep-weight.toml")),
-    ("sweep-population", include_str!("../../../experiments/sweep-population.toml")),
-    ("sweep-frequency", include_str!("../../../experiments/sweep-frequency.toml")),
-    ("real", include_str!("../../../experiments/real.toml")),
+    ("table1", include_str!("../../../../experiments/table1.toml")),
+    ("ablation", include_str!("../../../../experiments/ablation.toml")),
+    ("sweep-weight", include_str!("../../../../experiments/sweep-weight.toml")),
+    ("sweep-population", include_str!("../../../../experiments/sweep-population.toml")),
+    ("sweep-frequency", include_str!("../../../../experiments/sweep-frequency.toml")),
+    ("real", include_str!("../../../../experiments/real.toml")),
 ];
 
 #[derive(Debug, Deserialize)]
@@ -37,6 +42,9 @@ struct ExperimentFile {
     /// The grid only makes sense on recorded frames (the real-image mode).
     #[serde(default)]
     needs_recording: bool,
+    /// Designs every variant runs on, hardware held fixed.
+    #[serde(default)]
+    panel: Option<PanelFile>,
     variant: Vec<Variant>,
 }
 
@@ -124,18 +132,28 @@ pub fn resolve(
     for scenario in &file.scenarios {
         Scenario::from_name(scenario).map_err(|e| anyhow!("{source}: scenarios: {e}"))?;
     }
+    let designs: Vec<Option<PanelDesign>> = match &file.panel {
+        Some(p) => p.resolve(&source)?.into_iter().map(Some).collect(),
+        None => vec![None],
+    };
     let mut seen = std::collections::HashSet::new();
     for scenario in &file.scenarios {
         for v in &file.variant {
             if !seen.insert((v.id.clone(), scenario.clone())) {
                 bail!("{source}: variant id {:?} appears twice; ids must be unique", v.id);
             }
-            if v.id.is_empty()
-                || !v.id.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
-            {
+            if !valid_id(&v.id) {
                 bail!("{source}: variant id {:?} must be letters, digits, '-' or '_'", v.id);
             }
             check_method(&v.run, &source, &format!("variant {:?}", v.id))?;
+            if file.panel.is_some()
+                && (v.run.contains_key("design") || file.run.contains_key("design"))
+            {
+                bail!(
+                    "{source}: variant {:?} sets `design`, but the [panel] fixes the designs",
+                    v.id
+                );
+            }
             let mut run = base_run.clone();
             config::merge_tables(&mut run, file.run.clone());
             config::merge_tables(&mut run, v.run.clone());
@@ -156,23 +174,31 @@ pub fn resolve(
                         = \"waymo:DIR\" or \"folder:DIR\" (and test_source for held-out frames)"
                 );
             }
-            for k in 0..seeds {
-                let id = if seeds == 1 {
-                    format!("{}-{scenario}", v.id)
-                } else {
-                    format!("{}-{scenario}-s{k}", v.id)
+            for design in &designs {
+                let config =
+                    RunConfig { design: design.as_ref().map(|d| d.spec.clone()), ..config.clone() };
+                config.validate().with_context(|| {
+                    format!("{source}: variant {:?}, scenario {scenario}, panel design", v.id)
+                })?;
+                let base = match design {
+                    Some(d) => format!("{}-{scenario}-{}", v.id, d.id),
+                    None => format!("{}-{scenario}", v.id),
                 };
-                let config = RunConfig { seed: config.seed.wrapping_add(k), ..config.clone() };
-                cells.push(Cell {
-                    spec: CellSpec {
-                        dir: format!("cells/{id}"),
-                        id,
-                        label: v.label.clone(),
-                        group: scenario_title(scenario),
-                        seed: config.seed,
-                    },
-                    config,
-                });
+                for k in 0..seeds {
+                    let id = if seeds == 1 { base.clone() } else { format!("{base}-s{k}") };
+                    let config = RunConfig { seed: config.seed.wrapping_add(k), ..config.clone() };
+                    cells.push(Cell {
+                        spec: CellSpec {
+                            dir: format!("cells/{id}"),
+                            id,
+                            label: v.label.clone(),
+                            group: scenario_title(scenario),
+                            seed: config.seed,
+                            design: design.as_ref().map(|d| d.id.clone()).unwrap_or_default(),
+                        },
+                        config,
+                    });
+                }
             }
         }
     }
@@ -293,5 +319,112 @@ mod tests {
             let e = resolve("ablation", "quick", None, bad).unwrap_err().to_string();
             assert!(e.contains("--seeds") && e.contains("1 to 100"), "{e}");
         }
+    }
+
+    const PANEL: &str = r#"
+title = "panel"
+label_header = "Controller"
+scenarios = ["calibrated"]
+
+[panel]
+designs = [
+  { id = "flir", camera = "flir" },
+  { id = "wide", sensor = "IMX546", focal_length_mm = 4.0, x_m = 0.5, z_m = 1.6 },
+]
+FROM
+
+[[variant]]
+id = "neural"
+label = "NeuralAE (DF-Grad)"
+run = { method = "joca" }
+
+[[variant]]
+id = "average"
+label = "AverageAE"
+run = { method = "tacos-average" }
+"#;
+
+    /// Resolves `PANEL` with `from` in place of `FROM`, in a temporary folder holding a finished
+    /// run `done/` (its best design an IMX172 at 6 mm) and an unfinished one `busy/`.
+    fn panel(from: &str, edit: impl Fn(String) -> String) -> Result<Experiment> {
+        let dir = tempfile::tempdir()?;
+        let done = dir.path().join("done");
+        std::fs::create_dir_all(&done)?;
+        std::fs::create_dir_all(dir.path().join("busy"))?;
+        std::fs::write(
+            done.join("best_design.json"),
+            r#"{"x_m": 1.0, "z_m": 1.5, "focal_length_mm": 6.0, "sensor": "IMX172",
+                "sensor_mm": [6.17, 4.55], "pixel_pitch_um": 1.55, "optimised": true}"#,
+        )?;
+        let from = from.replace("DIR", &dir.path().display().to_string());
+        let file = dir.path().join("panel.toml");
+        std::fs::write(&file, edit(PANEL.replace("FROM", &from)))?;
+        resolve(&file.display().to_string(), "quick", None, 2)
+    }
+
+    #[test]
+    fn a_panel_runs_every_variant_on_every_design_with_the_hardware_fixed() {
+        let exp = panel(r#"from_runs = ["DIR/done", "DIR/done"]"#, |s| s).unwrap();
+        // 2 variants × 3 designs (the run's design once) × 2 seeds.
+        assert_eq!(exp.cells.len(), 12);
+        let ids: Vec<&str> = exp.cells.iter().map(|c| c.spec.id.as_str()).collect();
+        assert_eq!(
+            ids[..6],
+            [
+                "neural-calibrated-flir-s0",
+                "neural-calibrated-flir-s1",
+                "neural-calibrated-wide-s0",
+                "neural-calibrated-wide-s1",
+                "neural-calibrated-done-s0",
+                "neural-calibrated-done-s1",
+            ]
+        );
+        let done = &exp.cells[4];
+        assert_eq!(done.spec.design, "done");
+        let spec = done.config.design.clone().unwrap();
+        assert_eq!((spec.sensor.as_str(), spec.focal_length_mm, spec.x_m), ("IMX172", 6.0, 1.0));
+        assert!(!done.config.hardware_search() && done.config.method == Method::Joca);
+        let flir = exp.cells[0].config.fixed_design().unwrap();
+        assert_eq!(flir, joca_train::FixedCamera::Flir.design());
+        // The same design and seed for both variants: what the report pairs.
+        assert_eq!(exp.cells[4].config.design, exp.cells[10].config.design);
+        assert_eq!(exp.cells[4].config.seed, exp.cells[10].config.seed);
+    }
+
+    #[test]
+    fn a_bad_panel_names_the_entry_the_field_and_the_file() {
+        let err = |from: &str, edit: &dyn Fn(String) -> String| {
+            format!("{:#}", panel(from, edit).unwrap_err())
+        };
+        let same = |s: String| s;
+        let e = err("", &|s| s.replace("\"IMX546\"", "\"IMX999\""));
+        assert!(e.contains("panel.toml: [panel] design \"wide\"") && e.contains("IMX999"), "{e}");
+        assert!(e.contains("IMX546"), "lists the valid sensors: {e}");
+        let e = err("", &|s| s.replace("focal_length_mm = 4.0", "focal_length_mm = 50.0"));
+        assert!(
+            e.contains("design \"wide\"") && e.contains("focal_length_mm") && e.contains("10"),
+            "{e}"
+        );
+        let e = err("", &|s| s.replace("x_m = 0.5,", ""));
+        assert!(e.contains("design \"wide\"") && e.contains("x_m"), "{e}");
+        let e = err(r#"from_runs = ["DIR/busy"]"#, &same);
+        assert!(
+            e.contains("from_runs") && e.contains("busy") && e.contains("best_design.json"),
+            "{e}"
+        );
+        let e = err(r#"from_runs = ["DIR/nowhere"]"#, &same);
+        assert!(e.contains("nowhere") && e.contains("best_design.json"), "{e}");
+        let e = err("", &|s| {
+            let start = s.find("designs = [").unwrap();
+            let end = s[start..].find("]\n").unwrap() + start + 2;
+            format!("{}designs = []\n{}", &s[..start], &s[end..])
+        });
+        assert!(e.contains("panel.toml: [panel] holds no design"), "{e}");
+        let e = err("", &|s| {
+            s.replace("{ method = \"joca\" }", "{ method = \"joca\", design = { sensor = \"IMX172\", focal_length_mm = 3.6, x_m = 0.43, z_m = 1.65 } }")
+        });
+        assert!(e.contains("variant \"neural\" sets `design`"), "{e}");
+        let e = err("", &|s| s.replace("id = \"wide\"", "id = \"flir\""));
+        assert!(e.contains("id \"flir\" names two different designs"), "{e}");
     }
 }
