@@ -352,6 +352,16 @@ impl JointModel {
     ) -> Vec<Vec<Detection>> {
         self.det.detect_batch_in(frames, precision)
     }
+
+    /// Each frame's detector task loss, without a gradient or an update (see
+    /// [`crate::detector::DetectorModel::losses_in`]).
+    pub fn losses_in(
+        &self,
+        batch: &[crate::detector::TrainFrame<'_>],
+        precision: crate::detector::Precision,
+    ) -> Result<Vec<f64>, NnError> {
+        self.det.losses_in(batch, precision)
+    }
 }
 
 /// DF-Grad's GA supervision loss (paper Sec. 5): the L1 distance between NeuralAE's prediction

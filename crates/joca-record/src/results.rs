@@ -70,10 +70,37 @@ pub struct RunResults {
     /// --controller average:DN`); empty for the run's own test.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub test_controller: String,
+    /// How training's perturbation searches were decided (absent for methods without them, and
+    /// in older runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub perturbation_ties: Option<SearchTies>,
     /// The best designs of training, re-scored on the validation town; the tested design is the
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub validation: Vec<Validated>,
+}
+
+/// How many perturbation searches ran in training, and in how many two or more members tied for
+/// the best score, so that the tie-break (or the GA's order) chose the target of l_GA.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SearchTies {
+    /// Searches run.
+    pub searches: u64,
+    /// Searches whose best score was shared.
+    pub tied: u64,
+}
+
+impl SearchTies {
+    /// Adds another count.
+    pub fn add(&mut self, other: SearchTies) {
+        self.searches += other.searches;
+        self.tied += other.tied;
+    }
+
+    /// The share of searches a tie decided (NaN without searches).
+    pub fn share(&self) -> f64 {
+        if self.searches == 0 { f64::NAN } else { self.tied as f64 / self.searches as f64 }
+    }
 }
 
 /// A design as the validation scored it, with its training fitness.

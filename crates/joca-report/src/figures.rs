@@ -120,12 +120,14 @@ fn fitness_figure(
         dir,
         file,
         what,
-        (&format!("Hardware GA fitness per generation — {what}"), "generation"),
+        (&format!("Hardware GA fitness per generation (new scenes each) — {what}"), "generation"),
         plot::Panel { y_label: "fitness = mAP + 1.1 × TP ratio".into(), series: fitness },
         format!(
             "Fitness of the hardware GA's candidates per generation (solid: best, dashed: mean; \
-             {what}). Each candidate is trained and scored on its own k frames, so the curves are \
-             noisy; a fixed-camera method drives its one camera as many times per generation as \
+             {what}). Each generation drives new scenes (its candidates the same ones), so the \
+             curves rise and fall with the scenes' difficulty as much as with the search's \
+             progress: read the spread within a generation, not a trend across them. A \
+             fixed-camera method drives its one camera as many times per generation as \
              the GA has candidates, so every method trains on as many frames."
         ),
     )

@@ -135,6 +135,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     md.push_str(&light_step_markdown(&run.showcases));
     md.push_str(&objects_markdown(r));
     md.push_str(&fitness_markdown(&run));
+    md.push_str(&ties_markdown(r));
     md.push_str(&figures_markdown(&figures));
     write_text(&run_dir.join("report.md"), &md)?;
     let body = format!(
@@ -264,8 +265,26 @@ fn fitness_markdown(run: &RunData) -> String {
     for g in &run.generations {
         let _ = writeln!(md, "| {} | {:.3} | {:.3} |", g.generation, g.best, g.mean);
     }
-    md.push('\n');
+    md.push_str(
+        "\nEach generation drives its own scenes (all its candidates the same ones), so the \
+         numbers move with the scenes' difficulty from one generation to the next as much as \
+         with the search's progress: compare candidates within a generation, not generations.\n\n",
+    );
     md
+}
+
+/// How training's perturbation searches were decided.
+fn ties_markdown(r: &RunResults) -> String {
+    match r.perturbation_ties {
+        Some(t) if t.searches > 0 => format!(
+            "Perturbation searches in training: {}; in {} ({:.0} %) two or more members tied for \
+             the best score, so the tie-break or the GA's order chose l_GA's target.\n\n",
+            t.searches,
+            t.tied,
+            100.0 * t.share()
+        ),
+        _ => String::new(),
+    }
 }
 
 fn figures_markdown(figures: &[Figure]) -> String {

@@ -314,6 +314,7 @@ pub(crate) mod tests {
             denormals: String::new(),
             cpu: String::new(),
             test_controller: String::new(),
+            perturbation_ties: None,
         }
     }
 

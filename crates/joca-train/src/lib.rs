@@ -28,7 +28,7 @@ pub use pretrain::{
 };
 pub use run::{
     DesignSpec, DesignSummary, FixedCamera, HardwareMutation, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS,
-    Method, PerturbationMutation, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults,
-    Scenario, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step,
-    cpu_description, evaluate_run, run,
+    Method, PerturbationMutation, PerturbationScore, PerturbationSteps, RealConfig,
+    ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario, SearchTies, Showcase,
+    ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step, cpu_description, evaluate_run, run,
 };

@@ -7,8 +7,8 @@ use common::{poison_first_tensor, snapshot};
 use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_train::{
-    DesignSpec, FixedCamera, Method, PerturbationMutation, RealConfig, RunConfig, RunEvent,
-    Scenario, Source, TrainError, run,
+    DesignSpec, FixedCamera, Method, PerturbationMutation, PerturbationScore, PerturbationSteps,
+    RealConfig, RunConfig, RunEvent, Scenario, SearchTies, Source, TrainError, run,
 };
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -31,6 +31,8 @@ fn tiny(method: Method) -> RunConfig {
         perturbation_population: 4,
         perturbation_mutation: PerturbationMutation::Additive,
         perturbation_tie_break: Default::default(),
+        perturbation_score: Default::default(),
+        perturbation_steps: Default::default(),
         // The run's default: bfloat16 scoring where native (float32 elsewhere).
         scoring_precision: Precision::Bf16,
         acc_lr: 1e-5,
@@ -409,4 +411,33 @@ fn candidates_of_a_generation_share_their_scenes_and_the_validation_picks_the_de
     let best = r.validation[0].validation.fitness();
     assert!(r.validation.iter().all(|v| v.validation.fitness() <= best));
     assert!(r.validation.iter().all(|v| v.validation.frames == 40));
+}
+
+/// Every perturbation search is counted once (steps after a candidate's first, where NeuralAE
+/// predicts), with how many a tie decided; the task loss scores members apart.
+#[test]
+fn the_results_count_the_perturbation_searches_and_their_ties() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let base = RunConfig { generations: 1, ..tiny(Method::Joca) };
+    let searches = (base.population * (base.steps_per_candidate - 1)) as u64;
+    let ap50 = run(&base, &dir.path().join("ap50"), false, &mut go).unwrap();
+    let t = ap50.perturbation_ties.unwrap();
+    assert_eq!(t.searches, searches);
+    assert!(t.tied <= searches);
+    let cfg = RunConfig {
+        perturbation_score: PerturbationScore::Loss,
+        perturbation_steps: PerturbationSteps::Relative,
+        ..base.clone()
+    };
+    let loss = run(&cfg, &dir.path().join("loss"), false, &mut go).unwrap();
+    assert_eq!(loss.perturbation_ties.unwrap(), SearchTies { searches, tied: 0 });
+    let avg = run(
+        &RunConfig { generations: 1, ..tiny(Method::TacosAverage) },
+        &dir.path().join("avg"),
+        false,
+        &mut go,
+    )
+    .unwrap();
+    assert_eq!(avg.perturbation_ties, None);
 }

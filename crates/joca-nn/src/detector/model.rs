@@ -30,6 +30,24 @@ pub struct LossParts {
     pub offset: f64,
 }
 
+/// Refuses an empty batch or one of frames of different sizes.
+fn one_size(batch: &[TrainFrame<'_>]) -> Result<(), NnError> {
+    let Some(first) = batch.first() else {
+        return Err(NnError::Batch("no frames".into()));
+    };
+    let size = (first.image.width(), first.image.height());
+    if let Some(f) = batch.iter().find(|f| (f.image.width(), f.image.height()) != size) {
+        return Err(NnError::Batch(format!(
+            "frames of {}×{} and {}×{}: a batch needs frames of one size",
+            size.0,
+            size.1,
+            f.image.width(),
+            f.image.height()
+        )));
+    }
+    Ok(())
+}
+
 /// One training image with its ground truth and ignore regions.
 #[derive(Debug, Clone, Copy)]
 pub struct TrainFrame<'a> {
@@ -151,40 +169,11 @@ impl DetectorModel {
     /// object count, see [`Targets::stack`]). A non-finite loss is reported before any weight
     /// changes.
     pub fn train_batch(&mut self, batch: &[TrainFrame<'_>]) -> Result<LossParts, NnError> {
-        let Some(first) = batch.first() else {
-            return Err(NnError::Batch("no frames".into()));
-        };
-        let size = (first.image.width(), first.image.height());
-        if let Some(f) = batch.iter().find(|f| (f.image.width(), f.image.height()) != size) {
-            return Err(NnError::Batch(format!(
-                "frames of {}×{} and {}×{}: a batch needs frames of one size",
-                size.0,
-                size.1,
-                f.image.width(),
-                f.image.height()
-            )));
-        }
+        one_size(batch)?;
         let images: Vec<&Rgb8Image> = batch.iter().map(|f| f.image).collect();
         let out = self.net.forward(&batch_tensor(&images, self.device, self.precision));
         let s = out.heatmap.size();
-        let classes = self.net.config().classes;
-        let targets = Targets::stack(
-            batch
-                .iter()
-                .map(|f| {
-                    Targets::with_style(
-                        f.truth,
-                        f.ignore,
-                        classes,
-                        (s[2], s[3]),
-                        self.regression,
-                        self.min_radius,
-                        self.device,
-                    )
-                    .with_class_weights(&self.class_weights)
-                })
-                .collect(),
-        );
+        let targets = Targets::stack(batch.iter().map(|f| self.targets(f, (s[2], s[3]))).collect());
         let loss = DetectionLoss::new(&out, &targets);
         let total = loss.total.double_value(&[]);
         if !total.is_finite() {
@@ -194,6 +183,52 @@ impl DetectorModel {
         loss.total.backward();
         self.optimizer.step();
         Ok(LossParts { total, heatmap: loss.heatmap, size: loss.size, offset: loss.offset })
+    }
+
+    /// The training targets of `frame` on an output grid of `grid` cells.
+    fn targets(&self, frame: &TrainFrame<'_>, grid: (i64, i64)) -> Targets {
+        Targets::with_style(
+            frame.truth,
+            frame.ignore,
+            self.net.config().classes,
+            grid,
+            self.regression,
+            self.min_radius,
+            self.device,
+        )
+        .with_class_weights(&self.class_weights)
+    }
+
+    /// Each frame's task loss (the training loss's weighted total, normalised by the frame's own
+    /// objects), without a gradient or an update, the convolutions in `precision`: a continuous
+    /// score of how well the detector sees each frame's objects.
+    pub fn losses_in(
+        &self,
+        batch: &[TrainFrame<'_>],
+        precision: Precision,
+    ) -> Result<Vec<f64>, NnError> {
+        if batch.is_empty() {
+            return Ok(Vec::new());
+        }
+        one_size(batch)?;
+        let _guard = tch::no_grad_guard();
+        let images: Vec<&Rgb8Image> = batch.iter().map(|f| f.image).collect();
+        let out = self.net.forward(&batch_tensor(&images, self.device, precision));
+        let s = out.heatmap.size();
+        Ok(batch
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                let i = i as i64;
+                let one = DetectorOutput {
+                    heatmap: out.heatmap.narrow(0, i, 1),
+                    size: out.size.narrow(0, i, 1),
+                    offset: out.offset.narrow(0, i, 1),
+                    features: out.features.narrow(0, i, 1),
+                };
+                DetectionLoss::new(&one, &self.targets(f, (s[2], s[3]))).total.double_value(&[])
+            })
+            .collect())
     }
 
     /// Detections in one frame, best first.

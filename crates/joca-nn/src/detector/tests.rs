@@ -589,3 +589,32 @@ fn a_batch_detects_what_each_frame_does_alone() {
     }
     assert!(model.detect_batch(&[]).is_empty());
 }
+
+#[test]
+fn each_frames_loss_is_the_training_loss_of_that_frame_alone() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let engine = Engine::cpu(1);
+    engine.seed(5);
+    let mut model = small_model(&engine);
+    let b = BBox::new(20.0, 16.0, 44.0, 36.0);
+    let seen = frame_with_box(64, 48, b);
+    let blank = Rgb8Image::zeros(64, 48);
+    let truth = [Annotation::new(b, Class::Vehicle)];
+    let frame = |image| TrainFrame { image, truth: &truth, ignore: &[] };
+    let losses = model.losses_in(&[frame(&seen), frame(&blank)], Precision::Fp32).unwrap();
+    // Scoring changes nothing: the same losses again, and a training step on each frame alone
+    // reports (before its update) the loss the batch gave that frame.
+    assert_eq!(model.losses_in(&[frame(&seen), frame(&blank)], Precision::Fp32).unwrap(), losses);
+    let alone = model.losses_in(&[frame(&blank)], Precision::Fp32).unwrap();
+    assert!((alone[0] - losses[1]).abs() < 1e-6 * losses[1].abs().max(1.0));
+    let trained = model.train_step(&seen, &truth, &[]).unwrap().total;
+    assert!((trained - losses[0]).abs() < 1e-5 * trained.abs().max(1.0), "{trained} {losses:?}");
+    // After training on the frame with its object, that frame costs less than the blank one
+    // that hides it.
+    for _ in 0..150 {
+        model.train_step(&seen, &truth, &[]).unwrap();
+    }
+    let after = model.losses_in(&[frame(&seen), frame(&blank)], Precision::Fp32).unwrap();
+    assert!(after[0] < after[1], "{after:?}");
+    assert!(model.losses_in(&[], Precision::Fp32).unwrap().is_empty());
+}

@@ -79,6 +79,14 @@ pub struct RunConfig {
     /// first) or `none` (the GA's order).
     #[serde(default)]
     pub perturbation_tie_break: TieBreak,
+    /// What scores a perturbation member: `ap50` (the paper's: the perturbed frame's AP50) or
+    /// `loss` (the detector's task loss on it, lower better).
+    #[serde(default)]
+    pub perturbation_score: PerturbationScore,
+    /// How a perturbation offsets the exposure: `linear` (the paper's: a share of the range in
+    /// milliseconds) or `relative` (a share of the log-exposure range: a factor).
+    #[serde(default)]
+    pub perturbation_steps: PerturbationSteps,
     /// The gradient of the differentiable formation's clip: `clamp` (none where a pixel
     /// saturates) or `straight-through`.
     #[serde(default)]
@@ -213,6 +221,33 @@ pub enum TieBreak {
     Clipping,
     /// AP50 alone; ties go to the GA's first member (the paper says nothing of ties).
     None,
+}
+
+/// What scores a member of the perturbation search.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PerturbationScore {
+    /// The paper's: the perturbed frame's AP50 (ties ranked by `perturbation_tie_break`). One
+    /// frame's AP50 takes few values, so members often tie.
+    #[default]
+    Ap50,
+    /// The detector's task loss on the perturbed frame (the training loss, normalised by the
+    /// frame's objects), lower better: continuous in the frame, so members rarely tie.
+    Loss,
+}
+
+/// How a perturbation offsets NeuralAE's exposure (the gain, in dB, is offset by a share of its
+/// range either way: dB are already relative).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PerturbationSteps {
+    /// The paper's: `E + p·(E_max − E_min)`, a share of the range in linear units (±5 % of
+    /// 0.1–50 ms is ±2.5 ms, whatever E is).
+    #[default]
+    Linear,
+    /// `E · (E_max/E_min)^p`, a share of the log-exposure range (±5 % is ×0.73–×1.36): the same
+    /// relative reach at 1 ms and at 50 ms.
+    Relative,
 }
 
 impl RunConfig {

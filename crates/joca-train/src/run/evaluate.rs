@@ -162,6 +162,7 @@ pub(super) fn test_design(
         denormals: joca_nn::kernels::denormals().name().to_owned(),
         cpu: cpu_description(),
         test_controller: String::new(),
+        perturbation_ties: (state.ties.searches > 0).then_some(state.ties),
         validation,
     })
 }

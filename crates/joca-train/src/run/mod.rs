@@ -29,8 +29,8 @@ use crate::control::TestController;
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub use config::{
-    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, RealConfig, ReferenceConfig,
-    RunConfig, Source, TieBreak,
+    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, PerturbationScore,
+    PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, Source, TieBreak,
 };
 pub(crate) use config::{check_detector, check_input};
 use evaluate::{best_design, test_design};
@@ -50,7 +50,7 @@ use joca_sim::{Illumination, SimConfig, Simulator};
 pub use method::{DesignSpec, FixedCamera};
 use rand::Rng;
 use results::summary;
-pub use results::{DesignSummary, RunResults};
+pub use results::{DesignSummary, RunResults, SearchTies};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
@@ -110,6 +110,9 @@ struct RunState {
     /// the validation chooses among.
     #[serde(default)]
     top: Vec<(Vec<f64>, f64)>,
+    /// The perturbation searches of the finished candidates, and their ties.
+    #[serde(default)]
+    ties: SearchTies,
 }
 
 /// How many of training's best designs the validation re-scores.
@@ -161,6 +164,8 @@ struct Context {
     watch: Stopwatch,
     /// The controller closed-loop tests drive the design with (`joca eval --controller`).
     test_controller: TestController,
+    /// The perturbation searches of the candidate in training, and their ties.
+    ties: SearchTies,
 }
 
 impl Context {
@@ -217,6 +222,7 @@ pub fn run(
         perturbation,
         best: None,
         top: Vec::new(),
+        ties: SearchTies::default(),
     };
 
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
@@ -275,6 +281,8 @@ pub fn run(
                 }
                 r => r?,
             };
+            // A killed candidate is repeated from the checkpoint: count its searches once.
+            state.ties.add(std::mem::take(&mut cx.ties));
             let fitness = scores.fitness();
             state.fitness.push(fitness);
             if state.best.as_ref().is_none_or(|(_, f)| fitness > *f) {
@@ -403,6 +411,7 @@ fn setup(
         log_path,
         watch: Stopwatch::default(),
         test_controller: TestController::Trained,
+        ties: SearchTies::default(),
     };
     Ok((cx, model))
 }

@@ -1,19 +1,22 @@
 //! DF-Grad's perturbation mode (paper Sec. 5): each member `(p_e, p_g)` of a small GA offsets
 //! NeuralAE's prediction by a fraction of each range; the instant is rendered with the
 //! perturbed exposure too (so with its own motion blur, which no gradient can see; the applied
-//! and perturbed shutters share one grid of sub-frames), formed, detected and scored by AP50.
-//! The best member's settings become the target of the GA loss l_GA.
+//! and perturbed shutters share one grid of sub-frames), formed, detected and scored by AP50
+//! (the paper's) or by the detector's task loss (`perturbation_score`). The best member's
+//! settings become the target of the GA loss l_GA. Each search counts whether members tied for
+//! the best score (then the tie-break or the GA's order chose), for `results.json`.
 
-use super::config::{PerturbationMutation, TieBreak};
+use super::config::{PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak};
 use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
-use joca_camera::{DynamicSettings, ImageFormation};
-use joca_core::{Frame, Rgb8Image, SeedStreams};
+use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
+use joca_core::{Frame, Rgb8Image, SeedStreams, TRAINING_MIN_BOX_PX, training_targets};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
-use joca_nn::detector::Precision;
+use joca_nn::detector::{Precision, TrainFrame};
 use joca_nn::joint::JointModel;
+use joca_record::SearchTies;
 use rand::Rng;
 use rayon::prelude::*;
 
@@ -79,41 +82,93 @@ pub(super) fn members(
     } else {
         ga.ask().to_vec()
     };
+    let steps = cx.config.perturbation_steps;
     offsets
         .iter()
         .map(|p| {
-            let perturbed = cx.ranges.clamp(DynamicSettings::new(
-                predicted.exposure_s + p[0] * cx.ranges.exposure_s.span(),
-                predicted.gain_db + p[1] * cx.ranges.gain_db.span(),
-            ));
+            let perturbed = perturb(steps, &cx.ranges, predicted, [p[0], p[1]]);
             Member { perturbed, applied: for_sensor(perturbed, sensor) }
         })
         .collect()
 }
 
-/// Each perturbed frame's fitness: its AP50, plus the tie-break.
-fn score(
-    tie_break: TieBreak,
+/// `predicted` offset by `p` (normalised units): the exposure by a share of its range
+/// (`linear`) or of its log range (`relative`), the gain (dB) by a share of its range; clamped
+/// into the ranges.
+fn perturb(
+    steps: PerturbationSteps,
+    ranges: &AccRanges,
+    predicted: DynamicSettings,
+    p: [f64; 2],
+) -> DynamicSettings {
+    let e = &ranges.exposure_s;
+    let exposure_s = match steps {
+        PerturbationSteps::Linear => predicted.exposure_s + p[0] * e.span(),
+        PerturbationSteps::Relative => predicted.exposure_s * (e.max / e.min).powf(p[0]),
+    };
+    ranges.clamp(DynamicSettings::new(exposure_s, predicted.gain_db + p[1] * ranges.gain_db.span()))
+}
+
+/// Each perturbed frame's score, higher better: its AP50, or its negated task loss.
+fn raw_scores(
+    score: PerturbationScore,
     model: &JointModel,
     frames: &[Frame],
     images: &[&Rgb8Image],
     precision: Precision,
-) -> Vec<f64> {
-    let detections = model.detect_batch_in(images, precision);
-    frames
+) -> Result<Vec<f64>, TrainError> {
+    match score {
+        PerturbationScore::Ap50 => {
+            let detections = model.detect_batch_in(images, precision);
+            Ok(frames
+                .iter()
+                .zip(&detections)
+                .map(|(frame, found)| {
+                    let mut one = TaskMetrics::default();
+                    one.update(&frame.boxes, &frame.ignore, found, frame.visible_180);
+                    one.compute().ap50
+                })
+                .collect())
+        }
+        PerturbationScore::Loss => {
+            // The objects the detector is trained on (small ones are ignore regions there).
+            let split: Vec<_> = frames
+                .iter()
+                .map(|f| training_targets(&f.boxes, &f.ignore, TRAINING_MIN_BOX_PX))
+                .collect();
+            let batch: Vec<TrainFrame<'_>> = images
+                .iter()
+                .zip(&split)
+                .map(|(image, (truth, ignore))| TrainFrame { image, truth, ignore })
+                .collect();
+            Ok(model.losses_in(&batch, precision)?.into_iter().map(|l| -l).collect())
+        }
+    }
+}
+
+/// Each member's fitness: its score, plus the tie-break (AP50 only); and whether two or more
+/// members tied for the best score.
+fn score(
+    config: &RunConfig,
+    model: &JointModel,
+    frames: &[Frame],
+    images: &[&Rgb8Image],
+    precision: Precision,
+) -> Result<(Vec<f64>, bool), TrainError> {
+    let raw = raw_scores(config.perturbation_score, model, frames, images, precision)?;
+    let top = raw.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let tied = raw.iter().filter(|&&r| r == top).count() > 1;
+    let fitness = raw
         .iter()
         .zip(images)
-        .zip(&detections)
-        .map(|((frame, image), found)| {
-            let mut one = TaskMetrics::default();
-            one.update(&frame.boxes, &frame.ignore, found, frame.visible_180);
-            let tie = match tie_break {
-                TieBreak::Clipping => TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data())),
-                TieBreak::None => 0.0,
-            };
-            one.compute().ap50 + tie
+        .map(|(r, image)| match (config.perturbation_score, config.perturbation_tie_break) {
+            (PerturbationScore::Ap50, TieBreak::Clipping) => {
+                r + TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data()))
+            }
+            _ => *r,
         })
-        .collect()
+        .collect();
+    Ok((fitness, tied))
 }
 
 /// The member of highest fitness, the first on ties.
@@ -125,7 +180,8 @@ fn best_member(fitness: &[f64]) -> usize {
 
 /// Scores the members' frames (`frames[i]` rendered with `members[i].applied`'s exposure, all of
 /// one instant): each is formed on the same noise sample, the frames go through the detector as
-/// one batch, and each is scored by AP50 (ties by fewer clipped pixels, unless switched off).
+/// one batch, and each is scored by AP50 (ties by fewer clipped pixels, unless switched off) or
+/// by its task loss (`perturbation_score`).
 /// Unless the perturbations are fixed, tells the GA their fitness. Returns the best member's
 /// settings (equal fitness goes to the first member), for the calibration pitch; `None` without
 /// members.
@@ -158,14 +214,14 @@ pub(super) fn search(
     cx.watch.lap(|t| &mut t.perturbation_render_ms);
     let refs: Vec<&Rgb8Image> = images.iter().collect();
     let precision = cx.config.scoring_precision.on_this_cpu();
-    let fitness = score(cx.config.perturbation_tie_break, model, frames, &refs, precision);
+    let (fitness, tied) = score(&cx.config, model, frames, &refs, precision)?;
+    cx.ties.add(SearchTies { searches: 1, tied: u64::from(tied) });
     cx.watch.lap(|t| &mut t.perturbation_detect_ms);
     let best = best_member(&fitness);
     // `joca bench step` only: would the other precision have chosen the same member, and what
     // does this precision's choice lose by the other's scores?
     if let Some(other) = cx.watch.check_precision {
-        let tie = cx.config.perturbation_tie_break;
-        let reference = score(tie, model, frames, &refs, other);
+        let (reference, _) = score(&cx.config, model, frames, &refs, other)?;
         let top = reference.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let bottom = reference.iter().copied().fold(f64::INFINITY, f64::min);
         cx.watch.count_check(best_member(&reference) == best, top - reference[best], top - bottom);
@@ -175,4 +231,30 @@ pub(super) fn search(
             .map_err(ga_err)?;
     }
     Ok(members.get(best).map(|m| m.perturbed))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_steps_add_a_share_of_the_range_and_relative_steps_multiply() {
+        let r = AccRanges::PAPER;
+        let at = |e_ms: f64| DynamicSettings::new(e_ms * 1e-3, 10.0);
+        let ms = |s: DynamicSettings| s.exposure_s * 1e3;
+        // Linear: ±5 % of 0.1–50 ms is ±2.495 ms at 50 ms and at 1 ms alike (clamped at 0.1).
+        let lin = |e, p| ms(perturb(PerturbationSteps::Linear, &r, at(e), [p, 0.0]));
+        assert!((lin(40.0, -0.05) - 37.505).abs() < 1e-9);
+        assert!((lin(1.0, 0.05) - 3.495).abs() < 1e-9);
+        assert!((lin(1.0, -0.05) - 0.1).abs() < 1e-12, "clamped to the range");
+        // Relative: a factor 500^p (the range's ratio): ×0.7329 and ×1.3644 for p = ∓0.05.
+        let rel = |e, p| ms(perturb(PerturbationSteps::Relative, &r, at(e), [p, 0.0]));
+        assert!((rel(40.0, -0.05) - 40.0 * 500f64.powf(-0.05)).abs() < 1e-9);
+        assert!((rel(1.0, -0.05) - 0.732_911).abs() < 1e-6);
+        assert!((rel(1.0, 0.05) - 1.364_421).abs() < 1e-6);
+        assert!((rel(40.0, 0.5) - 50.0).abs() < 1e-12, "clamped to the range");
+        // The gain: a share of 1–30 dB either way.
+        let g = perturb(PerturbationSteps::Relative, &r, at(10.0), [0.0, 0.1]).gain_db;
+        assert!((g - 12.9).abs() < 1e-9);
+    }
 }

@@ -1,7 +1,7 @@
 //! What a run reports: the records of `joca_record`, filled from the loop's types.
 
 use joca_camera::CameraDesign;
-pub use joca_record::{DesignSummary, RunResults};
+pub use joca_record::{DesignSummary, RunResults, SearchTies};
 
 /// `design` as the result tables show it.
 pub(super) fn summary(d: &CameraDesign, optimised: bool) -> DesignSummary {
