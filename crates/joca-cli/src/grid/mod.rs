@@ -22,13 +22,15 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The experiments shipped with joca, by name.
-pub const EXPERIMENTS: [(&str, &str); 6] = [
+pub const EXPERIMENTS: [(&str, &str); 8] = [
     ("table1", include_str!("../../../../experiments/table1.toml")),
     ("ablation", include_str!("../../../../experiments/ablation.toml")),
     ("sweep-weight", include_str!("../../../../experiments/sweep-weight.toml")),
     ("sweep-population", include_str!("../../../../experiments/sweep-population.toml")),
     ("sweep-frequency", include_str!("../../../../experiments/sweep-frequency.toml")),
     ("real", include_str!("../../../../experiments/real.toml")),
+    ("controllers", include_str!("../../../../experiments/controllers.toml")),
+    ("ablation-panel", include_str!("../../../../experiments/ablation-panel.toml")),
 ];
 
 #[derive(Debug, Deserialize)]
