@@ -27,5 +27,5 @@ pub use joca_metrics::{BandScores, TaskScores};
 
 pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
 pub use method::{Method, Scenario};
-pub use results::{DesignSummary, RunResults, SearchTies, Validated};
+pub use results::{DesignSummary, RESULTS_FORMAT_VERSION, RunResults, SearchTies, Validated};
 pub use showcase::{LightStep, Showcase, ShowcaseFrame};

@@ -6,9 +6,18 @@ use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// The layout version of `results.json` this joca writes; readers refuse a newer one. Files
+/// without the field are version 0 (written before it existed): every field added since has a
+/// default, so they are read by the same reader (no `input` there means the older
+/// `render_scale` protocol, see [`RunResults::input_note`]).
+pub const RESULTS_FORMAT_VERSION: u32 = 1;
+
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunResults {
+    /// Layout version ([`RESULTS_FORMAT_VERSION`] when written; 0 in files older than it).
+    #[serde(default)]
+    pub format_version: u32,
     /// Method.
     pub method: Method,
     /// Scenario.
@@ -115,6 +124,18 @@ pub struct Validated {
 }
 
 impl RunResults {
+    /// Refuses a layout newer than this joca reads, naming both versions.
+    pub fn check_version(&self) -> Result<(), String> {
+        if self.format_version > RESULTS_FORMAT_VERSION {
+            return Err(format!(
+                "format_version {} is newer than this joca reads (0 to {RESULTS_FORMAT_VERSION}): \
+                 read it with the joca that wrote it, or a newer one",
+                self.format_version
+            ));
+        }
+        Ok(())
+    }
+
     /// How the frames reached the detector, for a report: the input rule, or an older run's
     /// render scale.
     pub fn input_note(&self) -> String {

@@ -53,6 +53,10 @@ impl RunData {
     pub fn load(dir: &Path) -> Result<Self, ReportError> {
         let results_path = dir.join("results.json");
         let results: RunResults = parse(&results_path, &read(&results_path)?)?;
+        results.check_version().map_err(|reason| ReportError::Format {
+            path: results_path.display().to_string(),
+            reason,
+        })?;
         let events_path = dir.join("events.jsonl");
         let (generations, steps, skipped_events) = match std::fs::read(&events_path) {
             Ok(bytes) => parse_events(&bytes),
@@ -190,5 +194,22 @@ mod tests {
         let (g, _, skipped) = parse_events(&bytes);
         assert_eq!(g.len(), 2);
         assert_eq!(skipped, vec![2, 4]);
+    }
+
+    #[test]
+    fn results_of_an_unknown_layout_are_refused_and_older_ones_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut value = serde_json::to_value(crate::table::tests::results(0.2, 0.3, true)).unwrap();
+        let path = dir.path().join("results.json");
+        // Written before the field existed: version 0, read.
+        value.as_object_mut().unwrap().remove("format_version");
+        std::fs::write(&path, value.to_string()).unwrap();
+        assert_eq!(RunData::load(dir.path()).unwrap().results.format_version, 0);
+        // A newer layout: refused, naming the file and both versions.
+        value["format_version"] = 7.into();
+        std::fs::write(&path, value.to_string()).unwrap();
+        let e = RunData::load(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("results.json") && e.contains("format_version 7 is newer"), "{e}");
+        assert!(e.contains("0 to 1"), "{e}");
     }
 }

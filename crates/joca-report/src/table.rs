@@ -276,6 +276,7 @@ pub(crate) mod tests {
 
     pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         RunResults {
+            format_version: joca_record::RESULTS_FORMAT_VERSION,
             method: Method::Joca,
             scenario: Scenario::Calibrated,
             seed: 0,

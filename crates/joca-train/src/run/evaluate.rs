@@ -138,6 +138,7 @@ pub(super) fn test_design(
     let tested = closed_loop::test(cx, model, design, plan, out)?;
     let config = &cx.config;
     Ok(RunResults {
+        format_version: joca_record::RESULTS_FORMAT_VERSION,
         method: config.method,
         scenario: config.scenario,
         seed: config.seed,
