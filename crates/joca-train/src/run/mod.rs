@@ -4,8 +4,9 @@
 //! or frozen).
 //!
 //! One idea per file: [`config`] (the `[run]` table and its validation), [`method`] (the fixed
-//! cameras; methods and scenarios are `joca_record`'s), this file (the hardware GA's loop over
-//! candidates, checkpoints), [`candidate`] (one candidate's k steps of joint training on its
+//! cameras; methods and scenarios are `joca_record`'s), this file (the loop over generations and
+//! candidates, then the test), [`state`] (the loop's checkpointed state and its steps: start or
+//! resume, a generation's members, one candidate trained and checkpointed), [`candidate`] (one candidate's k steps of joint training on its
 //! generation's scenes), [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
 //! (choosing the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop
 //! driving: the test, the validation, the showcases), [`results`] (what a run reports),
@@ -21,10 +22,11 @@ mod method;
 mod perturbation;
 mod results;
 mod source;
+mod state;
 mod timing;
 
 use crate::TrainError;
-use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
+use crate::checkpoint::{CheckpointDir, write_atomic};
 use crate::control::TestController;
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
@@ -41,17 +43,16 @@ use joca_camera::{
 use joca_core::SeedStreams;
 use joca_core::output::{self, DirLock, OutputKind};
 use joca_data::folder::Recording;
-use joca_evolve::Ga;
 use joca_nn::Engine;
 use joca_nn::joint::JointModel;
-use joca_record::{CandidateRecord, Event, GenerationRecord};
+use joca_record::Event;
 pub use joca_record::{Method, Scenario};
 use joca_sim::{Illumination, SimConfig, Simulator};
 pub use method::{DesignSpec, FixedCamera};
 use rand::Rng;
 use results::summary;
 pub use results::{DesignSummary, RunResults, SearchTies};
-use serde::{Deserialize, Serialize};
+use state::RunState;
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -97,39 +98,6 @@ pub enum RunEvent {
     /// Testing started.
     Testing,
 }
-#[derive(Debug, Serialize, Deserialize)]
-struct RunState {
-    config: RunConfig,
-    generation: usize,
-    candidate: usize,
-    fitness: Vec<f64>,
-    hardware: Ga,
-    perturbation: Ga,
-    best: Option<(Vec<f64>, f64)>,
-    /// The best distinct designs of training, best first, with their fitness: the candidates
-    /// the validation chooses among.
-    #[serde(default)]
-    top: Vec<(Vec<f64>, f64)>,
-    /// The perturbation searches of the finished candidates, and their ties.
-    #[serde(default)]
-    ties: SearchTies,
-}
-
-/// How many of training's best designs the validation re-scores.
-const TOP_DESIGNS: usize = 3;
-
-impl RunState {
-    /// Records a scored candidate among the top designs.
-    fn rank(&mut self, genes: &[f64], fitness: f64) {
-        match self.top.iter_mut().find(|(g, _)| g.as_slice() == genes) {
-            Some(entry) => entry.1 = entry.1.max(fitness),
-            None => self.top.push((genes.to_vec(), fitness)),
-        }
-        self.top.sort_by(|a, b| b.1.total_cmp(&a.1));
-        self.top.truncate(TOP_DESIGNS);
-    }
-}
-
 /// Simulators by town (map seed) and illumination.
 type Sims = HashMap<(u64, Option<Illumination>), Arc<Simulator>>;
 
@@ -180,10 +148,6 @@ impl Context {
 }
 
 /// Runs (or resumes) a joint optimisation into `run_dir`, then tests the best design.
-#[expect(
-    clippy::too_many_lines,
-    reason = "to be split into named steps with a byte-identical quick run (issue 42)"
-)]
 pub fn run(
     config: &RunConfig,
     run_dir: &Path,
@@ -201,129 +165,16 @@ pub fn run(
         .open(&log_path)
         .map_err(|e| TrainError::io(&log_path, e))?;
     let (mut cx, mut model) = setup(config, Box::new(log), log_path)?;
-    let streams = cx.streams;
-    let codec = cx.codec.clone();
-    let mut init_rng = streams.stream("hardware-init");
-    let mut hardware = Ga::new(
-        hardware::ga_config(config.hardware_mutation, config.population, &codec)?,
-        &mut init_rng,
-    );
-    hardware.apply(|g| {
-        let _ = codec.snap(g);
-    });
-    // Perturbations in normalised units: ±5 % of each range.
-    let perturbation = perturbation::ga(config, &streams)?;
-    let mut state = RunState {
-        config: config.clone(),
-        generation: 0,
-        candidate: 0,
-        fitness: Vec::new(),
-        hardware,
-        perturbation,
-        best: None,
-        top: Vec::new(),
-        ties: SearchTies::default(),
-    };
-
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
-    if resume {
-        if let Some(dir) = ckpt.existing() {
-            let saved: RunState = read_json(&dir.join("state.json"))?;
-            check_resume(&saved.config, config, run_dir)?;
-            model.load(&dir)?;
-            state = saved;
-        }
-    } else if ckpt.existing().is_some() {
-        return Err(TrainError::Config {
-            field: "run directory".into(),
-            value: run_dir.display().to_string(),
-            allowed: "a directory without a checkpoint (pass --resume to continue it)".into(),
-        });
-    }
+    let mut state = RunState::start(&cx, &mut model, &ckpt, run_dir, resume)?;
     write_atomic(
         &run_dir.join("config.toml"),
         &toml::to_string(&ConfigFile { run: config.clone() }).unwrap_or_default(),
     )?;
-
-    // Every method trains on the same number of frames: a fixed camera drives as many
-    // candidates per generation (each on its own scenes) as the hardware GA evaluates.
-    let total = config.generations * config.population;
     while state.generation < config.generations {
-        let members: Vec<Vec<f64>> = if config.hardware_search() {
-            state.hardware.ask().to_vec()
-        } else {
-            vec![cx.codec.encode(&config.fixed_design()?)?; config.population]
-        };
+        let members = state.members(&cx)?;
         while state.candidate < members.len() {
-            let design = cx.codec.decode(&members[state.candidate])?;
-            let index = (state.generation * members.len() + state.candidate) as u64;
-            let (generation, candidate, candidates) =
-                (state.generation, state.candidate, members.len());
-            let best = state.best.as_ref().map(|b| b.1);
-            let mut on_step = |step: usize, of: usize| {
-                let _ =
-                    progress(&RunEvent::Step { generation, candidate, candidates, step, of, best });
-            };
-            let scores = match candidate::train(
-                &mut cx,
-                &mut model,
-                &mut state.perturbation,
-                &design,
-                (index, state.generation as u64),
-                &mut on_step,
-            ) {
-                Err(TrainError::Nn(source @ joca_nn::NnError::NonFinite { .. })) => {
-                    let checkpoint = ckpt.existing().map_or_else(
-                        || "none: no candidate had finished".to_owned(),
-                        |d| format!("{}, after {index} candidate(s)", d.display()),
-                    );
-                    return Err(TrainError::Diverged { generation, candidate, checkpoint, source });
-                }
-                r => r?,
-            };
-            // A killed candidate is repeated from the checkpoint: count its searches once.
-            state.ties.add(std::mem::take(&mut cx.ties));
-            let fitness = scores.fitness();
-            state.fitness.push(fitness);
-            if state.best.as_ref().is_none_or(|(_, f)| fitness > *f) {
-                state.best = Some((members[state.candidate].clone(), fitness));
-            }
-            state.rank(&members[state.candidate], fitness);
-            cx.log(&Event::Candidate(CandidateRecord {
-                generation: state.generation,
-                candidate: state.candidate,
-                design: summary(&design, config.hardware_search()),
-                scores,
-                fitness,
-            }))?;
-            state.candidate += 1;
-            if state.candidate == members.len() {
-                if config.hardware_search() {
-                    let codec = cx.codec.clone();
-                    let mut rng = cx.streams.indexed("hardware-ga", state.generation as u64);
-                    state
-                        .hardware
-                        .tell(&state.fitness, &mut rng, |g| {
-                            let _ = codec.snap(g);
-                        })
-                        .map_err(ga_err)?;
-                }
-                cx.log(&Event::Generation(GenerationRecord {
-                    generation_done: state.generation,
-                    fitness: state.fitness.clone(),
-                }))?;
-                state.fitness.clear();
-                state.candidate = 0;
-                state.generation += 1;
-            }
-            ckpt.write(|dir| {
-                model.save(dir)?;
-                let text = serde_json::to_string(&state).map_err(|e| TrainError::Corrupt {
-                    path: "state.json".into(),
-                    reason: e.to_string(),
-                })?;
-                write_atomic(&dir.join("state.json"), &text)
-            })?;
+            let fitness = state.train_candidate(&mut cx, &mut model, &members, &ckpt, progress)?;
             let done = state.generation * members.len() + state.candidate;
             let event = RunEvent::Candidate {
                 generation: state.generation,
@@ -331,7 +182,8 @@ pub fn run(
                 fitness,
                 best: state.best.as_ref().map_or(fitness, |b| b.1),
                 done,
-                of: total,
+                // Every method trains on the same number of frames.
+                of: config.generations * config.population,
             };
             if progress(&event).is_break() {
                 return Err(TrainError::Interrupted { step: done });
