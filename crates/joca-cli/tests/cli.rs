@@ -443,8 +443,9 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         stderr(&o)
     );
     // The detector input: a size past its maximum, a long side below the short side, an unknown
-    // resampler or hardware mutation, each named with what is allowed and the file; nothing
-    // is written.
+    // resampler, hardware mutation or perturbation score or step, a fixed design outside the
+    // catalogue or the design space, each named with what is allowed and the file; nothing is
+    // written.
     let cases = [
         (
             "input = { short_px = 2000, long_max_px = 3000 }",
@@ -465,6 +466,20 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         (
             "hardware_mutation = \"gaussian\"",
             "unknown variant `gaussian`, expected `tacos` or `paper`",
+        ),
+        ("perturbation_score = \"median\"", "unknown variant `median`, expected `ap50` or `loss`"),
+        ("perturbation_steps = \"log\"", "unknown variant `log`, expected `linear` or `relative`"),
+        (
+            "design = { sensor = \"IMX999\", focal_length_mm = 4.0, x_m = 0.5, z_m = 1.5 }",
+            "run.design.sensor = \"IMX999\" is invalid: a catalogue sensor: ",
+        ),
+        (
+            "design = { sensor = \"IMX172\", focal_length_mm = 25.0, x_m = 0.5, z_m = 1.5 }",
+            "run.design.focal_length_mm = 25 is invalid: 1 to 10 mm (the paper's design space)",
+        ),
+        (
+            "design = { sensor = \"IMX172\", focal_length_mm = 4.0, x_m = 0.5 }",
+            "missing field `z_m`",
         ),
     ];
     for (line, message) in cases {
