@@ -442,6 +442,45 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         "{}",
         stderr(&o)
     );
+    // `joca experiment --seeds 0` is refused before anything is written.
+    let exp_dir = dir.path().join("exp");
+    let o = joca(&["experiment", "ablation", "--seeds", "0", "--out", exp_dir.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("--seeds = 0 is invalid: 1 to 100"), "{e}");
+    assert!(!exp_dir.exists());
+    // A misspelt table is refused, not ignored.
+    std::fs::write(&cfg, "[runn]\ngenerations = 2\n").unwrap();
+    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    assert!(
+        !o.status.success()
+            && stderr(&o).contains("mine.toml")
+            && stderr(&o).contains("`runn`")
+            && stderr(&o).contains("[run], [pretrain]"),
+        "{}",
+        stderr(&o)
+    );
+    // `--resume` where nothing ran is refused, and so is `--out` at a folder of other files,
+    // which is left untouched.
+    let empty = dir.path().join("empty");
+    let o = joca(&["run", "--resume", "--out", empty.to_str().unwrap()]);
+    assert!(stderr(&o).contains("nothing to resume"), "{}", stderr(&o));
+    let other = dir.path().join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("notes.txt"), "mine").unwrap();
+    let o = joca(&["run", "--out", other.to_str().unwrap()]);
+    assert!(stderr(&o).contains("is not a joca run output"), "{}", stderr(&o));
+    let left: Vec<_> = std::fs::read_dir(&other).unwrap().collect();
+    assert_eq!(left.len(), 1);
+    // A speed that is not a number is refused before anything runs.
+    let o =
+        joca(&["render", "--max-speed-mps", "NaN", "--frames", "1", "--out", "/tmp/joca-never"]);
+    assert!(stderr(&o).contains("--max-speed-mps = NaN is out of range"), "{}", stderr(&o));
+}
+
+#[test]
+fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("mine.toml");
     // The detector input: a size past its maximum, a long side below the short side, an unknown
     // resampler, hardware mutation or perturbation score or step, a fixed design outside the
     // catalogue or the design space, each named with what is allowed and the file; nothing is
@@ -516,39 +555,6 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
         "{e}"
     );
     assert!(!never.exists(), "a refused config left {}", never.display());
-    // `joca experiment --seeds 0` is refused before anything is written.
-    let exp_dir = dir.path().join("exp");
-    let o = joca(&["experiment", "ablation", "--seeds", "0", "--out", exp_dir.to_str().unwrap()]);
-    let e = stderr(&o);
-    assert!(!o.status.success() && e.contains("--seeds = 0 is invalid: 1 to 100"), "{e}");
-    assert!(!exp_dir.exists());
-    // A misspelt table is refused, not ignored.
-    std::fs::write(&cfg, "[runn]\ngenerations = 2\n").unwrap();
-    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
-    assert!(
-        !o.status.success()
-            && stderr(&o).contains("mine.toml")
-            && stderr(&o).contains("`runn`")
-            && stderr(&o).contains("[run], [pretrain]"),
-        "{}",
-        stderr(&o)
-    );
-    // `--resume` where nothing ran is refused, and so is `--out` at a folder of other files,
-    // which is left untouched.
-    let empty = dir.path().join("empty");
-    let o = joca(&["run", "--resume", "--out", empty.to_str().unwrap()]);
-    assert!(stderr(&o).contains("nothing to resume"), "{}", stderr(&o));
-    let other = dir.path().join("other");
-    std::fs::create_dir_all(&other).unwrap();
-    std::fs::write(other.join("notes.txt"), "mine").unwrap();
-    let o = joca(&["run", "--out", other.to_str().unwrap()]);
-    assert!(stderr(&o).contains("is not a joca run output"), "{}", stderr(&o));
-    let left: Vec<_> = std::fs::read_dir(&other).unwrap().collect();
-    assert_eq!(left.len(), 1);
-    // A speed that is not a number is refused before anything runs.
-    let o =
-        joca(&["render", "--max-speed-mps", "NaN", "--frames", "1", "--out", "/tmp/joca-never"]);
-    assert!(stderr(&o).contains("--max-speed-mps = NaN is out of range"), "{}", stderr(&o));
 }
 
 /// A grid small enough for a test: 2 variants × 2 scenarios of a 1-generation run.
