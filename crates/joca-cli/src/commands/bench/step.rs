@@ -1,0 +1,105 @@
+//! `joca bench step`: one step of the joint loop (method joca) on the FLIR camera, broken down
+//! by part.
+
+use anyhow::Result;
+
+pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
+    use joca_nn::detector::Precision;
+    use joca_train::{FixedCamera, Method, RunConfig};
+    let mut cfg: RunConfig = crate::config::load(preset, None, "run")?;
+    cfg.method = Method::Joca;
+    crate::commands::run::resolve_weights(&mut cfg);
+    let design = FixedCamera::Flir.design();
+    let (w, h) = design.resolution(&cfg.input);
+    cfg.scoring_precision = Precision::Fp32;
+    let b = joca_train::bench_step(&cfg, &design, steps, None)?;
+    let total = b.total_ms();
+    println!(
+        "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (detector input, {} resize), {} \
+            threads, mean of {} steps, perturbed frames scored in fp32",
+        cfg.input.resampler, cfg.threads, b.steps
+    );
+    if !Precision::native_bf16() {
+        println!(
+            "(the default here: scoring_precision = \"bf16\" is fp32 without native bfloat16)"
+        );
+    }
+    println!("{:<46} {:>9} {:>7}", "part", "ms", "share");
+    for (name, ms) in [
+        ("NeuralAE prediction", b.acc_predict_ms),
+        ("render forward + perturbed frames (one grid)", b.render_ms),
+        ("form the perturbed frames", b.perturbation_render_ms),
+        ("detect + AP50 of the perturbed frames", b.perturbation_detect_ms),
+        ("perturbation GA", b.perturbation_ga_ms),
+        ("noise sample", b.noise_ms),
+        ("differentiable formation", b.formation_ms),
+        ("detector forward + loss", b.detector_forward_ms),
+        ("backward (detector, formation, NeuralAE)", b.backward_ms),
+        ("optimiser updates", b.update_ms),
+        ("decode + bookkeeping", b.decode_ms),
+    ] {
+        println!("{:<46} {:>9.1} {:>6.1}%", name, ms, 100.0 * ms / total);
+    }
+    println!("{:<46} {:>9.1}", "total per step", total);
+    println!("{:<46} {:>9.1}", "sub-frames rendered per step (mean)", b.subframes);
+    // Detector training steps on a frame of the same size, same threads, same run. The ratio
+    // compares like with like: the mean joint step with the mean detector step (what a run of
+    // either costs per step); the best detector step is shown beside it.
+    let engine = joca_nn::Engine::cpu(cfg.threads);
+    let times = joca_nn::detector::training_step_times(
+        &engine,
+        cfg.detector,
+        h,
+        w,
+        steps,
+        1,
+        Precision::Fp32,
+    );
+    let detector_ms = times.iter().sum::<f64>() / times.len() as f64;
+    let best_ms = times.iter().copied().fold(f64::INFINITY, f64::min);
+    println!(
+        "{:<46} {:>9.1}   (best {:.1})",
+        format!("detector training step alone (mean of {})", times.len()),
+        detector_ms,
+        best_ms
+    );
+    println!(
+        "{:<46} {:>9.2}x  (against the best: {:.2}x)",
+        "step / detector training step",
+        total / detector_ms,
+        total / best_ms
+    );
+    // The perturbed frames scored in bfloat16 where the CPU has it natively, with every search
+    // also scored in float32 (untimed) to count how often the two choose the same member.
+    if !Precision::native_bf16() {
+        println!(
+            "(scoring_precision = \"bf16\" not timed: native bfloat16 needs AVX-512 BF16 and \
+             JOCA_CPU_KERNELS=native)"
+        );
+        return Ok(());
+    }
+    // The same steps as above (same scenes, same warm-up), so the rows compare like with like.
+    cfg.scoring_precision = Precision::Bf16;
+    let b = joca_train::bench_step(&cfg, &design, steps, Some(Precision::Fp32))?;
+    println!(
+        "\nwith scoring_precision = \"bf16\" (the default; native here), the same {} steps, same \
+            run",
+        b.steps
+    );
+    println!("{:<46} {:>9.1}", "render forward + perturbed frames (one grid)", b.render_ms);
+    println!("{:<46} {:>9.1}", "detect + AP50 of the perturbed frames", b.perturbation_detect_ms);
+    println!("{:<46} {:>9.1}", "total per step", b.total_ms());
+    println!("{:<46} {:>9.2}x", "step / detector training step", b.total_ms() / detector_ms);
+    println!(
+        "{:<46} {:>5} of {}",
+        "searches choosing the fp32 member", b.searches_agreeing, b.searches_checked
+    );
+    let n = b.searches_checked.max(1) as f64;
+    println!(
+        "{:<46} {:>9.4}  (fp32 fitness spread among members: {:.4})",
+        "mean fp32 fitness lost by the bf16 choice",
+        b.check_regret / n,
+        b.check_spread / n
+    );
+    Ok(())
+}
