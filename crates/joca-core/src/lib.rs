@@ -26,6 +26,7 @@ mod boxes;
 mod frame;
 pub mod fs;
 mod image;
+mod named;
 pub mod output;
 pub mod rng;
 pub mod units;

@@ -12,19 +12,19 @@ use super::ga_err;
 use crate::TrainError;
 use joca_camera::GenomeCodec;
 use joca_evolve::GaConfig;
-use serde::{Deserialize, Serialize};
 
-/// The hardware GA's mutation operator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum HardwareMutation {
-    /// TaCOS's published operator: each gene ×U(0.8, 1.2) + U(−a, a), a = 3 in gene units for
-    /// the focal length (mm) and the sensor genes (mm, µm), a third of the range for the mount
-    /// genes (whose ranges are under 3 m); the best 3 in 10 carried unchanged.
-    #[default]
-    Tacos,
-    /// The paper's printed operator: ×U(0.8, 1.2), the best half kept.
-    Paper,
+joca_core::named_enum! {
+    /// The hardware GA's mutation operator.
+    #[derive(Default)]
+    pub enum HardwareMutation("hardware mutation") {
+        /// TaCOS's published operator: each gene ×U(0.8, 1.2) + U(−a, a), a = 3 in gene units for
+        /// the focal length (mm) and the sensor genes (mm, µm), a third of the range for the mount
+        /// genes (whose ranges are under 3 m); the best 3 in 10 carried unchanged.
+        #[default]
+        Tacos = "tacos",
+        /// The paper's printed operator: ×U(0.8, 1.2), the best half kept.
+        Paper = "paper",
+    }
 }
 
 /// The additive half-width of the focal length and sensor genes, in their units (TaCOS).

@@ -4,14 +4,14 @@
 use joca_camera::{CameraDesign, CameraError, DesignSpace, sensor_by_name};
 use serde::{Deserialize, Serialize};
 
-/// The fixed cameras of the baselines, at the nuScenes-like mount (x 0.43 m, z 1.65 m, 3.6 mm).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FixedCamera {
-    /// FLIR Flea3: IMX172.
-    Flir,
-    /// Basler Dart: AR0134.
-    Basler,
+joca_core::named_enum! {
+    /// The fixed cameras of the baselines, at the nuScenes-like mount (x 0.43 m, z 1.65 m, 3.6 mm).
+    pub enum FixedCamera("camera") {
+        /// FLIR Flea3: IMX172.
+        Flir = "flir",
+        /// Basler Dart: AR0134.
+        Basler = "basler",
+    }
 }
 
 impl FixedCamera {
