@@ -40,16 +40,18 @@ pub fn variants(rows: &[Row]) -> Vec<(String, String, Vec<&Row>)> {
 }
 
 /// Every comparison of ours (variants whose every row is `Method::Joca`) with another variant of
-/// the same group, paired on design and seed.
+/// the same group, paired on design and seed. Two variants of ours (e.g. two perturbation
+/// scores) are compared once, the one listed first minus the later one.
 pub fn comparisons(rows: &[Row]) -> Vec<Comparison<'_>> {
     let groups = variants(rows);
+    let is_ours = |members: &[&Row]| members.iter().all(|r| r.results.method == Method::Joca);
     let mut out = Vec::new();
-    for (group, label, ours) in &groups {
-        if !ours.iter().all(|r| r.results.method == Method::Joca) {
+    for (i, (group, label, ours)) in groups.iter().enumerate() {
+        if !is_ours(ours) {
             continue;
         }
-        for (g, other, theirs) in &groups {
-            if g != group || other == label {
+        for (j, (g, other, theirs)) in groups.iter().enumerate() {
+            if g != group || other == label || (j < i && is_ours(theirs)) {
                 continue;
             }
             let pairs: Vec<(&Row, &Row)> = ours
@@ -147,4 +149,42 @@ impl Comparison<'_> {
 /// The mAP of `light` in a row's per-illumination test scores.
 pub fn light_map(r: &Row, light: &str) -> Option<f64> {
     r.results.test_by_illumination.get(light).map(|s| s.map)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_variants_of_ours_are_compared_once_first_minus_later() {
+        let row = |label: &str, method: Method, map: f64| {
+            let mut results = crate::table::tests::results(map, 0.3, false);
+            results.method = method;
+            Row {
+                group: "Calibrated".into(),
+                label: label.into(),
+                cell: label.into(),
+                design: "a".into(),
+                results,
+            }
+        };
+        let rows = vec![
+            row("loss", Method::Joca, 0.30),
+            row("paper", Method::Joca, 0.25),
+            row("AverageAE", Method::TacosAverage, 0.20),
+        ];
+        let names: Vec<(String, String, f64)> = comparisons(&rows)
+            .iter()
+            .map(|c| {
+                (c.ours.clone(), c.other.clone(), c.difference(|r| Some(r.results.test.map)).0)
+            })
+            .collect();
+        let expect =
+            [("loss", "paper", 0.05), ("loss", "AverageAE", 0.1), ("paper", "AverageAE", 0.05)];
+        assert_eq!(names.len(), expect.len(), "{names:?}");
+        for ((a, b, d), (ea, eb, ed)) in names.iter().zip(expect) {
+            assert_eq!((a.as_str(), b.as_str()), (ea, eb));
+            assert!((d - ed).abs() < 1e-12);
+        }
+    }
 }

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The experiments shipped with joca, by name.
-pub const EXPERIMENTS: [(&str, &str); 8] = [
+pub const EXPERIMENTS: [(&str, &str); 9] = [
     ("table1", include_str!("../../../../experiments/table1.toml")),
     ("ablation", include_str!("../../../../experiments/ablation.toml")),
     ("sweep-weight", include_str!("../../../../experiments/sweep-weight.toml")),
@@ -31,6 +31,7 @@ pub const EXPERIMENTS: [(&str, &str); 8] = [
     ("real", include_str!("../../../../experiments/real.toml")),
     ("controllers", include_str!("../../../../experiments/controllers.toml")),
     ("ablation-panel", include_str!("../../../../experiments/ablation-panel.toml")),
+    ("perturbation-panel", include_str!("../../../../experiments/perturbation-panel.toml")),
 ];
 
 #[derive(Debug, Deserialize)]
