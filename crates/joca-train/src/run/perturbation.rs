@@ -141,7 +141,12 @@ fn raw_scores(
                 .zip(&split)
                 .map(|(image, (truth, ignore))| TrainFrame { image, truth, ignore })
                 .collect();
-            Ok(model.losses_in(&batch, precision)?.into_iter().map(|l| -l).collect())
+            // A non-finite loss ranks last (a NaN must never win the search).
+            let losses = model.losses_in(&batch, precision)?;
+            Ok(losses
+                .into_iter()
+                .map(|l| if l.is_finite() { -l } else { f64::NEG_INFINITY })
+                .collect())
         }
     }
 }
