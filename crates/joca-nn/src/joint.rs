@@ -13,6 +13,8 @@
 //!
 //! where `(Ẽ*, G̃*)` is the best perturbation the caller's GA found (given every i steps).
 
+mod equations;
+
 use crate::acc::{AccBounds, NeuralAe, histograms};
 use crate::detector::{
     DetectionLoss, DetectorConfig, DetectorModel, LossParts, MAX_DETECTIONS, MIN_SCORE, Targets,
@@ -20,11 +22,12 @@ use crate::detector::{
 };
 use crate::formation::{ClipGradient, Scene, form, to_detector_input};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
+use equations::{eq4, ga_supervision_loss, limit_exposure, tensor_to_rgb8};
 use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
 use joca_core::{Annotation, Detection, Rgb8Image};
 use std::path::Path;
 use tch::nn::VarStore;
-use tch::{Device, Kind, Tensor};
+use tch::{Device, Tensor};
 
 /// Loss weights of DF-Grad (the paper's 7 : 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -113,10 +116,6 @@ pub struct JointModel {
     /// Detector features of the sequence's last frame: NeuralAE's input for the next one.
     features: Option<Tensor>,
     train_detector: bool,
-}
-
-fn unit_tensor(value: &Tensor, range: (f64, f64)) -> Tensor {
-    (value - range.0) / (range.1 - range.0)
 }
 
 impl JointModel {
@@ -364,160 +363,5 @@ impl JointModel {
     }
 }
 
-/// DF-Grad's GA supervision loss (paper Sec. 5): the L1 distance between NeuralAE's prediction
-/// `(E_pred, G_pred)` and the best perturbation `(Ẽ*, G̃*)` the GA found, each in normalised units
-/// (log exposure and gain in dB, each range mapped to [0, 1]), averaged over the two:
-/// `l_GA = (|Ẽ* − E_pred| + |G̃* − G_pred|) / 2`. NeuralAE's loss is `w_task·l_task + w_ga·l_GA`.
-fn ga_supervision_loss(
-    e_pred: &Tensor,
-    g_pred_db: &Tensor,
-    target: DynamicSettings,
-    bounds: &AccBounds,
-) -> Tensor {
-    let (e_star, g_star_db) = (target.exposure_s, target.gain_db);
-    let e_unit = unit_tensor(&e_pred.log(), bounds.log_exposure);
-    let g_unit = unit_tensor(g_pred_db, bounds.gain_db);
-    let e_star_unit =
-        (e_star.ln() - bounds.log_exposure.0) / (bounds.log_exposure.1 - bounds.log_exposure.0);
-    let g_star_unit = (g_star_db - bounds.gain_db.0) / (bounds.gain_db.1 - bounds.gain_db.0);
-    ((e_unit - e_star_unit).abs() + (g_unit - g_star_unit).abs()).mean(Kind::Float) / 2.0
-}
-
-/// Eq. 4 on tensors (linear gain inside, dB outside), as `joca_camera::compensate_for_pixel_size`.
-fn eq4(
-    e_pred: &Tensor,
-    g_pred_db: &Tensor,
-    pitch_um: f64,
-    calibration_pitch_um: f64,
-) -> (Tensor, Tensor) {
-    let area = (pitch_um / calibration_pitch_um).powi(2);
-    if area > 1.0 {
-        let g_lin = (g_pred_db / 20.0 * std::f64::consts::LN_10).exp();
-        let g_t = (&g_lin / area).clamp_min(1.0);
-        let e_t = e_pred * &g_lin / (&g_t * area);
-        (e_t, g_t.log10() * 20.0)
-    } else {
-        (e_pred / area, g_pred_db.shallow_clone())
-    }
-}
-
-/// `joca_camera::limit_exposure` on tensors: an exposure beyond `max_exposure_s` is capped and
-/// the gain raised by the same factor, up to `max_gain_db`.
-///
-/// The forward values are the camera crate's. The gradient is not the cap's own: capped exposure
-/// and clamped gain both have derivative 0, so a prediction pushed past both (a small pixel at
-/// night, after Eq. 4) would never hear from the task loss again, in daylight too. The gain's
-/// clamp is therefore straight-through: its gradient is that of the unclamped gain, which carries
-/// the exposure's excess, so `∂(E·G)/∂E_pred` and `∂(E·G)/∂G_pred` are those of the uncapped
-/// product.
-fn limit_exposure(
-    e: &Tensor,
-    g_db: &Tensor,
-    max_exposure_s: f64,
-    max_gain_db: f64,
-) -> (Tensor, Tensor) {
-    let excess = (e / max_exposure_s).clamp_min(1.0);
-    let g = g_db + excess.log10() * 20.0;
-    let clamped = &g + (g.clamp_max(max_gain_db) - &g).detach();
-    (e / &excess, clamped)
-}
-
-fn tensor_to_rgb8(frame_dn: &Tensor) -> Rgb8Image {
-    let s = frame_dn.size();
-    let (h, w) = (s[2] as usize, s[3] as usize);
-    let bytes: Vec<u8> = Vec::try_from(
-        frame_dn
-            .detach()
-            .squeeze_dim(0)
-            .permute([1, 2, 0])
-            .contiguous()
-            .view([-1])
-            .clamp(0.0, 255.0)
-            .to_kind(Kind::Uint8),
-    )
-    .unwrap_or_else(|_| vec![0; w * h * 3]);
-    Rgb8Image::from_vec(w, h, bytes).unwrap_or_else(|_| Rgb8Image::zeros(w, h))
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// l_GA against its closed form: with the ranges 1–100 ms (log) and 0–40 dB, a prediction of
-    /// 10 ms and 10 dB sits at 1/2 and 1/4 of them; a target of 1 ms and 30 dB at 0 and 3/4.
-    #[test]
-    fn ga_supervision_loss_is_the_mean_l1_distance_in_normalised_units() {
-        let bounds = AccBounds::new((1e-3, 0.1), (0.0, 40.0));
-        let e_pred = Tensor::from_slice(&[0.01f32]);
-        let g_pred = Tensor::from_slice(&[10.0f32]);
-        let l = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(1e-3, 30.0), &bounds)
-            .double_value(&[]);
-        assert!((l - (0.5 + 0.5) / 2.0).abs() < 1e-6, "{l}");
-        let zero = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(0.01, 10.0), &bounds)
-            .double_value(&[]);
-        assert!(zero.abs() < 1e-6, "{zero}");
-    }
-
-    /// The tensor form of Eq. 4 (needed for gradients) agrees with the one the loop renders
-    /// with, `joca_camera::compensate_for_pixel_size`, for larger and smaller pixels.
-    #[test]
-    fn eq4_on_tensors_matches_the_camera_crate() {
-        // Eq. 4 and then the cap, for a tiny pixel whose exposure would exceed 50 ms.
-        for (pitch, e, g) in [(1.55, 0.04, 10.0), (1.55, 0.04, 25.0), (5.86, 0.04, 10.0)] {
-            let want = joca_camera::limit_exposure(
-                joca_camera::compensate_for_pixel_size(DynamicSettings::new(e, g), pitch, 3.75),
-                0.05,
-                30.0,
-            );
-            let (et, gt) = eq4(
-                &Tensor::from_slice(&[e as f32]),
-                &Tensor::from_slice(&[g as f32]),
-                pitch,
-                3.75,
-            );
-            let (et, gt) = limit_exposure(&et, &gt, 0.05, 30.0);
-            let (et, gt) = (et.double_value(&[0]), gt.double_value(&[0]));
-            assert!((et / want.exposure_s - 1.0).abs() < 1e-5, "{pitch}: E {et} vs {want:?}");
-            assert!((gt - want.gain_db).abs() < 1e-4, "{pitch}: G {gt} vs {want:?}");
-        }
-        for (pitch, e, g) in [(5.86, 0.02, 12.0), (5.86, 0.02, 1.0), (1.55, 0.004, 20.0)] {
-            let want =
-                joca_camera::compensate_for_pixel_size(DynamicSettings::new(e, g), pitch, 3.75);
-            let (et, gt) = eq4(
-                &Tensor::from_slice(&[e as f32]),
-                &Tensor::from_slice(&[g as f32]),
-                pitch,
-                3.75,
-            );
-            let (et, gt) = (et.double_value(&[0]), gt.double_value(&[0]));
-            assert!((et / want.exposure_s - 1.0).abs() < 1e-5, "{pitch}: E {et} vs {want:?}");
-            assert!((gt - want.gain_db).abs() < 1e-4, "{pitch}: G {gt} vs {want:?}");
-        }
-    }
-
-    /// Past the exposure cap and the gain's maximum the applied settings stay the camera crate's,
-    /// but the gradient of the applied light `ln(E·G)` is the uncapped one: 1 per unit of
-    /// `ln E_pred` and ln 10 / 20 per dB of `G_pred` — not 0, which left a small-pixel camera's
-    /// controller stuck at the top of its range in every light.
-    #[test]
-    fn the_cap_passes_the_gradient_of_the_uncapped_light() {
-        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        // 1.55 µm pixel: 40 ms → 234 ms before the cap; 25 dB + 13.4 dB > 30 dB: both limits hit.
-        for (e0, g0, capped) in [(0.04, 25.0, true), (0.002, 5.0, false)] {
-            let e = Tensor::from_slice(&[e0 as f32]).set_requires_grad(true);
-            let g = Tensor::from_slice(&[g0 as f32]).set_requires_grad(true);
-            let (et, gt) = eq4(&e, &g, 1.55, 3.75);
-            let (et, gt) = limit_exposure(&et, &gt, 0.05, 30.0);
-            if capped {
-                assert!((et.double_value(&[0]) - 0.05).abs() < 1e-7);
-                assert!((gt.double_value(&[0]) - 30.0).abs() < 1e-4);
-            }
-            let light = et.log() + &gt / 20.0 * std::f64::consts::LN_10;
-            light.sum(Kind::Float).backward();
-            let de = e.grad().double_value(&[0]) * e0; // ∂ light / ∂ ln E_pred
-            let dg = g.grad().double_value(&[0]);
-            assert!((de - 1.0).abs() < 1e-4, "{e0}: {de}");
-            assert!((dg - std::f64::consts::LN_10 / 20.0).abs() < 1e-5, "{e0}: {dg}");
-        }
-    }
-}
+mod tests;

@@ -1,0 +1,73 @@
+//! The joint step's equations against their closed forms and the camera crate.
+
+use super::*;
+use tch::Kind;
+
+/// l_GA against its closed form: with the ranges 1–100 ms (log) and 0–40 dB, a prediction of
+/// 10 ms and 10 dB sits at 1/2 and 1/4 of them; a target of 1 ms and 30 dB at 0 and 3/4.
+#[test]
+fn ga_supervision_loss_is_the_mean_l1_distance_in_normalised_units() {
+    let bounds = AccBounds::new((1e-3, 0.1), (0.0, 40.0));
+    let e_pred = Tensor::from_slice(&[0.01f32]);
+    let g_pred = Tensor::from_slice(&[10.0f32]);
+    let l = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(1e-3, 30.0), &bounds)
+        .double_value(&[]);
+    assert!((l - (0.5 + 0.5) / 2.0).abs() < 1e-6, "{l}");
+    let zero = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(0.01, 10.0), &bounds)
+        .double_value(&[]);
+    assert!(zero.abs() < 1e-6, "{zero}");
+}
+
+/// The tensor form of Eq. 4 (needed for gradients) agrees with the one the loop renders
+/// with, `joca_camera::compensate_for_pixel_size`, for larger and smaller pixels.
+#[test]
+fn eq4_on_tensors_matches_the_camera_crate() {
+    // Eq. 4 and then the cap, for a tiny pixel whose exposure would exceed 50 ms.
+    for (pitch, e, g) in [(1.55, 0.04, 10.0), (1.55, 0.04, 25.0), (5.86, 0.04, 10.0)] {
+        let want = joca_camera::limit_exposure(
+            joca_camera::compensate_for_pixel_size(DynamicSettings::new(e, g), pitch, 3.75),
+            0.05,
+            30.0,
+        );
+        let (et, gt) =
+            eq4(&Tensor::from_slice(&[e as f32]), &Tensor::from_slice(&[g as f32]), pitch, 3.75);
+        let (et, gt) = limit_exposure(&et, &gt, 0.05, 30.0);
+        let (et, gt) = (et.double_value(&[0]), gt.double_value(&[0]));
+        assert!((et / want.exposure_s - 1.0).abs() < 1e-5, "{pitch}: E {et} vs {want:?}");
+        assert!((gt - want.gain_db).abs() < 1e-4, "{pitch}: G {gt} vs {want:?}");
+    }
+    for (pitch, e, g) in [(5.86, 0.02, 12.0), (5.86, 0.02, 1.0), (1.55, 0.004, 20.0)] {
+        let want = joca_camera::compensate_for_pixel_size(DynamicSettings::new(e, g), pitch, 3.75);
+        let (et, gt) =
+            eq4(&Tensor::from_slice(&[e as f32]), &Tensor::from_slice(&[g as f32]), pitch, 3.75);
+        let (et, gt) = (et.double_value(&[0]), gt.double_value(&[0]));
+        assert!((et / want.exposure_s - 1.0).abs() < 1e-5, "{pitch}: E {et} vs {want:?}");
+        assert!((gt - want.gain_db).abs() < 1e-4, "{pitch}: G {gt} vs {want:?}");
+    }
+}
+
+/// Past the exposure cap and the gain's maximum the applied settings stay the camera crate's,
+/// but the gradient of the applied light `ln(E·G)` is the uncapped one: 1 per unit of
+/// `ln E_pred` and ln 10 / 20 per dB of `G_pred` — not 0, which left a small-pixel camera's
+/// controller stuck at the top of its range in every light.
+#[test]
+fn the_cap_passes_the_gradient_of_the_uncapped_light() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // 1.55 µm pixel: 40 ms → 234 ms before the cap; 25 dB + 13.4 dB > 30 dB: both limits hit.
+    for (e0, g0, capped) in [(0.04, 25.0, true), (0.002, 5.0, false)] {
+        let e = Tensor::from_slice(&[e0 as f32]).set_requires_grad(true);
+        let g = Tensor::from_slice(&[g0 as f32]).set_requires_grad(true);
+        let (et, gt) = eq4(&e, &g, 1.55, 3.75);
+        let (et, gt) = limit_exposure(&et, &gt, 0.05, 30.0);
+        if capped {
+            assert!((et.double_value(&[0]) - 0.05).abs() < 1e-7);
+            assert!((gt.double_value(&[0]) - 30.0).abs() < 1e-4);
+        }
+        let light = et.log() + &gt / 20.0 * std::f64::consts::LN_10;
+        light.sum(Kind::Float).backward();
+        let de = e.grad().double_value(&[0]) * e0; // ∂ light / ∂ ln E_pred
+        let dg = g.grad().double_value(&[0]);
+        assert!((de - 1.0).abs() < 1e-4, "{e0}: {de}");
+        assert!((dg - std::f64::consts::LN_10 / 20.0).abs() < 1e-5, "{e0}: {dg}");
+    }
+}
