@@ -35,14 +35,20 @@ pub(crate) fn check_detector(d: &DetectorConfig, table: &str) -> Result<(), Trai
 
 /// Checks a detector input (`table.input`), naming the field and its range.
 pub(crate) fn check_input(input: &DetectorInput, table: &str) -> Result<(), TrainError> {
-    input.validate(&format!("{table}.input")).map_err(|e| match e {
+    input.validate(&format!("{table}.input")).map_err(|e| range_error(e, "", ""))
+}
+
+/// A camera crate's range error as a configuration error: the field (after `prefix`), the value
+/// and the range (followed by `note`).
+fn range_error(e: CameraError, prefix: &str, note: &str) -> TrainError {
+    match e {
         CameraError::OutOfRange { field, value, min, max, unit } => TrainError::Config {
-            field,
+            field: format!("{prefix}{field}"),
             value: value.to_string(),
-            allowed: format!("{min} to {max}{unit}"),
+            allowed: format!("{min} to {max}{unit}{note}"),
         },
         other => TrainError::Camera(other),
-    })
+    }
 }
 
 /// Settings of a run (the `[run]` table of a preset).
@@ -344,17 +350,12 @@ impl RunConfig {
 /// A `[run] design` error, naming the field.
 fn design_error(e: CameraError, d: &DesignSpec) -> TrainError {
     match e {
-        CameraError::OutOfRange { field, value, min, max, unit } => TrainError::Config {
-            field: format!("run.design.{field}"),
-            value: value.to_string(),
-            allowed: format!("{min} to {max}{unit} (the paper's design space)"),
-        },
         CameraError::UnknownSensor { valid, .. } => TrainError::Config {
             field: "run.design.sensor".into(),
             value: format!("{:?}", d.sensor),
             allowed: format!("a catalogue sensor: {valid}"),
         },
-        other => TrainError::Camera(other),
+        other => range_error(other, "run.design.", " (the paper's design space)"),
     }
 }
 
