@@ -4,19 +4,10 @@
 use joca_camera::{Calibration, DynamicSettings, ImageFormation};
 use joca_core::{HdrImage, SeedStreams};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn joca(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_joca")).args(args).output().expect("joca runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{TINY_RUN, joca, stderr, stdout};
 
 /// The detector weights the repository ships (what every preset starts from).
 fn shipped_weights() -> PathBuf {
@@ -558,8 +549,6 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
 }
 
 /// A grid small enough for a test: 2 variants × 2 scenarios of a 1-generation run.
-const TINY_RUN: &str = "[run]\nthreads = 1\ngenerations = 1\npopulation = 2\n\
-                        steps_per_candidate = 3\ntest_episodes = 1\ntest_frames_per_episode = 2\n";
 const TINY_EXPERIMENT: &str = r#"
 title = "tiny"
 label_header = "Method"

@@ -2,18 +2,8 @@
 //! the report's paired sections.
 #![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
 
-use std::process::{Command, Output};
-
-fn joca(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_joca")).args(args).output().expect("joca runs")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
-
-const TINY_RUN: &str = "[run]\nthreads = 1\ngenerations = 1\npopulation = 2\n\
-    steps_per_candidate = 3\ntest_episodes = 4\ntest_frames_per_episode = 1\n";
+mod common;
+use common::{TINY_RUN, joca, stderr, stdout};
 
 const PANEL: &str = r#"
 title = "controllers on a panel"
@@ -50,7 +40,10 @@ fn a_panel_compares_controllers_on_the_same_designs() {
     let file = dir.path().join("panel.toml");
     std::fs::write(&file, PANEL.replace("DONE", done.to_str().unwrap())).unwrap();
     let cfg = dir.path().join("run.toml");
-    std::fs::write(&cfg, TINY_RUN).unwrap();
+    // Four test episodes, one per light, for the per-light table.
+    let run = TINY_RUN.replace("test_episodes = 1", "test_episodes = 4");
+    std::fs::write(&cfg, run.replace("test_frames_per_episode = 2", "test_frames_per_episode = 1"))
+        .unwrap();
     let exp = dir.path().join("exp");
     let o = joca(&[
         "experiment",
@@ -64,7 +57,7 @@ fn a_panel_compares_controllers_on_the_same_designs() {
         "--out",
         exp.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", text(&o));
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
     // Every cell drove its panel design, not a searched one.
     for (cell, sensor) in [
         ("neural-calibrated-basler-s1", "AR0134"),
