@@ -23,6 +23,7 @@
 #![deny(missing_docs)]
 
 mod boxes;
+pub mod compute;
 mod frame;
 pub mod fs;
 mod image;

@@ -20,46 +20,32 @@ pub const MARKER: &str = ".joca-output";
 /// The file a writer locks ([`DirLock`]); it holds the current holder's description.
 pub const LOCK_FILE: &str = ".joca-lock";
 
-/// What a folder holds, as its [`MARKER`] names it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OutputKind {
-    /// A run directory (`joca run`, an experiment's cell).
-    Run,
-    /// An experiment directory (`joca experiment`).
-    Experiment,
-    /// Rendered frames (`joca render`).
-    Render,
-    /// An imported recording (`joca import`).
-    Import,
-    /// Motion-blurred frames (`joca blur`).
-    Blur,
-    /// A detector pre-training directory (`joca train-detector`).
-    Pretrain,
+crate::named_enum! {
+    /// What a folder holds, as its [`MARKER`] names it.
+    pub enum OutputKind("output kind") {
+        /// A run directory (`joca run`, an experiment's cell).
+        Run = "run",
+        /// An experiment directory (`joca experiment`).
+        Experiment = "experiment",
+        /// Rendered frames (`joca render`).
+        Render = "render",
+        /// An imported recording (`joca import`).
+        Import = "import",
+        /// Motion-blurred frames (`joca blur`).
+        Blur = "blur",
+        /// A detector pre-training directory (`joca train-detector`).
+        Pretrain = "pretrain",
+    }
 }
 
 impl OutputKind {
-    const ALL: [Self; 6] =
-        [Self::Run, Self::Experiment, Self::Render, Self::Import, Self::Blur, Self::Pretrain];
-
-    /// The kind's name in the marker.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Run => "run",
-            Self::Experiment => "experiment",
-            Self::Render => "render",
-            Self::Import => "import",
-            Self::Blur => "blur",
-            Self::Pretrain => "pretrain",
-        }
-    }
-
     fn marker_text(self) -> String {
         format!("joca-output {}\n", self.name())
     }
 
     fn from_marker(text: &str) -> Option<Self> {
         let name = text.trim().strip_prefix("joca-output ")?;
-        Self::ALL.into_iter().find(|k| k.name() == name.trim())
+        Self::from_name(name.trim()).ok()
     }
 }
 

@@ -134,26 +134,18 @@ fn splat(
     }
 }
 
-/// How 8-bit recorded values map to linear intensity (0–255 scale) before blur and formation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Linearize {
-    /// The values are sRGB-encoded (IEC 61966-2-1 transfer curve): decode them. Right for
-    /// JPEGs from a camera pipeline (Waymo's are).
-    Srgb,
-    /// The values are already linear (raw or linear exports): use them as they are.
-    None,
+joca_core::named_enum! {
+    /// How 8-bit recorded values map to linear intensity (0–255 scale) before blur and formation.
+    pub enum Linearize("linearisation") {
+        /// The values are sRGB-encoded (IEC 61966-2-1 transfer curve): decode them. Right for
+        /// JPEGs from a camera pipeline (Waymo's are).
+        Srgb = "srgb",
+        /// The values are already linear (raw or linear exports): use them as they are.
+        None = "none",
+    }
 }
 
 impl Linearize {
-    /// Parses `srgb` or `none`.
-    pub fn from_name(name: &str) -> Result<Self, String> {
-        match name {
-            "srgb" => Ok(Self::Srgb),
-            "none" => Ok(Self::None),
-            _ => Err(format!("unknown linearisation {name:?}; valid: srgb, none")),
-        }
-    }
-
     /// Linear value (0–255) of an 8-bit stored value.
     pub fn to_linear(self, v: u8) -> f32 {
         match self {

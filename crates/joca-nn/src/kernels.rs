@@ -39,15 +39,7 @@ pub const ENV: &str = "JOCA_CPU_KERNELS";
 pub const AVX2_PINS: [(&str, &str); 3] =
     [("ATEN_CPU_CAPABILITY", "avx2"), ("DNNL_MAX_CPU_ISA", "AVX2"), ("MKL_CBWR", "AVX2")];
 
-/// Which CPU kernels libtorch runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CpuKernels {
-    /// The AVX2 paths of ATen, oneDNN and MKL, whatever wider units the CPU has: the same
-    /// inference on the machine types checked, training still machine-dependent.
-    Avx2,
-    /// The widest paths the CPU has (the default): numbers depend on the machine type.
-    Native,
-}
+pub use joca_core::compute::{CpuKernels, Denormals};
 
 static CHOSEN: OnceLock<CpuKernels> = OnceLock::new();
 
@@ -55,37 +47,18 @@ static CHOSEN: OnceLock<CpuKernels> = OnceLock::new();
 /// default: to zero) or `keep`.
 pub const DENORMALS_ENV: &str = "JOCA_DENORMALS";
 
-/// How the process handles subnormal floats.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Denormals {
-    /// Flushed to zero, as operands and as results (the default of `joca`).
-    Flush,
-    /// Kept (IEEE 754; library use and tests).
-    Keep,
-}
-
 static DENORMALS: OnceLock<Denormals> = OnceLock::new();
 
-impl Denormals {
-    /// The name `JOCA_DENORMALS`, run headers and `results.json` use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Flush => "flush",
-            Self::Keep => "keep",
-        }
-    }
-
-    /// What `JOCA_DENORMALS` asks for (unset or empty: `flush`).
-    pub fn parse(value: Option<&str>) -> Result<Self, NnError> {
-        match value.map(str::trim) {
-            None | Some("") | Some("flush") => Ok(Self::Flush),
-            Some("keep") => Ok(Self::Keep),
-            Some(other) => Err(NnError::Config(format!(
-                "environment variable {DENORMALS_ENV} = {other:?}: allowed values are \"flush\" \
-                 (the default: subnormal floats become zero, much faster on x86) and \"keep\" \
-                 (IEEE subnormals)"
-            ))),
-        }
+/// What `JOCA_DENORMALS` asks for (unset or empty: `flush`).
+pub fn parse_denormals(value: Option<&str>) -> Result<Denormals, NnError> {
+    match value.map(str::trim) {
+        None | Some("") | Some("flush") => Ok(Denormals::Flush),
+        Some("keep") => Ok(Denormals::Keep),
+        Some(other) => Err(NnError::Config(format!(
+            "environment variable {DENORMALS_ENV} = {other:?}: allowed values are \"flush\" \
+             (the default: subnormal floats become zero, much faster on x86) and \"keep\" \
+             (IEEE subnormals)"
+        ))),
     }
 }
 
@@ -115,32 +88,22 @@ unsafe fn flush_denormals() -> bool {
     }
 }
 
-impl CpuKernels {
-    /// The name `JOCA_CPU_KERNELS`, run headers and `results.json` use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Avx2 => "avx2",
-            Self::Native => "native",
-        }
+/// The kernels `JOCA_CPU_KERNELS` asks for (unset or empty: `native`).
+pub fn parse_kernels(value: Option<&str>) -> Result<CpuKernels, NnError> {
+    match value.map(str::trim) {
+        None | Some("") | Some("native") => Ok(CpuKernels::Native),
+        Some("avx2") => Ok(CpuKernels::Avx2),
+        Some(other) => Err(NnError::Config(format!(
+            "environment variable {ENV} = {other:?}: allowed values are \"native\" (the \
+             default: libtorch's widest kernels for this CPU) and \"avx2\" (libtorch \
+             pinned to its AVX2 paths)"
+        ))),
     }
+}
 
-    /// The kernels `JOCA_CPU_KERNELS` asks for (unset or empty: `native`).
-    pub fn parse(value: Option<&str>) -> Result<Self, NnError> {
-        match value.map(str::trim) {
-            None | Some("") | Some("native") => Ok(Self::Native),
-            Some("avx2") => Ok(Self::Avx2),
-            Some(other) => Err(NnError::Config(format!(
-                "environment variable {ENV} = {other:?}: allowed values are \"native\" (the \
-                 default: libtorch's widest kernels for this CPU) and \"avx2\" (libtorch \
-                 pinned to its AVX2 paths)"
-            ))),
-        }
-    }
-
-    /// What runs on a CPU that has (`true`) or lacks AVX2 and FMA: the AVX2 paths need them.
-    pub fn on_cpu(self, has_avx2_fma: bool) -> Self {
-        if has_avx2_fma { self } else { Self::Native }
-    }
+/// What runs on a CPU that has (`true`) or lacks AVX2 and FMA: the AVX2 paths need them.
+pub fn kernels_on_cpu(asked: CpuKernels, has_avx2_fma: bool) -> CpuKernels {
+    if has_avx2_fma { asked } else { CpuKernels::Native }
 }
 
 /// Whether this CPU has AVX2 and FMA.
@@ -186,8 +149,8 @@ pub fn vector_units() -> String {
 /// libtorch computes anything (first thing in `main`).
 #[allow(unsafe_code)]
 pub unsafe fn select_from_env() -> Result<CpuKernels, NnError> {
-    let asked = CpuKernels::parse(std::env::var(ENV).ok().as_deref())?;
-    let chosen = asked.on_cpu(cpu_has_avx2_fma());
+    let asked = parse_kernels(std::env::var(ENV).ok().as_deref())?;
+    let chosen = kernels_on_cpu(asked, cpu_has_avx2_fma());
     if chosen == CpuKernels::Avx2 {
         for (key, value) in AVX2_PINS {
             // SAFETY: the caller guarantees no other thread reads or writes the environment.
@@ -195,7 +158,7 @@ pub unsafe fn select_from_env() -> Result<CpuKernels, NnError> {
         }
     }
     let _ = CHOSEN.set(chosen);
-    let denormals = match Denormals::parse(std::env::var(DENORMALS_ENV).ok().as_deref())? {
+    let denormals = match parse_denormals(std::env::var(DENORMALS_ENV).ok().as_deref())? {
         // SAFETY: the caller guarantees that no other thread exists yet.
         Denormals::Flush if unsafe { flush_denormals() } => Denormals::Flush,
         _ => Denormals::Keep,
@@ -222,19 +185,19 @@ mod tests {
 
     #[test]
     fn the_default_is_native_and_bad_values_name_the_variable() {
-        assert_eq!(CpuKernels::parse(None).unwrap(), CpuKernels::Native);
-        assert_eq!(CpuKernels::parse(Some("")).unwrap(), CpuKernels::Native);
-        assert_eq!(CpuKernels::parse(Some(" avx2 ")).unwrap(), CpuKernels::Avx2);
-        let err = CpuKernels::parse(Some("avx512")).unwrap_err().to_string();
+        assert_eq!(parse_kernels(None).unwrap(), CpuKernels::Native);
+        assert_eq!(parse_kernels(Some("")).unwrap(), CpuKernels::Native);
+        assert_eq!(parse_kernels(Some(" avx2 ")).unwrap(), CpuKernels::Avx2);
+        let err = parse_kernels(Some("avx512")).unwrap_err().to_string();
         assert!(err.contains("JOCA_CPU_KERNELS") && err.contains("\"avx512\""), "{err}");
         assert!(err.contains("\"avx2\"") && err.contains("\"native\""), "{err}");
     }
 
     #[test]
     fn denormals_are_flushed_by_default_and_bad_values_name_the_variable() {
-        assert_eq!(Denormals::parse(None).unwrap(), Denormals::Flush);
-        assert_eq!(Denormals::parse(Some(" keep")).unwrap(), Denormals::Keep);
-        let err = Denormals::parse(Some("off")).unwrap_err().to_string();
+        assert_eq!(parse_denormals(None).unwrap(), Denormals::Flush);
+        assert_eq!(parse_denormals(Some(" keep")).unwrap(), Denormals::Keep);
+        let err = parse_denormals(Some("off")).unwrap_err().to_string();
         assert!(err.contains("JOCA_DENORMALS") && err.contains("\"off\""), "{err}");
         assert!(err.contains("\"flush\"") && err.contains("\"keep\""), "{err}");
     }
@@ -276,8 +239,8 @@ mod tests {
 
     #[test]
     fn without_avx2_the_native_paths_run() {
-        assert_eq!(CpuKernels::Avx2.on_cpu(false), CpuKernels::Native);
-        assert_eq!(CpuKernels::Avx2.on_cpu(true), CpuKernels::Avx2);
-        assert_eq!(CpuKernels::Native.on_cpu(true), CpuKernels::Native);
+        assert_eq!(kernels_on_cpu(CpuKernels::Avx2, false), CpuKernels::Native);
+        assert_eq!(kernels_on_cpu(CpuKernels::Avx2, true), CpuKernels::Avx2);
+        assert_eq!(kernels_on_cpu(CpuKernels::Native, true), CpuKernels::Native);
     }
 }

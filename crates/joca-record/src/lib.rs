@@ -5,7 +5,8 @@
 //! - [`Event`] — the lines of `events.jsonl` ([`StepRecord`], [`CandidateRecord`],
 //!   [`GenerationRecord`]); [`TraceRecord`] — the lines of `test/trace.jsonl`;
 //! - [`Showcase`] — `test/showcase.json`;
-//! - [`Method`], [`Scenario`] — the vocabulary the records use.
+//! - [`Method`], [`Scenario`], [`Source`], [`TestController`] — the vocabulary the records use
+//!   (with joca-core's [`compute`](joca_core::compute) names).
 //!
 //! ```
 //! use joca_record::{Event, Method};
@@ -20,6 +21,7 @@ mod events;
 mod method;
 mod results;
 mod showcase;
+mod vocabulary;
 
 /// The record types that come from the crates below: boxes, and the task scores.
 pub use joca_core::{Annotation, BBox, Class, Detection};
@@ -29,3 +31,4 @@ pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecor
 pub use method::{Method, Scenario};
 pub use results::{DesignSummary, RESULTS_FORMAT_VERSION, RunResults, SearchTies, Validated};
 pub use showcase::{LightStep, Showcase, ShowcaseFrame};
+pub use vocabulary::{Source, TestController};

@@ -1,7 +1,8 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
-use crate::{Method, Scenario};
+use crate::{Method, Scenario, Source, TestController};
 use joca_camera::DetectorInput;
+use joca_core::compute::{CpuKernels, Denormals, Precision};
 use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -55,30 +56,30 @@ pub struct RunResults {
     /// Older runs only: the fraction of each sensor's grid they rendered.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub render_scale: Option<f64>,
-    /// The test frames' source: `sim` (or empty, in older runs), `folder:DIR` or `waymo:DIR`.
+    /// The test frames' source: `sim` (empty in older runs), `folder:DIR` or `waymo:DIR`.
     #[serde(default)]
-    pub source: String,
+    pub source: Source,
     /// What the perturbed frames were scored in during training: `fp32` or `bf16`
-    /// (`run.scoring_precision`, float32 on a CPU without native bfloat16). Empty in older runs.
-    #[serde(default, skip_serializing_if = "String::is_empty")]
-    pub scoring_precision: String,
+    /// (`run.scoring_precision`, float32 on a CPU without native bfloat16). Absent in older runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scoring_precision: Option<Precision>,
     /// Which of libtorch's CPU kernels ran: `native` (the widest the CPU has) or `avx2`
-    /// (`JOCA_CPU_KERNELS`). Empty in older runs.
-    #[serde(default, skip_serializing_if = "String::is_empty")]
-    pub cpu_kernels: String,
+    /// (`JOCA_CPU_KERNELS`). Absent in older runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cpu_kernels: Option<CpuKernels>,
     /// How subnormal floats were handled: `flush` (to zero, joca's default) or `keep`
-    /// (`JOCA_DENORMALS`; the numbers differ where subnormals occur). Empty in older runs, which
-    /// kept them.
-    #[serde(default, skip_serializing_if = "String::is_empty")]
-    pub denormals: String,
+    /// (`JOCA_DENORMALS`; the numbers differ where subnormals occur). Absent in older runs,
+    /// which kept them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denormals: Option<Denormals>,
     /// The CPU the run's results were computed on (model name and widest vector units): training
     /// repeats bit for bit on the same machine type, not across types. Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub cpu: String,
     /// The controller the test drove the design with when it was not the run's own (`joca eval
-    /// --controller average:DN`); empty for the run's own test.
-    #[serde(default, skip_serializing_if = "String::is_empty")]
-    pub test_controller: String,
+    /// --controller average:DN`, written `average-DN`); absent for the run's own test.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_controller: Option<TestController>,
     /// How training's perturbation searches were decided (absent for methods without them, and
     /// in older runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -152,7 +153,7 @@ impl RunResults {
 
     /// Whether the run was tested on recorded frames (the real-image mode).
     pub fn real_images(&self) -> bool {
-        self.source.starts_with("folder:") || self.source.starts_with("waymo:")
+        self.source.is_recording()
     }
 }
 

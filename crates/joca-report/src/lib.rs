@@ -35,6 +35,7 @@ pub use joca_record::{DesignSummary, RunResults, Showcase, ShowcaseFrame};
 pub use seeds::{mean_interval, t_975};
 pub use table::{Row, Table};
 
+use joca_core::compute::{CpuKernels, Denormals};
 use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
@@ -163,8 +164,12 @@ fn machine_line(r: &RunResults) -> String {
     format!(
         "Computed on {} with libtorch's {} kernels{} (numbers repeat on this machine type).",
         r.cpu,
-        if r.cpu_kernels.is_empty() { "native" } else { &r.cpu_kernels },
-        if r.denormals == "flush" { ", subnormal floats flushed to zero" } else { "" }
+        r.cpu_kernels.unwrap_or(CpuKernels::Native),
+        if r.denormals == Some(Denormals::Flush) {
+            ", subnormal floats flushed to zero"
+        } else {
+            ""
+        }
     )
 }
 

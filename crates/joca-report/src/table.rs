@@ -229,7 +229,7 @@ impl Table {
                 csv_field(&r.cell),
                 r.results.seed,
                 csv_field(r.results.method.name()),
-                csv_field(&r.results.source),
+                csv_field(&r.results.source.to_string()),
                 d.x_m,
                 d.z_m,
                 d.focal_length_mm,
@@ -309,12 +309,12 @@ pub(crate) mod tests {
             validation: Vec::new(),
             input: None,
             render_scale: Some(0.08),
-            source: "sim".into(),
-            scoring_precision: "fp32".into(),
-            cpu_kernels: "native".into(),
-            denormals: String::new(),
+            source: joca_record::Source::Sim,
+            scoring_precision: Some(joca_core::compute::Precision::Fp32),
+            cpu_kernels: Some(joca_core::compute::CpuKernels::Native),
+            denormals: None,
             cpu: String::new(),
-            test_controller: String::new(),
+            test_controller: None,
             perturbation_ties: None,
         }
     }
@@ -365,7 +365,7 @@ pub(crate) mod tests {
     fn real_image_runs_get_the_sensor_only_layout() {
         let mut t = table();
         for r in &mut t.rows {
-            r.results.source = "folder:/data/waymo".into();
+            r.results.source = joca_record::Source::Folder("/data/waymo".into());
         }
         let md = t.markdown();
         assert!(

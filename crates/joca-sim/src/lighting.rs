@@ -9,8 +9,6 @@
 //! magnitude; street lamps, lit windows and vehicle lights then dominate, giving the high dynamic
 //! range of real night scenes.
 
-use serde::{Deserialize, Serialize};
-
 /// DN per unit reflectance per unit relative irradiance.
 pub const RADIANCE_SCALE_DN: f32 = 226.0;
 /// Direct sun irradiance on a surface facing it, relative units.
@@ -39,45 +37,21 @@ pub const LAMP_TINT: [f32; 3] = [1.0, 0.82, 0.58];
 /// (a lit interior seen through glass at night is ~50 cd/m², a sunlit facade ~5000 cd/m²).
 pub const WINDOW_GLOW: [f32; 3] = [2.6, 2.1, 1.5];
 
-/// How the ambient light changes over an episode.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Illumination {
-    /// Full daylight throughout.
-    Day,
-    /// Night throughout: street lamps, lit windows and vehicle lights.
-    Night,
-    /// Abrupt switches between daylight and a dark tunnel every few seconds.
-    Tunnel,
-    /// A gradual day → night → day cycle.
-    Cycle,
+joca_core::named_enum! {
+    /// How the ambient light changes over an episode.
+    pub enum Illumination("illumination") {
+        /// Full daylight throughout.
+        Day = "day",
+        /// Night throughout: street lamps, lit windows and vehicle lights.
+        Night = "night",
+        /// Abrupt switches between daylight and a dark tunnel every few seconds.
+        Tunnel = "tunnel",
+        /// A gradual day → night → day cycle.
+        Cycle = "cycle",
+    }
 }
 
 impl Illumination {
-    /// All schedules.
-    pub const ALL: [Illumination; 4] =
-        [Illumination::Day, Illumination::Night, Illumination::Tunnel, Illumination::Cycle];
-
-    /// The name used on the command line and in files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Illumination::Day => "day",
-            Illumination::Night => "night",
-            Illumination::Tunnel => "tunnel",
-            Illumination::Cycle => "cycle",
-        }
-    }
-
-    /// Parses a name, listing the valid ones on failure.
-    pub fn from_name(name: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().find(|i| i.name() == name).ok_or_else(|| {
-            format!(
-                "unknown illumination {name:?}; valid: {}",
-                Self::ALL.map(Illumination::name).join(", ")
-            )
-        })
-    }
-
     /// Ambient (sun + sky) level at `t_s`, relative to full daylight; `phase_s` shifts the
     /// schedule so episodes do not all start alike.
     pub fn ambient(self, t_s: f64, phase_s: f64) -> f32 {

@@ -157,63 +157,20 @@ impl ExposureControl for AverageControl {
     }
 }
 
-/// Which controller a re-test (`joca eval --controller`) drives the trained design with: the
-/// run's own, or AverageAE at a chosen frame mean — to measure what another exposure policy
-/// does to the same trained detector on the same design and test scenes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum TestController {
-    /// The run's own controller (NeuralAE, or AverageAE at mid-grey for `tacos-average`).
-    Trained,
-    /// AverageAE holding the frame mean at this level, DN.
-    Average {
-        /// Target frame mean, DN.
-        target_dn: f64,
-    },
-}
+pub use joca_record::TestController;
 
-impl TestController {
-    /// Parses `trained`, `average` (mid-grey, 127.5 DN) or `average:DN` (0 < DN < 255).
-    pub fn from_name(name: &str) -> Result<Self, String> {
-        let bad = || {
-            format!(
-                "unknown controller `{name}`: allowed `trained`, `average` or `average:DN` with \
-                 0 < DN < 255"
-            )
-        };
-        match name {
-            "trained" => Ok(Self::Trained),
-            "average" => Ok(Self::Average { target_dn: MID_GREY_DN }),
-            _ => {
-                let dn: f64 =
-                    name.strip_prefix("average:").ok_or_else(bad)?.parse().map_err(|_| bad())?;
-                if dn > 0.0 && dn < 255.0 {
-                    Ok(Self::Average { target_dn: dn })
-                } else {
-                    Err(bad())
-                }
-            }
-        }
-    }
-
-    /// The controller a closed-loop test drives a design of `sensor` with, for a run whose own
-    /// controller is NeuralAE if `neural`.
-    pub(crate) fn control(
-        self,
-        neural: bool,
-        sensor: SensorLimits,
-        ranges: AccRanges,
-    ) -> Box<dyn ExposureControl> {
-        match self {
-            Self::Trained => controller(neural, sensor, ranges),
-            Self::Average { target_dn } => Box::new(AverageControl::with_target(ranges, target_dn)),
-        }
-    }
-
-    /// A name for files and tables: `trained` or `average-DN`.
-    pub fn name(&self) -> String {
-        match self {
-            Self::Trained => "trained".into(),
-            Self::Average { target_dn } => format!("average-{target_dn}"),
+/// The controller a closed-loop test drives a design of `sensor` with, for a run whose own
+/// controller is NeuralAE if `neural`.
+pub(crate) fn test_control(
+    test: TestController,
+    neural: bool,
+    sensor: SensorLimits,
+    ranges: AccRanges,
+) -> Box<dyn ExposureControl> {
+    match test {
+        TestController::Trained => controller(neural, sensor, ranges),
+        TestController::Average { target_dn } => {
+            Box::new(AverageControl::with_target(ranges, target_dn))
         }
     }
 }
@@ -228,26 +185,5 @@ pub(crate) fn controller(
         Box::new(NeuralControl::new(sensor))
     } else {
         Box::new(AverageControl::new(ranges))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn test_controllers_parse_and_bad_names_say_what_is_allowed() {
-        assert_eq!(TestController::from_name("trained"), Ok(TestController::Trained));
-        assert_eq!(
-            TestController::from_name("average"),
-            Ok(TestController::Average { target_dn: 127.5 })
-        );
-        let dark = TestController::from_name("average:40").unwrap();
-        assert_eq!(dark, TestController::Average { target_dn: 40.0 });
-        assert_eq!(dark.name(), "average-40");
-        for bad in ["average:0", "average:255", "average:x", "neural", "average:"] {
-            let e = TestController::from_name(bad).unwrap_err();
-            assert!(e.contains(bad) && e.contains("0 < DN < 255"), "{e}");
-        }
     }
 }

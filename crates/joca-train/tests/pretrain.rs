@@ -5,7 +5,7 @@ mod common;
 
 use common::{poison_first_tensor, snapshot};
 use joca_camera::{DetectorInput, Resampler};
-use joca_nn::detector::{DetectorConfig, Precision, Regression};
+use joca_nn::detector::{DetectorConfig, Precision, PrecisionExt, Regression};
 use joca_train::{
     DataConfig, EvalConfig, ExperimentalConfig, OptimizerConfig, PretrainConfig, PretrainEvent,
     TrainError, evaluate_weights, pretrain,
@@ -164,7 +164,7 @@ fn a_batched_bfloat16_run_is_reproducible_across_kill_and_resume() {
     assert_eq!(std::fs::read(&a_w).unwrap(), std::fs::read(&b_w).unwrap());
     assert_eq!(report_a, report_b);
     // bfloat16 where this CPU has it natively, float32 otherwise, and results.json says which.
-    let want = if Precision::native_bf16() { Precision::Bf16 } else { Precision::Fp32 };
+    let want = if joca_nn::detector::native_bf16() { Precision::Bf16 } else { Precision::Fp32 };
     assert_eq!(report_a.training_precision, Some(want));
     let text = std::fs::read_to_string(a_dir.join("results.json")).unwrap();
     assert!(text.contains(&format!("\"training_precision\": \"{want:?}\"").to_lowercase()));

@@ -8,7 +8,7 @@ use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_train::{
     DesignSpec, FixedCamera, Method, PerturbationMutation, PerturbationScore, PerturbationSteps,
-    RealConfig, RunConfig, RunEvent, Scenario, SearchTies, Source, TrainError, run,
+    RealConfig, RunConfig, RunEvent, Scenario, SearchTies, Source, TestController, TrainError, run,
 };
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -87,23 +87,19 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     assert_eq!(a, b);
 
     // `eval` re-tests the best design from the checkpoint and reproduces the test scores.
-    let (e, test_dir) = joca_train::evaluate_run(
-        &dir.path().join("a"),
-        None,
-        None,
-        joca_train::TestController::Trained,
-    )
-    .unwrap();
+    let (e, test_dir) =
+        joca_train::evaluate_run(&dir.path().join("a"), None, None, TestController::Trained)
+            .unwrap();
     assert_eq!(e, a);
     // Into its own files: the run's `results.json` and `test/` stay the run's.
     assert_eq!(test_dir, dir.path().join("a").join("test-eval"));
     assert!(dir.path().join("a/results-eval.json").is_file());
     // Another controller on the same trained design: its own files, the run's left alone.
     let before = std::fs::read(dir.path().join("a").join("results.json")).unwrap();
-    let average = joca_train::TestController::from_name("average:60").unwrap();
+    let average = TestController::from_name("average:60").unwrap();
     let (o, test_dir) =
         joca_train::evaluate_run(&dir.path().join("a"), None, None, average).unwrap();
-    assert_eq!(o.test_controller, "average-60");
+    assert_eq!(o.test_controller, Some(TestController::Average { target_dn: 60.0 }));
     assert_eq!((o.design.clone(), o.test.frames), (a.design.clone(), a.test.frames));
     assert_eq!(test_dir, dir.path().join("a").join("test-average-60"));
     assert!(test_dir.join("showcase.json").exists());

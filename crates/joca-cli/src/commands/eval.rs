@@ -31,11 +31,7 @@ pub fn run(args: &Args) -> Result<()> {
         TestController::from_name(&args.controller).map_err(|e| anyhow!("--controller: {e}"))?;
     let (r, test_dir) = evaluate_run(&args.run_dir, scenario, args.frames, controller)
         .with_context(|| format!("cannot evaluate {}", args.run_dir.display()))?;
-    let with = if r.test_controller.is_empty() {
-        String::new()
-    } else {
-        format!(" with {}", r.test_controller)
-    };
+    let with = r.test_controller.map_or(String::new(), |c| format!(" with {}", c.name()));
     println!(
         "{} / {}{with}: {} behind {:.2} mm at x {:.2} m, z {:.2} m -> mAP {:.3}, AP50 {:.3}, TP ratio \
             {:.3} over {} frames",

@@ -2,6 +2,7 @@
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
+use joca_nn::detector::PrecisionExt;
 use joca_train::{Method, RunConfig, RunEvent, RunResults, Scenario, Source, run as run_loop};
 use std::io::Write;
 use std::ops::ControlFlow;

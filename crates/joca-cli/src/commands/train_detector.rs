@@ -2,6 +2,7 @@
 
 use crate::config;
 use anyhow::{Context, Result};
+use joca_nn::detector::PrecisionExt;
 use joca_train::{EvalReport, PretrainConfig, PretrainEvent, evaluate_weights, pretrain};
 use std::io::Write;
 use std::ops::ControlFlow;

@@ -151,27 +151,17 @@ fn tap(v: f32, n: usize) -> (usize, usize, f32) {
     (a, (a + 1).min(n - 1), v - a as f32)
 }
 
-/// OpenCV's presets of `DISOpticalFlow`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DisPreset {
-    /// Quarter resolution, 8-pixel patches every 4, 12 search iterations, no refinement.
-    UltraFast,
-    /// Quarter resolution, 8-pixel patches every 4, 16 search iterations, 5 refinement
-    /// iterations.
-    Fast,
-    /// Half resolution, 8-pixel patches every 3, 25 search iterations, 5 refinement iterations.
-    Medium,
-}
-
-impl DisPreset {
-    /// Parses `ultrafast`, `fast` or `medium`, listing them on failure.
-    pub fn from_name(name: &str) -> Result<Self, String> {
-        match name {
-            "ultrafast" => Ok(Self::UltraFast),
-            "fast" => Ok(Self::Fast),
-            "medium" => Ok(Self::Medium),
-            _ => Err(format!("unknown flow preset {name:?}; valid: ultrafast, fast, medium")),
-        }
+joca_core::named_enum! {
+    /// OpenCV's presets of `DISOpticalFlow`.
+    pub enum DisPreset("flow preset") {
+        /// Quarter resolution, 8-pixel patches every 4, 12 search iterations, no refinement.
+        UltraFast = "ultrafast",
+        /// Quarter resolution, 8-pixel patches every 4, 16 search iterations, 5 refinement
+        /// iterations.
+        Fast = "fast",
+        /// Half resolution, 8-pixel patches every 3, 25 search iterations, 5 refinement
+        /// iterations.
+        Medium = "medium",
     }
 }
 

@@ -33,13 +33,14 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Component, Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-/// What to do with a frame that cannot be read or decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OnBadFrame {
-    /// Leave it out (with a warning) and go on.
-    Skip,
-    /// Stop with an error naming the frame.
-    Stop,
+joca_core::named_enum! {
+    /// What to do with a frame that cannot be read or decoded.
+    pub enum OnBadFrame("bad-frame policy") {
+        /// Leave it out (with a warning) and go on.
+        Skip = "skip",
+        /// Stop with an error naming the frame.
+        Stop = "stop",
+    }
 }
 
 /// Settings of a [`Recording`].

@@ -90,55 +90,45 @@ impl Default for DetectorConfig {
     }
 }
 
-/// Floating-point type the network computes in (see the module documentation).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Precision {
-    /// float32 throughout.
-    #[default]
-    Fp32,
-    /// bfloat16 convolutions (float32 accumulation, weights, outputs and optimiser): on a CPU
-    /// with AVX-512 BF16 a training step takes about 0.7–0.75× the float32 time (`joca bench
-    /// detector`).
-    Bf16,
+/// Floating-point type the network computes in (see the module documentation). bfloat16: on a
+/// CPU with AVX-512 BF16 a training step takes about 0.7–0.75× the float32 time (`joca bench
+/// detector`).
+pub use joca_core::compute::Precision;
+
+/// Whether libtorch computes bfloat16 natively here: the CPU has AVX-512 BF16 and the process
+/// runs libtorch's native kernels ([`crate::kernels`]; the AVX2 paths emulate bfloat16).
+/// Emulated, a training step took 17× the float32 time on a 2-core AVX2 EPYC (`joca bench
+/// detector`).
+pub fn native_bf16() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx512bf16")
+            && crate::kernels::chosen() == crate::kernels::CpuKernels::Native
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
-impl Precision {
-    /// Whether libtorch computes bfloat16 natively here: the CPU has AVX-512 BF16 and the
-    /// process runs libtorch's native kernels ([`crate::kernels`]; the AVX2 paths emulate
-    /// bfloat16). Emulated, a training step took 17× the float32 time on a 2-core AVX2 EPYC
-    /// (`joca bench detector`).
-    pub fn native_bf16() -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            std::arch::is_x86_feature_detected!("avx512bf16")
-                && crate::kernels::chosen() == crate::kernels::CpuKernels::Native
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
-    }
-
-    /// The precision to compute in on this CPU: bfloat16 only where it is native, float32
-    /// otherwise.
-    pub fn on_this_cpu(self) -> Self {
-        if self == Precision::Bf16 && !Self::native_bf16() { Precision::Fp32 } else { self }
-    }
-
-    /// The name a configuration uses: `fp32` or `bf16`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Fp32 => "fp32",
-            Self::Bf16 => "bf16",
-        }
-    }
-
+/// What a [`Precision`] means to libtorch on this process.
+pub trait PrecisionExt {
+    /// The precision to compute in on this CPU: bfloat16 only where it is native
+    /// ([`native_bf16`]), float32 otherwise.
+    fn on_this_cpu(self) -> Precision;
     /// The tensor type of activations.
-    pub fn kind(self) -> Kind {
+    fn kind(self) -> Kind;
+}
+
+impl PrecisionExt for Precision {
+    fn on_this_cpu(self) -> Precision {
+        if self == Precision::Bf16 && !native_bf16() { Precision::Fp32 } else { self }
+    }
+
+    fn kind(self) -> Kind {
         match self {
-            Self::Fp32 => Kind::Float,
-            Self::Bf16 => Kind::BFloat16,
+            Precision::Fp32 => Kind::Float,
+            Precision::Bf16 => Kind::BFloat16,
         }
     }
 }

@@ -24,7 +24,7 @@ use joca_core::SeedStreams;
 use joca_core::output::{self, DirLock, OutputKind};
 use joca_metrics::TaskScores;
 use joca_nn::detector::{
-    DetectorConfig, DetectorModel, LossParts, Precision, TrainFrame, WeightAverage,
+    DetectorConfig, DetectorModel, LossParts, Precision, PrecisionExt, TrainFrame, WeightAverage,
 };
 use joca_nn::{AdamConfig, Engine};
 use joca_sim::{CityConfig, Illumination, SimConfig};

@@ -14,7 +14,7 @@
 use super::{Context, SettingsByLight, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
-use crate::control::{ExposureControl, SensorLimits};
+use crate::control::{ExposureControl, SensorLimits, test_control};
 use joca_camera::{CameraDesign, Capture, DynamicSettings, ImageFormation};
 use joca_core::units::linear_from_db;
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
@@ -66,7 +66,8 @@ impl Driver {
         let pixel_pitch_um = design.sensor().pixel_pitch_um;
         let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s);
         model.set_max_exposure(sensor.max_exposure_s);
-        let mut control = cx.test_controller.control(cx.config.method.neural(), sensor, cx.ranges);
+        let mut control =
+            test_control(cx.test_controller, cx.config.method.neural(), sensor, cx.ranges);
         let applied = control.start();
         let formation = cx.formation.for_sensor(design.sensor());
         Self { control, applied, previous: None, pixel_pitch_um, formation }

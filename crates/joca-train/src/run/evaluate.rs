@@ -10,6 +10,7 @@ use crate::checkpoint::{CheckpointDir, read_json, write_atomic};
 use crate::control::TestController;
 use joca_camera::CameraDesign;
 use joca_core::output::{self, DirLock, OutputKind};
+use joca_nn::detector::PrecisionExt;
 use joca_nn::joint::JointModel;
 use joca_record::Validated;
 use std::path::{Path, PathBuf};
@@ -82,7 +83,7 @@ pub fn evaluate_run(
     cx.test_controller = controller;
     let mut results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
     if controller != TestController::Trained {
-        results.test_controller = controller.name();
+        results.test_controller = Some(controller);
     }
     write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
     Ok((results, out))
@@ -154,15 +155,15 @@ pub(super) fn test_design(
         render_scale: None,
         // Without a recording the test town is used, whatever `test_source` says.
         source: if config.source.is_recording() && config.test_source.is_recording() {
-            config.test_source.to_string()
+            config.test_source.clone()
         } else {
-            config.source.to_string()
+            config.source.clone()
         },
-        scoring_precision: config.scoring_precision.on_this_cpu().name().to_owned(),
-        cpu_kernels: joca_nn::kernels::chosen().name().to_owned(),
-        denormals: joca_nn::kernels::denormals().name().to_owned(),
+        scoring_precision: Some(config.scoring_precision.on_this_cpu()),
+        cpu_kernels: Some(joca_nn::kernels::chosen()),
+        denormals: Some(joca_nn::kernels::denormals()),
         cpu: cpu_description(),
-        test_controller: String::new(),
+        test_controller: None,
         perturbation_ties: (state.ties.searches > 0).then_some(state.ties),
         validation,
     })

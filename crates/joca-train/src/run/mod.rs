@@ -235,12 +235,12 @@ fn setup(
     model.set_detector_trainable(config.method != Method::FrozenDetector);
     model.set_clip_gradient(config.clip_gradient);
     model.set_acc_lr(config.acc_lr);
-    let (real, space) = match config.source.open(&config.real)? {
+    let (real, space) = match source::open(&config.source, &config.real)? {
         None => (None, DesignSpace::synthetic()),
         Some(train) => {
             // Without a test source the test plays the training recording itself: opening it a
             // second time would read (and, for Waymo, hold) every frame twice.
-            let held_out = config.test_source.open(&config.real)?;
+            let held_out = source::open(&config.test_source, &config.real)?;
             // The recording fixes mount and lens (the nuScenes-like values stand in for them in
             // the tables); only sensors whose pixel grid fits inside the recording are designed.
             let (w, h) = train.recording_size_px();

@@ -14,7 +14,7 @@ use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
 use joca_core::{Frame, Rgb8Image, SeedStreams, TRAINING_MIN_BOX_PX, training_targets};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
-use joca_nn::detector::{Precision, TrainFrame};
+use joca_nn::detector::{Precision, PrecisionExt, TrainFrame};
 use joca_nn::joint::JointModel;
 use joca_record::SearchTies;
 use rand::Rng;

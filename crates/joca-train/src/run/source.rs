@@ -6,7 +6,6 @@ use joca_camera::Calibration;
 use joca_data::blur::Linearize;
 use joca_data::folder::{FolderConfig, OnBadFrame, Recording};
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
 
 /// How the real-image mode reads recorded frames (`[run.real]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -56,13 +55,9 @@ impl RealConfig {
                     "0 (none) or above",
                 ));
             },
-            on_bad_frame: match self.on_bad_frame.as_str() {
-                "stop" => OnBadFrame::Stop,
-                "skip" => OnBadFrame::Skip,
-                other => {
-                    return Err(bad("on_bad_frame", format!("{other:?}"), "\"stop\" or \"skip\""));
-                }
-            },
+            on_bad_frame: OnBadFrame::from_name(&self.on_bad_frame).map_err(|_| {
+                bad("on_bad_frame", format!("{:?}", self.on_bad_frame), "\"stop\" or \"skip\"")
+            })?,
             calibration_exposure_s: cal.exposure_s,
             calibration_gain_db: cal.gain_db,
             ..FolderConfig::default()
@@ -70,74 +65,14 @@ impl RealConfig {
     }
 }
 
-/// Where frames come from (`source`, `test_source`): written `sim` (or empty), `folder:DIR` or
-/// `waymo:DIR` in configuration files, parsed once when the file is read.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub enum Source {
-    /// The built-in simulator (as `test_source`: the default test frames).
-    #[default]
-    Sim,
-    /// A recording in the folder format (frames and a COCO `annotations.json`).
-    Folder(PathBuf),
-    /// Waymo Open Dataset v2 parquet files (`DIR/camera_image`, `DIR/camera_box`).
-    Waymo(PathBuf),
-}
+pub use joca_record::Source;
 
-impl Source {
-    /// What a configuration file may say.
-    pub const ALLOWED: &str = "\"sim\" (the built-in simulator), \"folder:DIR\" (a recording in \
-        the folder format) or \"waymo:DIR\" (Waymo Open Dataset v2 parquet: DIR/camera_image, \
-        DIR/camera_box)";
-
-    /// Parses a configuration value.
-    pub fn parse(text: &str) -> Result<Self, String> {
-        match text {
-            "" | "sim" => Ok(Source::Sim),
-            s if s.len() > 7 && s.starts_with("folder:") => {
-                Ok(Source::Folder(PathBuf::from(&s[7..])))
-            }
-            s if s.len() > 6 && s.starts_with("waymo:") => {
-                Ok(Source::Waymo(PathBuf::from(&s[6..])))
-            }
-            s => Err(format!("unknown frame source {s:?}; allowed: {}", Self::ALLOWED)),
-        }
-    }
-
-    /// Whether frames come from a recording (the real-image mode).
-    pub fn is_recording(&self) -> bool {
-        *self != Source::Sim
-    }
-
-    /// Opens a recording; `None` for the simulator.
-    pub(super) fn open(&self, real: &RealConfig) -> Result<Option<Recording>, TrainError> {
-        let folder = real.folder_config()?;
-        Ok(match self {
-            Source::Sim => None,
-            Source::Folder(dir) => Some(Recording::open(dir, folder)?),
-            Source::Waymo(dir) => Some(Recording::open_waymo(dir, real.waymo_camera, folder)?),
-        })
-    }
-}
-
-impl std::fmt::Display for Source {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Source::Sim => f.write_str("sim"),
-            Source::Folder(dir) => write!(f, "folder:{}", dir.display()),
-            Source::Waymo(dir) => write!(f, "waymo:{}", dir.display()),
-        }
-    }
-}
-
-impl Serialize for Source {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.collect_str(self)
-    }
-}
-
-impl<'de> Deserialize<'de> for Source {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        let text = String::deserialize(deserializer)?;
-        Source::parse(&text).map_err(serde::de::Error::custom)
-    }
+/// Opens the recording `source` names (`None` for the simulator), read as `real` says.
+pub(super) fn open(source: &Source, real: &RealConfig) -> Result<Option<Recording>, TrainError> {
+    let folder = real.folder_config()?;
+    Ok(match source {
+        Source::Sim => None,
+        Source::Folder(dir) => Some(Recording::open(dir, folder)?),
+        Source::Waymo(dir) => Some(Recording::open_waymo(dir, real.waymo_camera, folder)?),
+    })
 }

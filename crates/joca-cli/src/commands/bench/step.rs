@@ -19,7 +19,7 @@ pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
             threads, mean of {} steps, perturbed frames scored in fp32",
         cfg.input.resampler, cfg.threads, b.steps
     );
-    if !Precision::native_bf16() {
+    if !joca_nn::detector::native_bf16() {
         println!(
             "(the default here: scoring_precision = \"bf16\" is fp32 without native bfloat16)"
         );
@@ -71,7 +71,7 @@ pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
     );
     // The perturbed frames scored in bfloat16 where the CPU has it natively, with every search
     // also scored in float32 (untimed) to count how often the two choose the same member.
-    if !Precision::native_bf16() {
+    if !joca_nn::detector::native_bf16() {
         println!(
             "(scoring_precision = \"bf16\" not timed: native bfloat16 needs AVX-512 BF16 and \
              JOCA_CPU_KERNELS=native)"

@@ -1,0 +1,172 @@
+//! Where a run's frames came from ([`Source`]) and which controller its test drove the design
+//! with ([`TestController`]): named in configuration files, on the command line and in
+//! `results.json`, each by one parser and one printer.
+
+use joca_camera::MID_GREY_DN;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// Where frames come from (`source`, `test_source`): written `sim` (or empty), `folder:DIR` or
+/// `waymo:DIR`, parsed once when a file is read.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum Source {
+    /// The built-in simulator (as `test_source`: the default test frames).
+    #[default]
+    Sim,
+    /// A recording in the folder format (frames and a COCO `annotations.json`).
+    Folder(PathBuf),
+    /// Waymo Open Dataset v2 parquet files (`DIR/camera_image`, `DIR/camera_box`).
+    Waymo(PathBuf),
+}
+
+impl Source {
+    /// What a configuration file may say.
+    pub const ALLOWED: &str = "\"sim\" (the built-in simulator), \"folder:DIR\" (a recording in \
+        the folder format) or \"waymo:DIR\" (Waymo Open Dataset v2 parquet: DIR/camera_image, \
+        DIR/camera_box)";
+
+    /// Parses a configuration value (empty: the simulator, as older `results.json` say).
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let dir =
+            |prefix: &str| text.strip_prefix(prefix).filter(|d| !d.is_empty()).map(PathBuf::from);
+        match text {
+            "" | "sim" => Ok(Source::Sim),
+            _ => dir("folder:")
+                .map(Source::Folder)
+                .or_else(|| dir("waymo:").map(Source::Waymo))
+                .ok_or_else(|| {
+                    format!("unknown frame source {text:?}; allowed: {}", Self::ALLOWED)
+                }),
+        }
+    }
+
+    /// Whether frames come from a recording (the real-image mode).
+    pub fn is_recording(&self) -> bool {
+        *self != Source::Sim
+    }
+}
+
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Source::Sim => f.write_str("sim"),
+            Source::Folder(dir) => write!(f, "folder:{}", dir.display()),
+            Source::Waymo(dir) => write!(f, "waymo:{}", dir.display()),
+        }
+    }
+}
+
+impl Serialize for Source {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for Source {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(deserializer)?;
+        Source::parse(&text).map_err(serde::de::Error::custom)
+    }
+}
+
+/// Which controller a re-test (`joca eval --controller`) drives the trained design with: the
+/// run's own, or AverageAE at a chosen frame mean — to measure what another exposure policy
+/// does to the same trained detector on the same design and test scenes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TestController {
+    /// The run's own controller (NeuralAE, or AverageAE at mid-grey for `tacos-average`).
+    Trained,
+    /// AverageAE holding the frame mean at this level, DN.
+    Average {
+        /// Target frame mean, DN.
+        target_dn: f64,
+    },
+}
+
+impl TestController {
+    /// Parses `trained`, `average` (mid-grey, 127.5 DN) or `average:DN` (0 < DN < 255); the
+    /// file form of [`Self::name`], `average-DN`, too.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        let bad = || {
+            format!(
+                "unknown controller `{name}`: allowed `trained`, `average` or `average:DN` with \
+                 0 < DN < 255"
+            )
+        };
+        match name {
+            "trained" => Ok(Self::Trained),
+            "average" => Ok(Self::Average { target_dn: MID_GREY_DN }),
+            _ => {
+                let dn: f64 = name
+                    .strip_prefix("average:")
+                    .or_else(|| name.strip_prefix("average-"))
+                    .ok_or_else(bad)?
+                    .parse()
+                    .map_err(|_| bad())?;
+                if dn > 0.0 && dn < 255.0 {
+                    Ok(Self::Average { target_dn: dn })
+                } else {
+                    Err(bad())
+                }
+            }
+        }
+    }
+
+    /// A name for files and tables: `trained` or `average-DN`.
+    pub fn name(&self) -> String {
+        match self {
+            Self::Trained => "trained".into(),
+            Self::Average { target_dn } => format!("average-{target_dn}"),
+        }
+    }
+}
+
+impl Serialize for TestController {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for TestController {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(deserializer)?;
+        TestController::from_name(&text).map_err(serde::de::Error::custom)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn test_controllers_parse_and_bad_names_say_what_is_allowed() {
+        assert_eq!(TestController::from_name("trained"), Ok(TestController::Trained));
+        assert_eq!(
+            TestController::from_name("average"),
+            Ok(TestController::Average { target_dn: 127.5 })
+        );
+        let dark = TestController::from_name("average:40").unwrap();
+        assert_eq!(dark, TestController::Average { target_dn: 40.0 });
+        assert_eq!(dark.name(), "average-40");
+        for bad in ["average:0", "average:255", "average:x", "neural", "average:"] {
+            let e = TestController::from_name(bad).unwrap_err();
+            assert!(e.contains(bad) && e.contains("0 < DN < 255"), "{e}");
+        }
+    }
+
+    #[test]
+    fn records_hold_the_names_files_were_written_with() {
+        let dark = TestController::Average { target_dn: 40.0 };
+        assert_eq!(serde_json::to_string(&dark).unwrap(), "\"average-40\"");
+        assert_eq!(serde_json::from_str::<TestController>("\"average-40\"").unwrap(), dark);
+        let waymo = Source::Waymo("/data/w".into());
+        assert_eq!(serde_json::to_string(&waymo).unwrap(), "\"waymo:/data/w\"");
+        assert_eq!(serde_json::from_str::<Source>("\"waymo:/data/w\"").unwrap(), waymo);
+        // Older results.json wrote an empty source for the simulator.
+        assert_eq!(serde_json::from_str::<Source>("\"\"").unwrap(), Source::Sim);
+        for bad in ["folder:", "waymo:", "cam:x", "simulator"] {
+            let e = Source::parse(bad).unwrap_err();
+            assert!(e.contains(&format!("{bad:?}")) && e.contains("folder:DIR"), "{e}");
+        }
+    }
+}
