@@ -64,6 +64,7 @@ impl CameraDesign {
             cx_px: width_px as f64 / 2.0,
             cy_px: height_px as f64 / 2.0,
             mount_m: [self.x_m, 0.0, self.z_m],
+            lens: None,
         }
     }
 }

@@ -332,6 +332,21 @@ fn render_refuses_bad_names_and_impossible_mounts() {
         "{}",
         stderr(&o)
     );
+    // Lens and weather: each refusal names the flag and what is allowed, and writes nothing.
+    let out = std::env::temp_dir().join(format!("joca-render-optics-{}", std::process::id()));
+    let o_str = out.to_str().unwrap();
+    for (flags, want) in [
+        (&["--f-number", "0.5"][..], "--f-number = 0.5: allowed 1 to 32"),
+        (&["--f-number", "2", "--focus-m", "0.003"][..], "--focus-m = 0.003: must exceed"),
+        (&["--fog-visibility-m=-5"][..], "--fog-visibility-m = -5: allowed 10 to 100000 m"),
+        (&["--focus-m", "5"][..], "--f-number"),
+    ] {
+        let mut args = vec!["render", "--frames", "1", "--out", o_str];
+        args.extend_from_slice(flags);
+        let o = joca(&args);
+        assert!(!o.status.success() && stderr(&o).contains(want), "{flags:?}: {}", stderr(&o));
+        assert!(!out.exists(), "{flags:?} wrote {o_str}");
+    }
 }
 
 #[test]

@@ -6,6 +6,7 @@
 //! the shutter interval, with ground truth. Exposure scaling, gain, pixel area, noise and
 //! clipping are image formation's job (`joca-camera`), so the same formation serves every source.
 
+use crate::optics::Lens;
 use crate::{Annotation, HdrImage};
 use thiserror::Error;
 
@@ -30,6 +31,9 @@ pub struct PinholeCamera {
     pub cy_px: f64,
     /// Camera centre in the vehicle frame, metres (`vehicle_from_camera` translation).
     pub mount_m: [f64; 3],
+    /// The lens's aperture and focus, for sources that render defocus and diffraction
+    /// ([`crate::optics`]); `None`: an ideal pinhole, every depth sharp (the paper's model).
+    pub lens: Option<Lens>,
 }
 
 impl PinholeCamera {

@@ -28,6 +28,7 @@ mod frame;
 pub mod fs;
 mod image;
 mod named;
+pub mod optics;
 pub mod output;
 pub mod rng;
 pub mod units;

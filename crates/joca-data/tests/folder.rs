@@ -56,6 +56,7 @@ fn camera(w: usize, h: usize) -> PinholeCamera {
         cx_px: w as f64 / 2.0,
         cy_px: h as f64 / 2.0,
         mount_m: [0.43, 0.0, 1.65],
+        lens: None,
     }
 }
 

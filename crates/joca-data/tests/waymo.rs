@@ -185,6 +185,7 @@ fn segments_frames_exposures_and_boxes_are_read_for_one_camera() {
         cx_px: 40.0,
         cy_px: 20.0,
         mount_m: [0.43, 0.0, 1.65],
+        lens: None,
     };
     let frame = rec
         .render(

@@ -22,6 +22,7 @@
 //! let camera = PinholeCamera {
 //!     width_px: 64, height_px: 48, fx_px: 40.0, fy_px: 40.0, cx_px: 32.0, cy_px: 24.0,
 //!     mount_m: [1.0, 0.0, 1.5],
+//!     lens: None,
 //! };
 //! let request = FrameRequest { episode: 0, time_s: 2.0, exposure_s: 5e-3, motion_scale: 1.0 };
 //! let frame = sim.render(&camera, &request).unwrap();
@@ -39,7 +40,7 @@ mod sim;
 
 pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
-pub use lighting::{Illumination, TUNNEL_PHASE_S};
+pub use lighting::{Illumination, TUNNEL_PHASE_S, Weather};
 pub use sim::{
     Episode, MAX_SUBFRAMES, REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, ShutterGrid, SimConfig,
     Simulator, VisibilityRules, reference_camera,

@@ -135,3 +135,32 @@ mod tests {
         assert!((200.0..=230.0).contains(&dn), "{dn}");
     }
 }
+
+/// The weather of every episode: what the air between the camera and the scene does.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Weather {
+    /// Clear air (the paper's).
+    #[default]
+    Clear,
+    /// Fog of this meteorological visibility, metres (Koschmieder: β = ln 20 / V).
+    Fog {
+        /// Distance at which a black object keeps 5 % of its contrast, metres.
+        visibility_m: f64,
+    },
+}
+
+impl Weather {
+    /// Allowed fog visibility, metres: 10 m (dense fog) to 100 km (clear air's haze).
+    pub const VISIBILITY_RANGE_M: (f64, f64) = (10.0, 100_000.0);
+
+    /// Checks the visibility against [`Self::VISIBILITY_RANGE_M`], naming the field.
+    pub fn check(&self) -> Result<(), String> {
+        let (lo, hi) = Self::VISIBILITY_RANGE_M;
+        match *self {
+            Weather::Fog { visibility_m } if !(visibility_m >= lo && visibility_m <= hi) => {
+                Err(format!("fog visibility_m = {visibility_m}: allowed {lo} to {hi} m"))
+            }
+            _ => Ok(()),
+        }
+    }
+}

@@ -115,6 +115,7 @@ pub struct ImageFormation {
     noise_scale: f64,
     resampler: Resampler,
     native_px: Option<(usize, usize)>,
+    light_factor: f64,
 }
 
 /// Per-pixel factors on the noise's standard deviation, `√(Σw²)` of a resize: the value at
@@ -149,7 +150,13 @@ impl ImageFormation {
     /// Formation with `calibration` and calibrated noise (×1).
     pub fn new(calibration: Calibration) -> Result<Self, CameraError> {
         calibration.validate()?;
-        Ok(Self { calibration, noise_scale: 1.0, resampler: Resampler::Bilinear, native_px: None })
+        Ok(Self {
+            calibration,
+            noise_scale: 1.0,
+            resampler: Resampler::Bilinear,
+            native_px: None,
+            light_factor: 1.0,
+        })
     }
 
     /// The same formation with σp² and σr² multiplied by `noise_scale` (scenario "noise ×N").
@@ -164,6 +171,24 @@ impl ImageFormation {
             });
         }
         Ok(Self { noise_scale, ..self })
+    }
+
+    /// The same formation behind a lens at `f_number`: the signal of Eq. 2 gains (N0/N)² over
+    /// the calibration aperture N0 = 16 (the noise follows Eq. 3 from that signal). Runs keep
+    /// the calibration aperture.
+    pub fn with_f_number(self, f_number: f64) -> Result<Self, CameraError> {
+        let (min, max) = joca_core::optics::F_NUMBER_RANGE;
+        if !(f_number >= min && f_number <= max) {
+            return Err(CameraError::OutOfRange {
+                field: "f_number".into(),
+                value: f_number,
+                min,
+                max,
+                unit: "",
+            });
+        }
+        let light_factor = (joca_core::optics::CALIBRATION_F_NUMBER / f_number).powi(2);
+        Ok(Self { light_factor, ..self })
     }
 
     /// The same formation with frames resized from the native grid by `resampler`.
@@ -221,7 +246,8 @@ impl ImageFormation {
         let c = &self.calibration;
         let gain_ratio = settings.gain_linear() / linear_from_db(c.gain_db);
         let area_ratio = (pixel_pitch_um / c.pixel_pitch_um).powi(2);
-        let scale = settings.exposure_s / c.exposure_s * gain_ratio * area_ratio;
+        let scale =
+            settings.exposure_s / c.exposure_s * gain_ratio * area_ratio * self.light_factor;
         let n = self.noise_scale;
         FormationParams {
             intensity_scale: scale as f32,

@@ -190,3 +190,30 @@ fn bad_calibration_names_the_field() {
     assert!(e.contains("calibration.sigma_r2"), "{e}");
     assert!(ImageFormation::new(CAL).unwrap().with_noise_scale(f64::NAN).is_err());
 }
+
+#[test]
+fn opening_the_aperture_scales_the_signal_by_the_inverse_square_of_the_f_number() {
+    // f/2 against the calibration's f/16 at the same exposure and gain: 64× the light, and
+    // Eq. 3's photon noise from that larger signal (the read noise unchanged).
+    let settings = DynamicSettings::new(0.2e-3, 10.0);
+    let open = ImageFormation::new(CAL).unwrap().with_f_number(2.0).unwrap();
+    let out = open.form_linear(
+        &flat(300, 100, 1.5),
+        settings,
+        3.75,
+        &mut SeedStreams::new(5).stream("n"),
+    );
+    for c in 0..3 {
+        let (base_mean, _) = expected_mean_var(1.5, settings, 3.75, 1.0, c);
+        let want_mean = 64.0 * base_mean;
+        let g = 1.0; // gain = G0
+        let want_var = g * CAL.sigma_p2[c] * want_mean + g * g * CAL.sigma_r2[c];
+        let (mean, var, n) = channel_stats(&out, c);
+        assert!((mean - want_mean).abs() < 5.0 * (want_var / n as f64).sqrt(), "ch {c}: {mean}");
+        assert!((var - want_var).abs() < 5.0 * want_var * (2.0 / n as f64).sqrt(), "ch {c}");
+    }
+    let f16 = ImageFormation::new(CAL).unwrap().with_f_number(16.0).unwrap();
+    assert_eq!(f16, ImageFormation::new(CAL).unwrap());
+    let e = ImageFormation::new(CAL).unwrap().with_f_number(0.5).unwrap_err().to_string();
+    assert!(e.contains("f_number") && e.contains("32"), "{e}");
+}

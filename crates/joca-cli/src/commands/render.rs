@@ -8,9 +8,10 @@ use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DetectorInput, DynamicSettings,
     ImageFormation, Resampler, sensor_by_name,
 };
+use joca_core::optics::{CALIBRATION_F_NUMBER, Lens};
 use joca_core::units::{ms_from_s, s_from_ms};
-use joca_core::{FrameRequest, FrameSource, Rgb8Image, SeedStreams};
-use joca_sim::{Illumination, SimConfig, Simulator};
+use joca_core::{FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams};
+use joca_sim::{Illumination, SimConfig, Simulator, Weather};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -91,6 +92,17 @@ pub struct Args {
     /// transform) or area (binning); sets how much of the native pixels' noise remains.
     #[arg(long, value_enum, default_value_t = ResamplerArg::Bilinear)]
     resampler: ResamplerArg,
+    /// Lens f-number, 1 to 32: defocus and diffraction by depth, and (16/N)² the light of the
+    /// calibration's f/16. Without it: an ideal pinhole at f/16's light (the paper's model).
+    #[arg(long)]
+    f_number: Option<f64>,
+    /// Focus distance, m (beyond the focal length), with --f-number [default: the hyperfocal
+    /// distance for a one-pixel circle of confusion].
+    #[arg(long, requires = "f_number")]
+    focus_m: Option<f64>,
+    /// Fog of this visibility, m (10 to 100000; Koschmieder's law) [default: clear air].
+    #[arg(long)]
+    fog_visibility_m: Option<f64>,
     /// Fixed exposure time, ms (0.1 to 50); without it AverageAE controls exposure and gain.
     #[arg(long, requires = "gain_db")]
     exposure_ms: Option<f64>,
@@ -169,6 +181,27 @@ fn checked(
     Ok((sensor, input, fixed))
 }
 
+/// The lens (`None`: the ideal pinhole) and the weather the flags ask for, checked.
+fn optics(args: &Args, sensor: &joca_camera::Sensor) -> Result<(Option<Lens>, Weather)> {
+    let lens = match args.f_number {
+        Some(n) => {
+            let hyperfocal = Lens::at_hyperfocal(args.focal_mm, n, sensor.pixel_pitch_um);
+            let lens = Lens { focus_m: args.focus_m.unwrap_or(hyperfocal.focus_m), ..hyperfocal };
+            lens.check().map_err(|e| anyhow::anyhow!("--{}", e.replace('_', "-")))?;
+            Some(lens)
+        }
+        None => None,
+    };
+    let weather = match args.fog_visibility_m {
+        Some(visibility_m) => Weather::Fog { visibility_m },
+        None => Weather::Clear,
+    };
+    weather
+        .check()
+        .map_err(|e| anyhow::anyhow!("--{}", e.replace("fog visibility_m", "fog-visibility-m")))?;
+    Ok((lens, weather))
+}
+
 /// Runs `joca render`.
 pub fn run(args: &Args) -> Result<()> {
     let (sensor, input, fixed) = checked(args)?;
@@ -178,11 +211,13 @@ pub fn run(args: &Args) -> Result<()> {
         focal_length_mm: args.focal_mm,
         sensor_index: sensor.index,
     };
-    let camera = design.pinhole(&input);
+    let (lens, weather) = optics(args, sensor)?;
+    let camera = PinholeCamera { lens, ..design.pinhole(&input) };
     let config = SimConfig {
         map_seed: args.map_seed,
         max_speed_mps: args.max_speed_mps,
         illumination: args.illumination.map(Illumination::from),
+        weather,
         ..SimConfig::default()
     };
     let last = args.start_s + (args.frames - 1) as f64 * config.frame_interval_s;
@@ -198,6 +233,7 @@ pub fn run(args: &Args) -> Result<()> {
         .with_noise_scale(args.noise_scale)
         .context("invalid --noise-scale")?
         .with_resampler(input.resampler)
+        .with_f_number(lens.map_or(CALIBRATION_F_NUMBER, |l| l.f_number))?
         .for_sensor(sensor);
     let ae = AverageAe::new(AccRanges::PAPER);
     let streams = SeedStreams::new(args.seed);
@@ -207,19 +243,7 @@ pub fn run(args: &Args) -> Result<()> {
     let frames_dir = out.join("frames");
 
     let episode = sim.episode(args.episode);
-    println!(
-        "map {} episode {} ({}), {} {}x{} px, f = {} mm (HFoV {:.1}°), mount x = {} m z = {} m",
-        args.map_seed,
-        args.episode,
-        episode.illumination.name(),
-        sensor.name,
-        camera.width_px,
-        camera.height_px,
-        args.focal_mm,
-        design.hfov_rad().to_degrees(),
-        args.x,
-        args.z
-    );
+    print_header(args, &episode, sensor, &camera, &design);
     println!(
         "{:>6} {:>7} {:>8} {:>7} {:>9} {:>6} {:>6} {:>5} {:>4}",
         "frame", "t s", "E ms", "G dB", "mean DN", "speed", "boxes", "180°", "sub"
@@ -261,13 +285,7 @@ pub fn run(args: &Args) -> Result<()> {
             frame.visible_180,
             sub
         );
-        images.push(json!({
-            "id": k + 1, "file_name": format!("frames/{name}"),
-            "width": image.width(), "height": image.height(),
-            "episode": args.episode, "time_s": t, "timestamp_s": t,
-            "exposure_s": settings.exposure_s, "gain_db": settings.gain_db,
-            "visible_180": frame.visible_180,
-        }));
+        images.push(coco_image(args, k, &image, t, settings, frame.visible_180, lens));
         // Ignore regions go out as COCO crowd regions, so that pycocotools, `joca metrics` and a
         // folder recording treat them as joca does.
         let all = frame.boxes.iter().map(|a| (a, 0)).chain(frame.ignore.iter().map(|a| (a, 1)));
@@ -293,6 +311,62 @@ pub fn run(args: &Args) -> Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+/// The run's first lines: the scene, the design, its lens and the weather.
+fn print_header(
+    args: &Args,
+    episode: &joca_sim::Episode,
+    sensor: &joca_camera::Sensor,
+    camera: &PinholeCamera,
+    design: &CameraDesign,
+) {
+    println!(
+        "map {} episode {} ({}), {} {}x{} px, f = {} mm (HFoV {:.1}°), mount x = {} m z = {} m",
+        args.map_seed,
+        args.episode,
+        episode.illumination.name(),
+        sensor.name,
+        camera.width_px,
+        camera.height_px,
+        args.focal_mm,
+        design.hfov_rad().to_degrees(),
+        args.x,
+        args.z
+    );
+    if let Some(l) = camera.lens {
+        println!("lens f/{} focused at {:.2} m", l.f_number, l.focus_m);
+    }
+    if let Some(v) = args.fog_visibility_m {
+        println!("fog: visibility {v} m");
+    }
+}
+
+/// Frame `k`'s COCO image entry, with joca's fields (time, settings, lens, fog).
+fn coco_image(
+    args: &Args,
+    k: usize,
+    image: &Rgb8Image,
+    t: f64,
+    settings: DynamicSettings,
+    visible_180: u32,
+    lens: Option<Lens>,
+) -> serde_json::Value {
+    let mut entry = json!({
+        "id": k + 1, "file_name": format!("frames/{k:06}.png"),
+        "width": image.width(), "height": image.height(),
+        "episode": args.episode, "time_s": t, "timestamp_s": t,
+        "exposure_s": settings.exposure_s, "gain_db": settings.gain_db,
+        "visible_180": visible_180,
+    });
+    if let Some(l) = lens {
+        entry["f_number"] = json!(l.f_number);
+        entry["focus_m"] = json!(l.focus_m);
+    }
+    if let Some(v) = args.fog_visibility_m {
+        entry["fog_visibility_m"] = json!(v);
+    }
+    entry
 }
 
 /// `annotations.json` (COCO, with joca's frame fields), the contact sheet and the animation.

@@ -14,6 +14,7 @@ fn camera(rng: &mut impl Rng) -> PinholeCamera {
         cx_px: w as f64 / 2.0,
         cy_px: h as f64 / 2.0,
         mount_m: [1.5, 0.0, 1.4],
+        lens: None,
     }
 }
 
@@ -193,6 +194,7 @@ fn a_reused_target_renders_as_a_fresh_one() {
         cx_px: 48.0,
         cy_px: 36.0,
         mount_m: [1.5, 0.0, 1.4],
+        lens: None,
     };
     let objects = city.objects.len();
     fn view<'a>(camera: &'a PinholeCamera, rng: &mut impl Rng) -> View<'a> {
@@ -243,6 +245,7 @@ fn skipping_hidden_boxes_changes_no_pixel() {
         cx_px: 80.0,
         cy_px: 60.0,
         mount_m: [0.43, 0.0, 1.65],
+        lens: None,
     };
     let objects = city.objects.len();
     let (mut skipped, mut drawn, mut hidden_whole) = (0usize, 0usize, 0usize);

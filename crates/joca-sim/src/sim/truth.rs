@@ -40,6 +40,7 @@ pub fn reference_camera(camera: &PinholeCamera) -> (PinholeCamera, f64, f64) {
         cx_px: camera.cx_px * kx,
         cy_px: camera.cy_px * ky,
         mount_m: camera.mount_m,
+        lens: None,
     };
     (reference, kx, ky)
 }
