@@ -10,7 +10,22 @@ use crate::catalogue::{Sensor, catalogue, sensor};
 use crate::input::DetectorInput;
 use crate::settings::Bounds;
 use joca_core::PinholeCamera;
+use joca_core::optics::{CALIBRATION_F_NUMBER, F_NUMBER_RANGE, Lens};
 use serde::{Deserialize, Serialize};
+
+joca_core::named_enum! {
+    /// How a design's lens images the scene.
+    #[derive(Default)]
+    pub enum LensModel("lens model") {
+        /// An ideal pinhole: every depth sharp, the light of the calibration's f/16 (the
+        /// paper's model).
+        #[default]
+        Pinhole = "pinhole",
+        /// A thin lens at the design's f-number, focused at its hyperfocal distance: defocus
+        /// and diffraction by depth, light ∝ 1/N².
+        Thin = "thin",
+    }
+}
 
 /// One camera hardware design.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -23,6 +38,17 @@ pub struct CameraDesign {
     pub focal_length_mm: f64,
     /// Catalogue row of the image sensor ([`crate::Sensor::index`]).
     pub sensor_index: usize,
+    /// Lens f-number N (absent in files of designs at the calibration aperture, f/16).
+    #[serde(default = "calibration_f_number", skip_serializing_if = "at_calibration_aperture")]
+    pub f_number: f64,
+}
+
+fn calibration_f_number() -> f64 {
+    CALIBRATION_F_NUMBER
+}
+
+fn at_calibration_aperture(f_number: &f64) -> bool {
+    *f_number == CALIBRATION_F_NUMBER
 }
 
 impl CameraDesign {
@@ -47,6 +73,27 @@ impl CameraDesign {
     pub fn resolution(&self, input: &DetectorInput) -> (usize, usize) {
         let s = self.sensor();
         input.size_for(s.res_x, s.res_y)
+    }
+
+    /// The pixel pitch of a sensor at the calibration aperture (f/16) that gathers as much light
+    /// per pixel as this design's: Eq. 2's (p/p0)² times the aperture's (N0/N)² is
+    /// ((p·N0/N)/p0)², and Eq. 3's noise follows from that signal, so image formation and the
+    /// pixel-size compensation of Eq. 4 take this pitch. The sensor's own pitch at f/16.
+    pub fn light_pitch_um(&self) -> f64 {
+        self.sensor().pixel_pitch_um * CALIBRATION_F_NUMBER / self.f_number
+    }
+
+    /// The lens of this design focused at its hyperfocal distance (for the sensor's pixel: see
+    /// [`Lens::at_hyperfocal`]).
+    pub fn lens(&self) -> Lens {
+        Lens::at_hyperfocal(self.focal_length_mm, self.f_number, self.sensor().pixel_pitch_um)
+    }
+
+    /// The camera that renders this design's frames at the detector's input size: the pinhole
+    /// projection, with [`Self::lens`] where `model` is [`LensModel::Thin`].
+    pub fn view(&self, input: &DetectorInput, model: LensModel) -> PinholeCamera {
+        let lens = (model == LensModel::Thin).then(|| self.lens());
+        PinholeCamera { lens, ..self.pinhole(input) }
     }
 
     /// The pinhole camera of this design at the detector's input size.
@@ -80,6 +127,13 @@ pub struct DesignSpace {
     pub focal_length_mm: Bounds,
     /// Allowed catalogue rows, ascending.
     pub sensors: Vec<usize>,
+    /// Lens f-number (fixed at the calibration's f/16 unless the aperture is a gene).
+    #[serde(default = "calibration_aperture")]
+    pub f_number: Bounds,
+}
+
+fn calibration_aperture() -> Bounds {
+    Bounds::fixed(CALIBRATION_F_NUMBER)
 }
 
 impl DesignSpace {
@@ -91,7 +145,27 @@ impl DesignSpace {
             z_m: Bounds::new(1.3, 1.7),
             focal_length_mm: Bounds::new(1.0, 10.0),
             sensors: (0..catalogue().len()).collect(),
+            f_number: calibration_aperture(),
         }
+    }
+
+    /// The same space with the f-number a gene within `min..=max` (equal: fixed there);
+    /// refused outside [`F_NUMBER_RANGE`].
+    pub fn with_f_numbers(&self, min: f64, max: f64) -> Result<Self, CameraError> {
+        let (lo, hi) = F_NUMBER_RANGE;
+        let range = Bounds::new(lo, hi);
+        range.check("f_number_min", min, "")?;
+        range.check("f_number_max", max, "")?;
+        if max < min {
+            return Err(CameraError::OutOfRange {
+                field: "f_number_max".into(),
+                value: max,
+                min,
+                max: hi,
+                unit: "",
+            });
+        }
+        Ok(Self { f_number: Bounds::new(min, max), ..self.clone() })
     }
 
     /// A space with the mount and lens fixed (the paper's real-image mode, where the recording
@@ -102,6 +176,7 @@ impl DesignSpace {
             z_m: Bounds::fixed(z_m),
             focal_length_mm: Bounds::fixed(focal_length_mm),
             sensors: self.sensors.clone(),
+            f_number: self.f_number,
         }
     }
 
@@ -130,6 +205,7 @@ impl DesignSpace {
         self.x_m.check("x_m", design.x_m, " m")?;
         self.z_m.check("z_m", design.z_m, " m")?;
         self.focal_length_mm.check("focal_length_mm", design.focal_length_mm, " mm")?;
+        self.f_number.check("f_number", design.f_number, "")?;
         if !self.sensors.contains(&design.sensor_index) {
             return Err(CameraError::UnknownSensor {
                 name: sensor_name_or_index(design.sensor_index),
@@ -160,6 +236,7 @@ mod tests {
             z_m: 1.65,
             focal_length_mm: f,
             sensor_index: sensor_by_name(name).unwrap().index,
+            f_number: 16.0,
         }
     }
 

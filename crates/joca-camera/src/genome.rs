@@ -9,7 +9,9 @@
 //! alternative: one gene holding the row's position in the allowed list, rounded.
 //!
 //! Gene order: `[x_m, z_m, focal_length_mm, width_mm, height_mm, pixel_pitch_um]` or
-//! `[x_m, z_m, focal_length_mm, sensor_position]`.
+//! `[x_m, z_m, focal_length_mm, sensor_position]`, then `f_number` where the space lets the
+//! aperture vary (a space with the aperture fixed has no such gene, so its genomes and their
+//! search are those of the paper).
 
 use crate::CameraError;
 use crate::catalogue::sensor;
@@ -85,6 +87,9 @@ impl GenomeCodec {
                 bounds: Bounds::new(0.0, (self.space.sensors.len() - 1) as f64),
             }),
         }
+        if !self.space.f_number.is_fixed() {
+            genes.push(GeneSpec { name: "f_number", bounds: self.space.f_number });
+        }
         genes
     }
 
@@ -134,7 +139,18 @@ impl GenomeCodec {
                 self.space.sensors[position as usize]
             }
         };
-        Ok(CameraDesign { x_m: genes[0], z_m: genes[1], focal_length_mm: genes[2], sensor_index })
+        let f_number = if self.space.f_number.is_fixed() {
+            self.space.f_number.min
+        } else {
+            genes[specs.len() - 1]
+        };
+        Ok(CameraDesign {
+            x_m: genes[0],
+            z_m: genes[1],
+            focal_length_mm: genes[2],
+            sensor_index,
+            f_number,
+        })
     }
 
     /// The design encoded by `genes` (which are not modified).
@@ -156,6 +172,9 @@ impl GenomeCodec {
                 let position = self.space.sensors.iter().position(|&i| i == s.index).unwrap_or(0);
                 genes.push(position as f64);
             }
+        }
+        if !self.space.f_number.is_fixed() {
+            genes.push(design.f_number);
         }
         Ok(genes)
     }
@@ -206,5 +225,23 @@ mod tests {
         let d = c.decode(&[1.0, 1.5, 4.0, 2.6]).unwrap();
         assert_eq!(d.sensor_index, space.sensors[3]);
         assert_eq!(c.encode(&d).unwrap(), vec![1.0, 1.5, 4.0, 3.0]);
+    }
+
+    #[test]
+    fn the_aperture_is_a_gene_only_where_it_may_vary() {
+        // Fixed at f/16 (the paper's space): six genes, designs at f/16.
+        let fixed = codec(SensorEncoding::QuantisedContinuous);
+        assert_eq!(fixed.genes().len(), 6);
+        assert_eq!(fixed.decode(&[1.0, 1.5, 5.0, 6.2, 4.65, 1.55]).unwrap().f_number, 16.0);
+        // f/1.4–f/16: a seventh gene, clamped into its range, round-tripped.
+        let space = DesignSpace::synthetic().with_f_numbers(1.4, 16.0).unwrap();
+        let c = GenomeCodec::new(space, SensorEncoding::QuantisedContinuous).unwrap();
+        assert_eq!(c.genes()[6].name, "f_number");
+        let mut genes = vec![1.0, 1.5, 5.0, 6.2, 4.65, 1.55, 0.9];
+        let d = c.snap(&mut genes).unwrap();
+        assert_eq!(d.f_number, 1.4);
+        assert_eq!(c.encode(&d).unwrap(), genes);
+        assert!(DesignSpace::synthetic().with_f_numbers(0.5, 16.0).is_err());
+        assert!(DesignSpace::synthetic().with_f_numbers(8.0, 4.0).is_err());
     }
 }

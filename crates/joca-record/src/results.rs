@@ -174,9 +174,21 @@ pub struct DesignSummary {
     pub pixel_pitch_um: f64,
     /// Whether the hardware GA optimised the design (else it was fixed).
     pub optimised: bool,
+    /// Lens f-number (absent: the calibration's f/16, as in every run before the aperture gene).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub f_number: Option<f64>,
 }
 
 impl DesignSummary {
+    /// The focal length with the aperture where it is not the calibration's f/16:
+    /// `5.19` or `5.19 f/2.8`.
+    pub fn lens_label(&self) -> String {
+        match self.f_number {
+            Some(n) => format!("{:.2} f/{n:.1}", self.focal_length_mm),
+            None => format!("{:.2}", self.focal_length_mm),
+        }
+    }
+
     /// Horizontal field of view, radians.
     pub fn hfov_rad(&self) -> f64 {
         2.0 * (self.sensor_mm.0 / (2.0 * self.focal_length_mm)).atan()

@@ -196,11 +196,7 @@ pub fn qualitative_grid(path: &Path, runs: &[(String, &RunData)]) -> Result<(), 
             let d = &run.results.design;
             let sub = (FAMILY, 12).into_font().color(&RGBColor(80, 80, 80));
             root.draw(&Text::new(d.sensor.clone(), (6, y), sub.clone()))?;
-            root.draw(&Text::new(
-                format!("f {:.2} mm", d.focal_length_mm),
-                (6, y + 16),
-                sub.clone(),
-            ))?;
+            root.draw(&Text::new(format!("f {} mm", d.lens_label()), (6, y + 16), sub.clone()))?;
             root.draw(&Text::new(
                 format!("mAP {:.3}", run.results.test.map),
                 (6, y + 32),

@@ -127,7 +127,7 @@ fn design_table(rows: &[Row]) -> Vec<Vec<String>> {
         table.push(vec![
             group.to_owned(),
             design.to_owned(),
-            format!("{}, {:.2} mm, {} µm", d.sensor, d.focal_length_mm, d.pixel_pitch_um),
+            format!("{}, {} mm, {} µm", d.sensor, d.lens_label(), d.pixel_pitch_um),
             label.to_owned(),
             of.len().to_string(),
             mean(|r| r.results.test.map),

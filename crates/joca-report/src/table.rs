@@ -108,7 +108,7 @@ impl Table {
                     r.label.clone(),
                     mark(o, format!("{:.2}", d.x_m)),
                     mark(o, format!("{:.2}", d.z_m)),
-                    mark(o, format!("{:.2}", d.focal_length_mm)),
+                    mark(o, d.lens_label()),
                     mark(o, format!("{:.2}×{:.2}", d.sensor_mm.0, d.sensor_mm.1)),
                     mark(o, format!("{:.2}", d.pixel_pitch_um)),
                     d.sensor.clone(),
@@ -288,6 +288,7 @@ pub(crate) mod tests {
                 sensor_mm: (7.3728, 4.9152),
                 pixel_pitch_um: 2.4,
                 optimised,
+                f_number: None,
             },
             test: TaskScores {
                 map,

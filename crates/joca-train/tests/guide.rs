@@ -53,7 +53,10 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
         focal_length_mm: 3.6,
         x_m: 0.43,
         z_m: 1.65,
+        f_number: Some(2.0),
     });
+    run.lens = joca_camera::LensModel::Thin;
+    run.f_number = joca_train::FNumberRange { min: 1.4, max: 16.0 };
     let pretrain: PretrainConfig =
         table["pretrain"].clone().try_into().expect("the standard [pretrain] parses");
     let run = serde_json::to_value(&run).expect("serialisable");

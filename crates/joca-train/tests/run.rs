@@ -4,11 +4,13 @@
 mod common;
 
 use common::{poison_first_tensor, snapshot};
+use joca_camera::LensModel;
 use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_train::{
-    DesignSpec, FixedCamera, Method, PerturbationMutation, PerturbationScore, PerturbationSteps,
-    RealConfig, RunConfig, RunEvent, Scenario, SearchTies, Source, TestController, TrainError, run,
+    DesignSpec, FNumberRange, FixedCamera, Method, PerturbationMutation, PerturbationScore,
+    PerturbationSteps, RealConfig, RunConfig, RunEvent, Scenario, SearchTies, Source,
+    TestController, TrainError, run,
 };
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -42,6 +44,8 @@ fn tiny(method: Method) -> RunConfig {
         // Small frames for a fast test: 120 × 90 for a 4:3 sensor.
         input: DetectorInput { short_px: 90, long_max_px: 160, resampler: Resampler::Bilinear },
         hardware_mutation: Default::default(),
+        lens: Default::default(),
+        f_number: Default::default(),
         train_maps: 2,
         max_speed_mps: 15.0,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
@@ -161,8 +165,13 @@ fn every_method_runs() {
     // A design panel's cell: ours with the hardware held to a given design.
     let mut cfg = tiny(Method::Joca);
     cfg.generations = 1;
-    cfg.design =
-        Some(DesignSpec { sensor: "IMX546".into(), focal_length_mm: 5.0, x_m: 1.0, z_m: 1.5 });
+    cfg.design = Some(DesignSpec {
+        sensor: "IMX546".into(),
+        focal_length_mm: 5.0,
+        x_m: 1.0,
+        z_m: 1.5,
+        f_number: None,
+    });
     let r = run(&cfg, &dir.path().join("panel"), false, &mut go).unwrap();
     assert_eq!((r.design.sensor.as_str(), r.design.focal_length_mm), ("IMX546", 5.0));
     assert!(!r.design.optimised);
@@ -178,6 +187,24 @@ fn every_method_runs() {
         designs.iter().all(|d| d["sensor"] == "IMX546" && d["focal_length_mm"] == 5.0),
         "{designs:?}"
     );
+    // The aperture as a gene, through a thin lens: each candidate's f-number within the range,
+    // and the chosen one recorded (f/16 alone is left out of the records).
+    let mut cfg = tiny(Method::Joca);
+    cfg.generations = 1;
+    cfg.lens = LensModel::Thin;
+    cfg.f_number = FNumberRange { min: 1.4, max: 8.0 };
+    let r = run(&cfg, &dir.path().join("aperture"), false, &mut go).unwrap();
+    let n = r.design.f_number.expect("an f-number below 16 is recorded");
+    assert!((1.4..=8.0).contains(&n), "f/{n}");
+    let events = std::fs::read_to_string(dir.path().join("aperture/events.jsonl")).unwrap();
+    let apertures: Vec<f64> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v.get("candidate").is_some())
+        .map(|v| v["design"]["f_number"].as_f64().unwrap())
+        .collect();
+    assert_eq!(apertures.len(), cfg.population);
+    assert!(apertures.iter().all(|n| (1.4..=8.0).contains(n)), "{apertures:?}");
     // The frozen detector needs weights to freeze.
     let e = run(&tiny(Method::FrozenDetector), &dir.path().join("f"), false, &mut go)
         .unwrap_err()
@@ -291,7 +318,7 @@ fn a_run_stopped_at_every_checkpoint_resumes_to_the_uninterrupted_run_byte_for_b
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 19] = [
+    let cases: [(Edit, &str); 23] = [
         (
             |c| {
                 c.design = Some(DesignSpec {
@@ -299,6 +326,7 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
                     focal_length_mm: 30.0,
                     x_m: 0.4,
                     z_m: 1.6,
+                    f_number: None,
                 })
             },
             "run.design.focal_length_mm = 30 is invalid: 1 to 10 mm (the paper's design space)",
@@ -310,11 +338,40 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
                     focal_length_mm: 3.0,
                     x_m: 0.4,
                     z_m: 1.6,
+                    f_number: None,
                 })
             },
             "run.design.sensor = \"nope\" is invalid: a catalogue sensor: ",
         ),
         (|c| c.max_speed_mps = f64::NAN, "run.max_speed_mps = NaN is invalid: 0 to 40"),
+        (
+            |c| c.f_number = FNumberRange { min: 2.0, max: 16.0 },
+            "run.f_number = { min = 2, max = 16 } is invalid: 16 to 16 with lens = \"pinhole\" \
+             (the pinhole has the calibration's light); set lens = \"thin\" to search the \
+             aperture",
+        ),
+        (
+            |c| {
+                c.lens = LensModel::Thin;
+                c.f_number = FNumberRange { min: 0.5, max: 16.0 };
+            },
+            "run.f_number.min = 0.5 is invalid: 1 to 32, min at most max",
+        ),
+        (
+            |c| {
+                c.lens = LensModel::Thin;
+                c.f_number = FNumberRange { min: 8.0, max: 4.0 };
+            },
+            "run.f_number.max = 4 is invalid: 1 to 32, min at most max",
+        ),
+        (
+            |c| {
+                c.lens = LensModel::Thin;
+                c.source = Source::Folder("/data/rec".into());
+            },
+            "run.lens = \"thin\" is invalid: \"pinhole\" with a recording (recorded frames have \
+             no depth to defocus by)",
+        ),
         (|c| c.max_speed_mps = -5.0, "run.max_speed_mps = -5 is invalid: 0 to 40"),
         (|c| c.detector.width = 0, "run.detector.width = 0 is invalid: 4 to 128"),
         (|c| c.detector.width = 100_000, "run.detector.width = 100000 is invalid: 4 to 128"),

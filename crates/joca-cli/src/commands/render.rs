@@ -205,13 +205,14 @@ fn optics(args: &Args, sensor: &joca_camera::Sensor) -> Result<(Option<Lens>, We
 /// Runs `joca render`.
 pub fn run(args: &Args) -> Result<()> {
     let (sensor, input, fixed) = checked(args)?;
+    let (lens, weather) = optics(args, sensor)?;
     let design = CameraDesign {
         x_m: args.x,
         z_m: args.z,
         focal_length_mm: args.focal_mm,
         sensor_index: sensor.index,
+        f_number: lens.map_or(CALIBRATION_F_NUMBER, |l| l.f_number),
     };
-    let (lens, weather) = optics(args, sensor)?;
     let camera = PinholeCamera { lens, ..design.pinhole(&input) };
     let config = SimConfig {
         map_seed: args.map_seed,

@@ -50,6 +50,9 @@ struct PanelEntry {
     x_m: Option<f64>,
     #[serde(default)]
     z_m: Option<f64>,
+    /// Lens f-number with the genes (absent: the calibration's f/16).
+    #[serde(default)]
+    f_number: Option<f64>,
 }
 
 /// One design of a resolved panel.
@@ -102,13 +105,19 @@ impl PanelEntry {
     fn spec(&self) -> Result<DesignSpec> {
         let genes = (&self.sensor, self.focal_length_mm, self.x_m, self.z_m);
         let spec = match (self.camera, genes) {
-            (Some(camera), (None, None, None, None)) => DesignSpec::of(&camera.design()),
-            (None, (Some(sensor), Some(f), Some(x), Some(z))) => {
-                DesignSpec { sensor: sensor.clone(), focal_length_mm: f, x_m: x, z_m: z }
+            (Some(camera), (None, None, None, None)) if self.f_number.is_none() => {
+                DesignSpec::of(&camera.design())
             }
+            (None, (Some(sensor), Some(f), Some(x), Some(z))) => DesignSpec {
+                sensor: sensor.clone(),
+                focal_length_mm: f,
+                x_m: x,
+                z_m: z,
+                f_number: self.f_number,
+            },
             _ => bail!(
                 "give either `camera` (flir or basler) or all of `sensor`, `focal_length_mm`, \
-                 `x_m` and `z_m`"
+                 `x_m` and `z_m` (and optionally `f_number`)"
             ),
         };
         check(&spec)?;
@@ -172,6 +181,7 @@ fn from_run(dir: &Path, id: &str) -> Result<PanelDesign> {
         focal_length_mm: summary.focal_length_mm,
         x_m: summary.x_m,
         z_m: summary.z_m,
+        f_number: summary.f_number,
     };
     check(&spec).with_context(|| format!("{}", path.display()))?;
     if !valid_id(id) {

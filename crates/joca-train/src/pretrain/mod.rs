@@ -74,7 +74,13 @@ pub struct EvalReport {
 /// nuScenes-like mount (DESIGN.md's baseline camera).
 pub fn reference_design() -> CameraDesign {
     let sensor_index = sensor_by_name("IMX172").map(|s| s.index).unwrap_or(19);
-    CameraDesign { x_m: 0.43, z_m: 1.65, focal_length_mm: 3.6, sensor_index }
+    CameraDesign {
+        x_m: 0.43,
+        z_m: 1.65,
+        focal_length_mm: 3.6,
+        sensor_index,
+        f_number: joca_core::optics::CALIBRATION_F_NUMBER,
+    }
 }
 
 #[derive(Debug, Serialize, Deserialize)]

@@ -93,9 +93,10 @@ pub(super) fn train(
     let c = cx.config.clone();
     let stretches = stretches(cx, scenes);
     let real = cx.real.clone();
-    let camera = design.pinhole(&c.input);
+    let camera = design.view(&c.input, c.lens);
     let formation = cx.formation.for_sensor(design.sensor());
-    let pitch = design.sensor().pixel_pitch_um;
+    // The pitch of Eq. 2–4 (the sensor's, with the aperture's light folded in).
+    let pitch = design.light_pitch_um();
     let sim = source(&real, &stretches[0]);
     let sensor = SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s());
     model.set_max_exposure(sensor.max_exposure_s);

@@ -63,7 +63,8 @@ impl Driver {
         frame_interval_s: f64,
     ) -> Self {
         model.reset_sequence();
-        let pixel_pitch_um = design.sensor().pixel_pitch_um;
+        // The pitch of Eq. 2–4 (the sensor's, with the aperture's light folded in).
+        let pixel_pitch_um = design.light_pitch_um();
         let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s);
         model.set_max_exposure(sensor.max_exposure_s);
         let mut control =
@@ -156,7 +157,7 @@ pub(super) fn test(
     out: Option<&Path>,
 ) -> Result<Tested, TrainError> {
     let c = cx.config.clone();
-    let camera = design.pinhole(&c.input);
+    let camera = design.view(&c.input, c.lens);
     let mut metrics = TaskMetrics::default();
     // The same frames scored per illumination (the tunnel exit and the day–night cycle are
     // where the paper claims a controller's gain).

@@ -4,7 +4,8 @@ use super::hardware::HardwareMutation;
 use super::method::{DesignSpec, FixedCamera};
 pub use super::source::{RealConfig, Source};
 use crate::TrainError;
-use joca_camera::{CameraDesign, CameraError, DetectorInput};
+use joca_camera::{CameraDesign, CameraError, DetectorInput, LensModel};
+use joca_core::optics::{CALIBRATION_F_NUMBER, F_NUMBER_RANGE};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
@@ -121,6 +122,16 @@ pub struct RunConfig {
     /// only, the best half kept: offspring cannot leave a sensor their parents share).
     #[serde(default)]
     pub hardware_mutation: HardwareMutation,
+    /// How every design's lens images the scene: `pinhole` (default: the paper's ideal pinhole
+    /// at f/16's light) or `thin` (a thin lens at the design's f-number, focused at its
+    /// hyperfocal distance: defocus and diffraction by depth, light ∝ 1/N²).
+    #[serde(default, skip_serializing_if = "is_pinhole")]
+    pub lens: LensModel,
+    /// The f-numbers the hardware GA may choose (`f_number = { min, max }`, f/1 to f/32;
+    /// default f/16 to f/16: the calibration's aperture, no gene). A range needs `lens = "thin"`.
+    /// Fixed cameras and panel designs keep their own (f/16 unless stated).
+    #[serde(default, skip_serializing_if = "FNumberRange::is_calibration")]
+    pub f_number: FNumberRange,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.
@@ -149,6 +160,33 @@ pub struct RunConfig {
     /// Which simulated objects every design is scored against (`[run.reference]`).
     #[serde(default)]
     pub reference: ReferenceConfig,
+}
+
+fn is_pinhole(model: &LensModel) -> bool {
+    *model == LensModel::Pinhole
+}
+
+/// The f-numbers the hardware search may choose.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FNumberRange {
+    /// Fastest allowed aperture.
+    pub min: f64,
+    /// Slowest allowed aperture.
+    pub max: f64,
+}
+
+impl Default for FNumberRange {
+    fn default() -> Self {
+        Self { min: CALIBRATION_F_NUMBER, max: CALIBRATION_F_NUMBER }
+    }
+}
+
+impl FNumberRange {
+    /// Whether this is the calibration's f/16 alone (no aperture gene).
+    pub fn is_calibration(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 /// The reference objects of the simulator's ground truth: every object of a class in the
@@ -317,6 +355,30 @@ impl RunConfig {
             }
         }
         check_detector(&self.detector, "run")?;
+        let (lo, hi) = F_NUMBER_RANGE;
+        let range = &format!("{lo} to {hi}, min at most max");
+        let f = self.f_number;
+        if !(f.min >= lo && f.min <= hi) {
+            return bad("f_number.min", f.min.to_string(), range);
+        }
+        if !(f.max >= f.min && f.max <= hi) {
+            return bad("f_number.max", f.max.to_string(), range);
+        }
+        if self.lens == LensModel::Thin && self.source.is_recording() {
+            return bad(
+                "lens",
+                "\"thin\"".into(),
+                "\"pinhole\" with a recording (recorded frames have no depth to defocus by)",
+            );
+        }
+        if self.lens == LensModel::Pinhole && !f.is_calibration() {
+            return bad(
+                "f_number",
+                format!("{{ min = {}, max = {} }}", f.min, f.max),
+                "16 to 16 with lens = \"pinhole\" (the pinhole has the calibration's light); set \
+                 lens = \"thin\" to search the aperture",
+            );
+        }
         if self.method == Method::FrozenDetector && self.detector_weights.is_empty() {
             return bad(
                 "detector_weights",

@@ -2,6 +2,7 @@
 //! the run records (`joca_record`).
 
 use joca_camera::{CameraDesign, CameraError, DesignSpace, sensor_by_name};
+use joca_core::optics::{CALIBRATION_F_NUMBER, F_NUMBER_RANGE};
 use serde::{Deserialize, Serialize};
 
 joca_core::named_enum! {
@@ -26,6 +27,7 @@ impl FixedCamera {
             z_m: 1.65,
             focal_length_mm: 3.6,
             sensor_index: sensor_by_name(name).map(|s| s.index).unwrap_or(0),
+            f_number: CALIBRATION_F_NUMBER,
         }
     }
 }
@@ -43,6 +45,9 @@ pub struct DesignSpec {
     pub x_m: f64,
     /// Height, m.
     pub z_m: f64,
+    /// Lens f-number (absent: the calibration's f/16).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub f_number: Option<f64>,
 }
 
 impl DesignSpec {
@@ -54,8 +59,10 @@ impl DesignSpec {
             z_m: self.z_m,
             focal_length_mm: self.focal_length_mm,
             sensor_index: sensor_by_name(&self.sensor)?.index,
+            f_number: self.f_number.unwrap_or(CALIBRATION_F_NUMBER),
         };
-        DesignSpace::synthetic().check(&design)?;
+        let (lo, hi) = F_NUMBER_RANGE;
+        DesignSpace::synthetic().with_f_numbers(lo, hi)?.check(&design)?;
         Ok(design)
     }
 
@@ -66,6 +73,7 @@ impl DesignSpec {
             focal_length_mm: design.focal_length_mm,
             x_m: design.x_m,
             z_m: design.z_m,
+            f_number: (design.f_number != CALIBRATION_F_NUMBER).then_some(design.f_number),
         }
     }
 }

@@ -31,7 +31,7 @@ use crate::control::TestController;
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub use config::{
-    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, PerturbationScore,
+    FNumberRange, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, PerturbationScore,
     PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, Source, TieBreak,
 };
 pub(crate) use config::{check_detector, check_input};
@@ -236,7 +236,10 @@ fn setup(
     model.set_clip_gradient(config.clip_gradient);
     model.set_acc_lr(config.acc_lr);
     let (real, space) = match source::open(&config.source, &config.real)? {
-        None => (None, DesignSpace::synthetic()),
+        None => {
+            let f = config.f_number;
+            (None, DesignSpace::synthetic().with_f_numbers(f.min, f.max)?)
+        }
         Some(train) => {
             // Without a test source the test plays the training recording itself: opening it a
             // second time would read (and, for Waymo, hold) every frame twice.

@@ -14,5 +14,6 @@ pub(super) fn summary(d: &CameraDesign, optimised: bool) -> DesignSummary {
         sensor_mm: (s.width_mm, s.height_mm),
         pixel_pitch_um: s.pixel_pitch_um,
         optimised,
+        f_number: (d.f_number != joca_core::optics::CALIBRATION_F_NUMBER).then_some(d.f_number),
     }
 }
