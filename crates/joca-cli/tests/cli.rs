@@ -526,6 +526,18 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
             "design = { sensor = \"IMX172\", focal_length_mm = 4.0, x_m = 0.5 }",
             "missing field `z_m`",
         ),
+        // The lens, its aperture range and the weather (issue 41).
+        ("lens = \"fisheye\"", "unknown variant `fisheye`, expected `pinhole` or `thin`"),
+        ("weather = \"snow\"", "unknown weather \"snow\"; allowed: \"clear\" or \"fog:V\""),
+        ("weather = \"fog:-3\"", "fog visibility_m = -3: allowed 10 to 100000 m"),
+        (
+            "lens = \"thin\"\nf_number = { min = 0.7, max = 16.0 }",
+            "run.f_number.min = 0.7 is invalid: 1 to 32, min at most max",
+        ),
+        (
+            "f_number = { min = 2.0, max = 16.0 }",
+            "run.f_number = { min = 2, max = 16 } is invalid: 16 to 16 with lens = \"pinhole\"",
+        ),
     ];
     for (line, message) in cases {
         std::fs::write(&cfg, format!("[run]\n{line}\n")).unwrap();

@@ -150,6 +150,22 @@ pub enum Weather {
 }
 
 impl Weather {
+    /// What a configuration may say.
+    pub const ALLOWED: &str = "\"clear\" or \"fog:V\" (fog of visibility V metres, 10 to 100000)";
+
+    /// Parses `clear` or `fog:V`, checking V.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let weather = match text {
+            "clear" => Weather::Clear,
+            _ => match text.strip_prefix("fog:").map(str::parse::<f64>) {
+                Some(Ok(visibility_m)) => Weather::Fog { visibility_m },
+                _ => return Err(format!("unknown weather {text:?}; allowed: {}", Self::ALLOWED)),
+            },
+        };
+        weather.check()?;
+        Ok(weather)
+    }
+
     /// Allowed fog visibility, metres: 10 m (dense fog) to 100 km (clear air's haze).
     pub const VISIBILITY_RANGE_M: (f64, f64) = (10.0, 100_000.0);
 
@@ -162,5 +178,27 @@ impl Weather {
             }
             _ => Ok(()),
         }
+    }
+}
+
+impl std::fmt::Display for Weather {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Weather::Clear => f.write_str("clear"),
+            Weather::Fog { visibility_m } => write!(f, "fog:{visibility_m}"),
+        }
+    }
+}
+
+impl serde::Serialize for Weather {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Weather {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(deserializer)?;
+        Weather::parse(&text).map_err(serde::de::Error::custom)
     }
 }

@@ -56,6 +56,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
         f_number: Some(2.0),
     });
     run.lens = joca_camera::LensModel::Thin;
+    run.weather = joca_sim::Weather::Fog { visibility_m: 300.0 };
     run.f_number = joca_train::FNumberRange { min: 1.4, max: 16.0 };
     let pretrain: PretrainConfig =
         table["pretrain"].clone().try_into().expect("the standard [pretrain] parses");

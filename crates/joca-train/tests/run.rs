@@ -7,6 +7,7 @@ use common::{poison_first_tensor, snapshot};
 use joca_camera::LensModel;
 use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision};
+use joca_sim::Weather;
 use joca_train::{
     DesignSpec, FNumberRange, FixedCamera, Method, PerturbationMutation, PerturbationScore,
     PerturbationSteps, RealConfig, RunConfig, RunEvent, Scenario, SearchTies, Source,
@@ -46,6 +47,7 @@ fn tiny(method: Method) -> RunConfig {
         hardware_mutation: Default::default(),
         lens: Default::default(),
         f_number: Default::default(),
+        weather: Default::default(),
         train_maps: 2,
         max_speed_mps: 15.0,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
@@ -318,7 +320,7 @@ fn a_run_stopped_at_every_checkpoint_resumes_to_the_uninterrupted_run_byte_for_b
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 23] = [
+    let cases: [(Edit, &str); 24] = [
         (
             |c| {
                 c.design = Some(DesignSpec {
@@ -363,6 +365,10 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
                 c.f_number = FNumberRange { min: 8.0, max: 4.0 };
             },
             "run.f_number.max = 4 is invalid: 1 to 32, min at most max",
+        ),
+        (
+            |c| c.weather = Weather::Fog { visibility_m: -5.0 },
+            "run.weather = \"fog:-5\" is invalid: fog visibility_m = -5: allowed 10 to 100000 m",
         ),
         (
             |c| {

@@ -9,7 +9,7 @@ use joca_core::optics::{CALIBRATION_F_NUMBER, F_NUMBER_RANGE};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
-use joca_sim::VisibilityRules;
+use joca_sim::{VisibilityRules, Weather};
 use serde::{Deserialize, Serialize};
 
 /// The highest ego top speed, m/s (144 km/h).
@@ -132,6 +132,11 @@ pub struct RunConfig {
     /// Fixed cameras and panel designs keep their own (f/16 unless stated).
     #[serde(default, skip_serializing_if = "FNumberRange::is_calibration")]
     pub f_number: FNumberRange,
+    /// The air of every training and test episode: `clear` (default) or `fog:V` (Koschmieder
+    /// fog of visibility V metres, 10 to 100000; the reference objects are unchanged, so a
+    /// fogged-out object is a miss).
+    #[serde(default, skip_serializing_if = "is_clear")]
+    pub weather: Weather,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.
@@ -160,6 +165,10 @@ pub struct RunConfig {
     /// Which simulated objects every design is scored against (`[run.reference]`).
     #[serde(default)]
     pub reference: ReferenceConfig,
+}
+
+fn is_clear(weather: &Weather) -> bool {
+    *weather == Weather::Clear
 }
 
 fn is_pinhole(model: &LensModel) -> bool {
@@ -363,6 +372,12 @@ impl RunConfig {
         }
         if !(f.max >= f.min && f.max <= hi) {
             return bad("f_number.max", f.max.to_string(), range);
+        }
+        if let Err(e) = self.weather.check() {
+            return bad("weather", format!("\"{}\"", self.weather), &e);
+        }
+        if self.weather != Weather::Clear && self.source.is_recording() {
+            return bad("weather", format!("\"{}\"", self.weather), "\"clear\" with a recording");
         }
         if self.lens == LensModel::Thin && self.source.is_recording() {
             return bad(

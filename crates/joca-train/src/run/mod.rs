@@ -289,6 +289,7 @@ fn simulator(
             max_speed_mps: config.max_speed_mps,
             illumination,
             visibility: config.reference.rules(),
+            weather: config.weather,
             ..SimConfig::default()
         }))
     }))
