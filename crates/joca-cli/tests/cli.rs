@@ -340,6 +340,7 @@ fn render_refuses_bad_names_and_impossible_mounts() {
         (&["--f-number", "2", "--focus-m", "0.003"][..], "--focus-m = 0.003: must exceed"),
         (&["--fog-visibility-m=-5"][..], "--fog-visibility-m = -5: allowed 10 to 100000 m"),
         (&["--focus-m", "5"][..], "--f-number"),
+        (&["--rain-mm-h=-1"][..], "--rain-mm-h = -1: allowed 0.1 to 200 mm/h"),
     ] {
         let mut args = vec!["render", "--frames", "1", "--out", o_str];
         args.extend_from_slice(flags);
@@ -528,7 +529,7 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
         ),
         // The lens, its aperture range and the weather (issue 41).
         ("lens = \"fisheye\"", "unknown variant `fisheye`, expected `pinhole` or `thin`"),
-        ("weather = \"snow\"", "unknown weather \"snow\"; allowed: \"clear\" or \"fog:V\""),
+        ("weather = \"snow\"", "unknown weather \"snow\"; allowed: \"clear\", \"fog:V\""),
         ("weather = \"fog:-3\"", "fog visibility_m = -3: allowed 10 to 100000 m"),
         (
             "lens = \"thin\"\nf_number = { min = 0.7, max = 16.0 }",

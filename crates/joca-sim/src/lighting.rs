@@ -147,20 +147,30 @@ pub enum Weather {
         /// Distance at which a black object keeps 5 % of its contrast, metres.
         visibility_m: f64,
     },
+    /// Rain of this rate: Marshall–Palmer drops, their extinction and their streaks
+    /// ([`crate::render::rain`]).
+    Rain {
+        /// Rain rate, mm/h.
+        rate_mm_h: f64,
+    },
 }
 
 impl Weather {
     /// What a configuration may say.
-    pub const ALLOWED: &str = "\"clear\" or \"fog:V\" (fog of visibility V metres, 10 to 100000)";
+    pub const ALLOWED: &str = "\"clear\", \"fog:V\" (fog of visibility V metres, 10 to 100000) \
+        or \"rain:R\" (rain of R mm/h, 0.1 to 200)";
 
-    /// Parses `clear` or `fog:V`, checking V.
+    /// Parses `clear`, `fog:V` or `rain:R`, checking V and R.
     pub fn parse(text: &str) -> Result<Self, String> {
-        let weather = match text {
-            "clear" => Weather::Clear,
-            _ => match text.strip_prefix("fog:").map(str::parse::<f64>) {
-                Some(Ok(visibility_m)) => Weather::Fog { visibility_m },
-                _ => return Err(format!("unknown weather {text:?}; allowed: {}", Self::ALLOWED)),
-            },
+        let value = |prefix: &str| text.strip_prefix(prefix).and_then(|v| v.parse::<f64>().ok());
+        let weather = if text == "clear" {
+            Weather::Clear
+        } else if let Some(visibility_m) = value("fog:") {
+            Weather::Fog { visibility_m }
+        } else if let Some(rate_mm_h) = value("rain:") {
+            Weather::Rain { rate_mm_h }
+        } else {
+            return Err(format!("unknown weather {text:?}; allowed: {}", Self::ALLOWED));
         };
         weather.check()?;
         Ok(weather)
@@ -176,6 +186,9 @@ impl Weather {
             Weather::Fog { visibility_m } if !(visibility_m >= lo && visibility_m <= hi) => {
                 Err(format!("fog visibility_m = {visibility_m}: allowed {lo} to {hi} m"))
             }
+            Weather::Rain { rate_mm_h } if !(0.1..=200.0).contains(&rate_mm_h) => {
+                Err(format!("rain rate_mm_h = {rate_mm_h}: allowed 0.1 to 200 mm/h"))
+            }
             _ => Ok(()),
         }
     }
@@ -186,6 +199,7 @@ impl std::fmt::Display for Weather {
         match self {
             Weather::Clear => f.write_str("clear"),
             Weather::Fog { visibility_m } => write!(f, "fog:{visibility_m}"),
+            Weather::Rain { rate_mm_h } => write!(f, "rain:{rate_mm_h}"),
         }
     }
 }

@@ -485,6 +485,16 @@ fn fog_and_defocus_keep_the_ground_truth_and_repeat_exactly() {
     };
     assert!(spread(&fog) < 0.8 * spread(&clear), "{} vs {}", spread(&fog), spread(&clear));
 
+    // Rain: the same ground truth, the same drops for every exposure of an instant (so the
+    // perturbation search compares exposures, not draws), and the same frame twice.
+    let rainy = world(Weather::Rain { rate_mm_h: 25.0 });
+    let short = FrameRequest { exposure_s: 2e-3, ..request };
+    let both = rainy.render_exposures(&cam, &short, &[2e-3, 10e-3]).unwrap();
+    assert_eq!(both[1].boxes, clear.boxes);
+    assert_eq!(both[0], rainy.render(&cam, &short).unwrap());
+    assert_eq!(both[1], rainy.render(&cam, &request).unwrap());
+    assert_ne!(both[1].hdr, clear.hdr);
+
     // 1.8 mm at 180 px focal length: 10 µm view pixels. f/1 focused at 0.3 m blurs the street.
     let lens = Lens { focal_length_mm: 1.8, f_number: 1.0, focus_m: 0.3 };
     let open = PinholeCamera { lens: Some(lens), ..cam };

@@ -103,6 +103,10 @@ pub struct Args {
     /// Fog of this visibility, m (10 to 100000; Koschmieder's law) [default: clear air].
     #[arg(long)]
     fog_visibility_m: Option<f64>,
+    /// Rain of this rate, mm/h (0.1 to 200; Marshall–Palmer drops: extinction and streaks)
+    /// [default: none].
+    #[arg(long, conflicts_with = "fog_visibility_m")]
+    rain_mm_h: Option<f64>,
     /// Fixed exposure time, ms (0.1 to 50); without it AverageAE controls exposure and gain.
     #[arg(long, requires = "gain_db")]
     exposure_ms: Option<f64>,
@@ -192,13 +196,15 @@ fn optics(args: &Args, sensor: &joca_camera::Sensor) -> Result<(Option<Lens>, We
         }
         None => None,
     };
-    let weather = match args.fog_visibility_m {
-        Some(visibility_m) => Weather::Fog { visibility_m },
-        None => Weather::Clear,
+    let weather = match (args.fog_visibility_m, args.rain_mm_h) {
+        (Some(visibility_m), _) => Weather::Fog { visibility_m },
+        (None, Some(rate_mm_h)) => Weather::Rain { rate_mm_h },
+        (None, None) => Weather::Clear,
     };
-    weather
-        .check()
-        .map_err(|e| anyhow::anyhow!("--{}", e.replace("fog visibility_m", "fog-visibility-m")))?;
+    weather.check().map_err(|e| {
+        let flag = e.replace("fog visibility_m", "fog-visibility-m");
+        anyhow::anyhow!("--{}", flag.replace("rain rate_mm_h", "rain-mm-h"))
+    })?;
     Ok((lens, weather))
 }
 
@@ -341,6 +347,9 @@ fn print_header(
     if let Some(v) = args.fog_visibility_m {
         println!("fog: visibility {v} m");
     }
+    if let Some(r) = args.rain_mm_h {
+        println!("rain: {r} mm/h");
+    }
 }
 
 /// Frame `k`'s COCO image entry, with joca's fields (time, settings, lens, fog).
@@ -366,6 +375,9 @@ fn coco_image(
     }
     if let Some(v) = args.fog_visibility_m {
         entry["fog_visibility_m"] = json!(v);
+    }
+    if let Some(r) = args.rain_mm_h {
+        entry["rain_mm_h"] = json!(r);
     }
     entry
 }

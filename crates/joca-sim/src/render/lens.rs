@@ -34,7 +34,12 @@ const BEHIND: f32 = 1.02;
 /// Applies Koschmieder's law with visibility `visibility_m` to `target` seen through `camera`,
 /// with airlight `airlight` (calibrated DN per channel).
 pub fn fog(target: &mut Target, camera: &PinholeCamera, visibility_m: f64, airlight: [f32; 3]) {
-    let beta = (20f64.ln() / visibility_m) as f32;
+    attenuate(target, camera, 20f64.ln() / visibility_m, airlight);
+}
+
+/// Koschmieder's law with extinction coefficient `beta_per_m` (fog's ln 20 / V, or rain's).
+pub fn attenuate(target: &mut Target, camera: &PinholeCamera, beta_per_m: f64, airlight: [f32; 3]) {
+    let beta = beta_per_m as f32;
     let (w, fx, fy) = (target.width, camera.fx_px as f32, camera.fy_px as f32);
     let (cx, cy) = (camera.cx_px as f32, camera.cy_px as f32);
     target.colour.par_chunks_mut(w * 3).zip(target.inv_depth.par_chunks(w)).enumerate().for_each(

@@ -22,6 +22,7 @@
 //! uses both (visible pixels over covered pixels is the visible fraction).
 
 pub mod lens;
+pub mod rain;
 mod raster;
 mod reach;
 

@@ -9,6 +9,7 @@ use joca_core::rng::SeedStreams;
 mod grid;
 mod pool;
 mod truth;
+mod weather;
 
 pub use grid::ShutterGrid;
 
@@ -218,9 +219,7 @@ impl Simulator {
         let view = self.view(episode, camera, time_s);
         render::render(&self.city, &view, target);
         // The air first, then the lens: fog acts along the ray, the blur on what reaches it.
-        if let Weather::Fog { visibility_m } = self.config.weather {
-            render::lens::fog(target, camera, visibility_m, view.lighting.sky(0.0));
-        }
+        self.air(target, camera, &view);
         if self.config.defocus_per_subframe {
             render::lens::defocus(target, camera);
         }
@@ -361,6 +360,10 @@ impl Simulator {
                 };
                 let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
                 let mut colours = self.integrate(&episode, camera, &grid, &weights, &mid);
+                if let Weather::Rain { rate_mm_h } = self.config.weather {
+                    let at = (request, rate_mm_h, shutters.as_slice());
+                    self.rain_streaks(&episode, camera, at, &mut colours, &mid);
+                }
                 if !self.config.defocus_per_subframe {
                     for colour in &mut colours {
                         render::lens::defocus_colour(colour, &mid.inv_depth, w, h, camera);

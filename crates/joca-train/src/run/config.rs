@@ -132,9 +132,10 @@ pub struct RunConfig {
     /// Fixed cameras and panel designs keep their own (f/16 unless stated).
     #[serde(default, skip_serializing_if = "FNumberRange::is_calibration")]
     pub f_number: FNumberRange,
-    /// The air of every training and test episode: `clear` (default) or `fog:V` (Koschmieder
-    /// fog of visibility V metres, 10 to 100000; the reference objects are unchanged, so a
-    /// fogged-out object is a miss).
+    /// The air of every training and test episode: `clear` (default), `fog:V` (Koschmieder
+    /// fog of visibility V metres, 10 to 100000) or `rain:R` (R mm/h, 0.1 to 200: Marshall–Palmer
+    /// drops' extinction and streaks); the reference objects are unchanged, so a fogged-out
+    /// object is a miss.
     #[serde(default, skip_serializing_if = "is_clear")]
     pub weather: Weather,
     /// Training towns.

@@ -275,6 +275,7 @@ fn bench_optics(times: &[f64], exposure_s: f64) -> Result<()> {
         ("f/1.4 focused at 1 m", lens(1.4, 1.0), Weather::Clear),
         ("f/1.4 focused at 0.3 m (all blurred)", lens(1.4, 0.3), Weather::Clear),
         ("fog, visibility 100 m", None, Weather::Fog { visibility_m: 100.0 }),
+        ("rain, 25 mm/h", None, Weather::Rain { rate_mm_h: 25.0 }),
     ];
     println!(
         "\nlens and weather, day {w}x{h}, 2 threads, the same {} frames, best of 3",

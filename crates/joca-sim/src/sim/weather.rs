@@ -1,0 +1,59 @@
+//! The weather's work: the air's extinction on every instant, and the streaks rain draws into
+//! each shutter-integrated frame.
+
+use super::{Episode, Simulator};
+use crate::lighting::Weather;
+use crate::render::{self, Target, View};
+use joca_core::rng::SeedStreams;
+use joca_core::{FrameRequest, PinholeCamera};
+
+impl Simulator {
+    /// The air between the camera and one instant's scene: fog's or rain's extinction and
+    /// airlight along every ray.
+    pub(super) fn air(&self, target: &mut Target, camera: &PinholeCamera, view: &View<'_>) {
+        match self.config.weather {
+            Weather::Clear => {}
+            Weather::Fog { visibility_m } => {
+                render::lens::fog(target, camera, visibility_m, view.lighting.sky(0.0));
+            }
+            Weather::Rain { rate_mm_h } => {
+                let beta = render::rain::extinction_per_m(rate_mm_h);
+                render::lens::attenuate(target, camera, beta, view.lighting.sky(0.0));
+            }
+        }
+    }
+
+    /// Draws the streaks of the instant's drops (the same drops for every shutter) into each
+    /// shutter's integrated colour, behind the scene's surfaces of the middle instant; `at` is
+    /// the request, the rain rate (mm/h) and the shutters (s).
+    pub(super) fn rain_streaks(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        (request, rate_mm_h, shutters): (&FrameRequest, f64, &[f64]),
+        colours: &mut [Vec<f32>],
+        mid: &Target,
+    ) {
+        // One draw of drops per (map, episode, instant in ms), whatever the exposures.
+        let instant = (request.episode << 20) | (request.time_s * 1e3).round() as u64;
+        let mut rng = SeedStreams::new(self.config.map_seed).indexed("rain", instant);
+        let drops = render::rain::drops(camera, rate_mm_h, &mut rng);
+        // A drop refracts the sky above and behind the camera (see render::rain).
+        let radiance = self.view(episode, camera, request.time_s).lighting.sky(0.5);
+        let (w, h) = (camera.width_px, camera.height_px);
+        for (colour, &shutter_s) in colours.iter_mut().zip(shutters) {
+            let mut target = Target {
+                width: w,
+                height: h,
+                colour: std::mem::take(colour),
+                inv_depth: mid.inv_depth.clone(),
+                id: Vec::new(),
+                coverage: Vec::new(),
+            };
+            for drop in &drops {
+                render::rain::streak(&mut target, camera, drop, shutter_s, radiance);
+            }
+            *colour = target.colour;
+        }
+    }
+}
