@@ -184,20 +184,8 @@ fn bench_render(repeats: usize) -> Result<()> {
     ];
     for (light, w, h) in cases {
         let sim = Simulator::new(SimConfig { illumination: Some(light), ..SimConfig::default() });
-        let camera = PinholeCamera {
-            width_px: w,
-            height_px: h,
-            fx_px: 3.6 * w as f64 / 6.2,
-            fy_px: 3.6 * h as f64 / 4.65,
-            cx_px: w as f64 / 2.0,
-            cy_px: h as f64 / 2.0,
-            mount_m: [0.43, 0.0, 1.65],
-            lens: None,
-        };
-        let requests: Vec<FrameRequest> = times
-            .iter()
-            .map(|&t| FrameRequest { episode: 1, time_s: t, exposure_s, motion_scale: 1.0 })
-            .collect();
+        let camera = imx172_behind_3_6_mm(w, h);
+        let requests = frames_at(&times, exposure_s);
         let subframes: usize = requests
             .iter()
             .map(|r| sim.render(&camera, r).map_or(0, |f| f.subframes as usize))
@@ -245,11 +233,10 @@ fn bench_render(repeats: usize) -> Result<()> {
     bench_optics(&times, exposure_s)
 }
 
-/// The lens and the weather against the ideal pinhole in clear air: 320×240 by day on 2
-/// threads, the same frames, ratios of one run.
-fn bench_optics(times: &[f64], exposure_s: f64) -> Result<()> {
-    let (w, h) = (320usize, 240usize);
-    let pinhole = PinholeCamera {
+/// The bench's camera: an IMX172 (6.2 × 4.65 mm) behind 3.6 mm at the nuScenes-like mount, an
+/// ideal pinhole at `w × h` px.
+fn imx172_behind_3_6_mm(w: usize, h: usize) -> PinholeCamera {
+    PinholeCamera {
         width_px: w,
         height_px: h,
         fx_px: 3.6 * w as f64 / 6.2,
@@ -258,11 +245,23 @@ fn bench_optics(times: &[f64], exposure_s: f64) -> Result<()> {
         cy_px: h as f64 / 2.0,
         mount_m: [0.43, 0.0, 1.65],
         lens: None,
-    };
-    let requests: Vec<FrameRequest> = times
+    }
+}
+
+/// Episode 1's frames at `times` with one exposure.
+fn frames_at(times: &[f64], exposure_s: f64) -> Vec<FrameRequest> {
+    times
         .iter()
         .map(|&t| FrameRequest { episode: 1, time_s: t, exposure_s, motion_scale: 1.0 })
-        .collect();
+        .collect()
+}
+
+/// The lens and the weather against the ideal pinhole in clear air: 320×240 by day on 2
+/// threads, the same frames, ratios of one run.
+fn bench_optics(times: &[f64], exposure_s: f64) -> Result<()> {
+    let (w, h) = (320usize, 240usize);
+    let pinhole = imx172_behind_3_6_mm(w, h);
+    let requests = frames_at(times, exposure_s);
     let lens = |n: f64, focus_m: f64| Some(Lens { focal_length_mm: 3.6, f_number: n, focus_m });
     let cases = [
         ("ideal pinhole, clear", None, Weather::Clear),
