@@ -18,10 +18,15 @@ def interval(xs):
 def cell(d):
     r = json.loads((d / "results.json").read_text())
     gens = defaultdict(list)
-    for line in (d / "events.jsonl").read_text().splitlines():
-        e = json.loads(line)
-        if "candidate" in e and "design" in e:
-            gens[e["generation"]].append(e["design"]["sensor"])
+    if (d / "events.jsonl").exists():
+        for line in (d / "events.jsonl").read_text().splitlines():
+            e = json.loads(line)
+            if "candidate" in e and "design" in e:
+                gens[e["generation"]].append(e["design"]["sensor"])
+    elif (d / "sensors_by_generation.json").exists():
+        # The compact copies under docs/results keep only each generation's sensors.
+        for g, sensors in json.loads((d / "sensors_by_generation.json").read_text()).items():
+            gens[int(g)] = sensors
     eg = r.get("exposure_gain_by_illumination", {})
     fall = None
     report = (d / "report.md").read_text() if (d / "report.md").exists() else ""
