@@ -21,6 +21,9 @@
 use super::{Flow, Gray};
 use rayon::prelude::*;
 
+mod packed;
+use packed::{Packed, interior_rows, unpack};
+
 /// Weights of the refinement energy.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineParams {
@@ -117,85 +120,6 @@ impl Terms {
             b2: -wc * t.iz * t.iy - g1 * t.ixy * t.ixz - g2 * t.iyy * t.iyz,
         }
     }
-}
-
-/// One colour `c` of the red–black ordering of a `w × h` image, packed: row `y` holds the pixels
-/// `x ≡ y + c (mod 2)` in order, from column 1, behind a zero border one column wide on each side
-/// and one row high above and below. Pixel `i` of row `y` (image `x = 2i + s`, `s = (y + c) mod
-/// 2`) then has its left, right, upper and lower neighbours (the other colour) at columns
-/// `i + s`, `i + s + 1` of row `y` and column `i + 1` of rows `y − 1`, `y + 1` of the other
-/// colour's plane: contiguous in `i`, so a half-sweep is a loop the compiler vectorises, and it
-/// writes one plane while reading the other, so rows update in parallel without a copy.
-#[derive(Debug, Clone)]
-struct Packed {
-    /// The image's width and height.
-    width: usize,
-    height: usize,
-    stride: usize,
-    data: Vec<f32>,
-}
-
-impl Packed {
-    fn stride(w: usize) -> usize {
-        w.div_ceil(2) + 2
-    }
-
-    /// First image column of colour `c` in row `y`, and the row's pixel count.
-    fn span(w: usize, y: usize, c: usize) -> (usize, usize) {
-        let s = (y + c) % 2;
-        (s, (w - s).div_ceil(2))
-    }
-
-    /// A plane of zeros for a `w × h` image.
-    fn zeros(w: usize, h: usize) -> Self {
-        let stride = Self::stride(w);
-        Self { width: w, height: h, stride, data: vec![0.0; stride * (h + 2)] }
-    }
-
-    /// The plane of colour `c` with pixel `k = y·w + x` set to `f(k)`, zero elsewhere.
-    fn from_fn(w: usize, h: usize, c: usize, f: impl Fn(usize) -> f32) -> Self {
-        let mut plane = Self::zeros(w, h);
-        let stride = plane.stride;
-        for y in 0..h {
-            let (s, count) = Self::span(w, y, c);
-            let row = &mut plane.data[(y + 1) * stride + 1..][..count];
-            for (i, d) in row.iter_mut().enumerate() {
-                *d = f(y * w + 2 * i + s);
-            }
-        }
-        plane
-    }
-
-    /// `count` values of buffer row `row` (image row `row − 1`) from buffer column `col`.
-    #[inline(always)]
-    fn slice(&self, row: usize, col: usize, count: usize) -> &[f32] {
-        &self.data[row * self.stride + col..][..count]
-    }
-}
-
-/// Writes the refined flow held in the packed planes `state[c] = (u, v)` of both colours into
-/// an image-order field, rows in parallel.
-fn unpack(state: &[(Packed, Packed); 2], field: &mut [[f32; 2]]) {
-    let (w, h, stride) = (state[0].0.width, state[0].0.height, state[0].0.stride);
-    debug_assert_eq!(field.len(), w * h);
-    field.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (c, (u, v)) in state.iter().enumerate() {
-            let (s, count) = Packed::span(w, y, c);
-            let (u, v) = (
-                &u.data[(y + 1) * stride + 1..][..count],
-                &v.data[(y + 1) * stride + 1..][..count],
-            );
-            for (i, (&u, &v)) in u.iter().zip(v).enumerate() {
-                row[2 * i + s] = [u, v];
-            }
-        }
-    });
-}
-
-/// The image rows of a plane (its border rows left out), to be filled in parallel.
-fn interior_rows(p: &mut Packed) -> rayon::slice::ChunksMut<'_, f32> {
-    let (stride, h) = (p.stride, p.height);
-    p.data[stride..][..h * stride].par_chunks_mut(stride)
 }
 
 /// The data terms of the pixels of one colour, packed as [`Packed`], one plane per field of
