@@ -19,7 +19,7 @@ use std::time::Instant;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// A built-in experiment (table1, ablation, sweep-weight, sweep-population, sweep-frequency,
-    /// real, controllers, ablation-panel, perturbation-panel) or the path of your own experiment TOML file.
+    /// real, controllers, ablation-panel, perturbation-panel, aperture, fog) or the path of your own experiment TOML file.
     name: String,
     /// Preset of every cell: quick, standard or paper.
     #[arg(long, default_value = "quick")]

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The experiments shipped with joca, by name.
-pub const EXPERIMENTS: [(&str, &str); 9] = [
+pub const EXPERIMENTS: [(&str, &str); 11] = [
     ("table1", include_str!("../../../../experiments/table1.toml")),
     ("ablation", include_str!("../../../../experiments/ablation.toml")),
     ("sweep-weight", include_str!("../../../../experiments/sweep-weight.toml")),
@@ -32,6 +32,8 @@ pub const EXPERIMENTS: [(&str, &str); 9] = [
     ("controllers", include_str!("../../../../experiments/controllers.toml")),
     ("ablation-panel", include_str!("../../../../experiments/ablation-panel.toml")),
     ("perturbation-panel", include_str!("../../../../experiments/perturbation-panel.toml")),
+    ("aperture", include_str!("../../../../experiments/aperture.toml")),
+    ("fog", include_str!("../../../../experiments/fog.toml")),
 ];
 
 #[derive(Debug, Deserialize)]

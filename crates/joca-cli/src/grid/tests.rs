@@ -22,6 +22,16 @@ fn every_built_in_experiment_resolves_with_every_preset() {
     assert_eq!(table1.cells.len(), 20);
     assert_eq!(table1.cells[0].spec.id, "flir-calibrated");
     assert_eq!(table1.cells[0].config.method, Method::FixedNeural);
+    // Issue 41's grids reach the run: the thin lens with and without the aperture gene, fog.
+    let aperture = resolve("aperture", "quick", None, 1).unwrap();
+    let lenses: Vec<_> =
+        aperture.cells.iter().map(|c| (c.config.lens, c.config.f_number)).collect();
+    assert!(lenses.iter().all(|(l, _)| *l == joca_camera::LensModel::Thin));
+    assert!(lenses.iter().any(|(_, f)| f.min == 1.4 && f.max == 16.0));
+    assert!(lenses.iter().any(|(_, f)| f.is_calibration()));
+    let fog = resolve("fog", "quick", None, 1).unwrap();
+    let foggy = fog.cells.iter().filter(|c| c.config.weather.to_string() == "fog:300").count();
+    assert_eq!((fog.cells.len(), foggy), (4, 2));
 }
 
 #[test]
