@@ -222,7 +222,7 @@ fn print_results(r: &RunResults, seconds: f64) {
         columns.extend([
             ("x (m)", format!("{:.2}", d.x_m)),
             ("z (m)", format!("{:.2}", d.z_m)),
-            ("f (mm)", format!("{:.2}", d.focal_length_mm)),
+            ("f (mm)", d.lens_label()),
         ]);
     }
     columns.extend([
