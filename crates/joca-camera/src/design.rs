@@ -75,14 +75,6 @@ impl CameraDesign {
         input.size_for(s.res_x, s.res_y)
     }
 
-    /// The pixel pitch of a sensor at the calibration aperture (f/16) that gathers as much light
-    /// per pixel as this design's: Eq. 2's (p/p0)² times the aperture's (N0/N)² is
-    /// ((p·N0/N)/p0)², and Eq. 3's noise follows from that signal, so image formation and the
-    /// pixel-size compensation of Eq. 4 take this pitch. The sensor's own pitch at f/16.
-    pub fn light_pitch_um(&self) -> f64 {
-        self.sensor().pixel_pitch_um * CALIBRATION_F_NUMBER / self.f_number
-    }
-
     /// The lens of this design focused at its hyperfocal distance (for the sensor's pixel: see
     /// [`Lens::at_hyperfocal`]).
     pub fn lens(&self) -> Lens {

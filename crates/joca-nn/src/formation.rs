@@ -26,6 +26,8 @@ pub struct Scene<'a> {
     pub height: usize,
     /// The sensor's pixel pitch, µm.
     pub pixel_pitch_um: f64,
+    /// The lens's light relative to the calibration aperture, (N0/N)² (1 at f/16).
+    pub light_factor: f64,
 }
 
 /// `[1, 3, H, W]` frame in DN (0–255, integer-valued in the forward pass) of `scene` under
@@ -58,7 +60,7 @@ pub fn form(
     let n = formation.noise_scale();
     let g0 = 10f64.powf(c.gain_db / 20.0);
     let gain_ratio = (gain_db / 20.0 * std::f64::consts::LN_10).exp() / g0; // 10^(dB/20) / G0
-    let area = (pixel_pitch_um / c.pixel_pitch_um).powi(2);
+    let area = (pixel_pitch_um / c.pixel_pitch_um).powi(2) * scene.light_factor;
     let scale = exposure_s / c.exposure_s * &gain_ratio * area; // [1]
     let i = i0 * scale.view([1, 1, 1, 1]);
     let sp = Tensor::from_slice(&c.sigma_p2.map(|v| (v * n) as f32))

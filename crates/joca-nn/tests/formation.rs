@@ -26,7 +26,14 @@ fn same_noise_sample_gives_the_same_frame() {
     let z = formation.input_normals(w, h, streams.stream("n").random());
     let e = Tensor::from_slice(&[7e-3f32]).set_requires_grad(true);
     let g = Tensor::from_slice(&[14.0f32]).set_requires_grad(true);
-    let scene = Scene { i0: i0.data(), normals: &z, width: w, height: h, pixel_pitch_um: 2.4 };
+    let scene = Scene {
+        i0: i0.data(),
+        normals: &z,
+        width: w,
+        height: h,
+        pixel_pitch_um: 2.4,
+        light_factor: 1.0,
+    };
     let frame = form(&scene, &e, &g, &formation, ClipGradient::Clamp, Device::Cpu);
     let ours: Vec<f32> =
         Vec::try_from(frame.squeeze_dim(0).permute([1, 2, 0]).contiguous().view([-1])).unwrap();
@@ -57,7 +64,14 @@ fn a_saturated_frame_passes_gradient_only_straight_through() {
     let i0 = HdrImage::from_vec(w, h, vec![200.0; w * h * 3]).unwrap();
     let formation = ImageFormation::new(Calibration::DEFAULT).unwrap();
     let z = vec![0.0f32; w * h * 3];
-    let scene = Scene { i0: i0.data(), normals: &z, width: w, height: h, pixel_pitch_um: 3.75 };
+    let scene = Scene {
+        i0: i0.data(),
+        normals: &z,
+        width: w,
+        height: h,
+        pixel_pitch_um: 3.75,
+        light_factor: 1.0,
+    };
     let grad = |clip| {
         // Four times the calibration exposure: 800 DN before clipping.
         let e = Tensor::from_slice(&[20e-3f32]).set_requires_grad(true);
@@ -71,4 +85,41 @@ fn a_saturated_frame_passes_gradient_only_straight_through() {
     // d(sum I)/dE = sum(I)/E with I = 800 DN in every value.
     let expected = (w * h * 3) as f64 * 800.0 / 20e-3;
     assert!((grad(ClipGradient::StraightThrough) / expected - 1.0).abs() < 1e-3);
+}
+
+/// An open aperture: the tensor formation with the scene's light factor (N0/N)² gives the frame
+/// joca-camera forms behind that lens, for the same noise sample.
+#[test]
+fn the_lens_light_factor_forms_the_same_frame_on_both_paths() {
+    let (w, h) = (31, 23);
+    let mut i0 = HdrImage::zeros(w, h);
+    for (k, v) in i0.data_mut().iter_mut().enumerate() {
+        *v = ((k * 104_729) % 97) as f32 * 0.5;
+    }
+    // f/2: 64× the light of f/16, so a 0.3 ms exposure lands mid-range.
+    let formation = ImageFormation::new(Calibration::DEFAULT).unwrap().with_f_number(2.0).unwrap();
+    assert_eq!(formation.light_factor(), 64.0);
+    let settings = DynamicSettings::new(0.3e-3, 6.0);
+    let streams = SeedStreams::new(9);
+    let reference = formation.form(&i0, settings, 3.75, &mut streams.stream("n"));
+    let z = formation.input_normals(w, h, streams.stream("n").random());
+    let scene = Scene {
+        i0: i0.data(),
+        normals: &z,
+        width: w,
+        height: h,
+        pixel_pitch_um: 3.75,
+        light_factor: formation.light_factor(),
+    };
+    let e = Tensor::from_slice(&[0.3e-3f32]);
+    let g = Tensor::from_slice(&[6.0f32]);
+    let frame = form(&scene, &e, &g, &formation, ClipGradient::Clamp, Device::Cpu);
+    let ours: Vec<f32> =
+        Vec::try_from(frame.squeeze_dim(0).permute([1, 2, 0]).contiguous().view([-1])).unwrap();
+    let mean = ours.iter().sum::<f32>() / ours.len() as f32;
+    // I0 averages 24 DN; (0.3/5)·10^(−4/20)·64 = 2.42 of it: about 58 DN.
+    assert!((mean - 58.0).abs() < 3.0, "mean {mean} DN");
+    let differ = ours.iter().zip(reference.data()).filter(|(a, b)| **a != f32::from(**b)).count();
+    assert!(ours.iter().zip(reference.data()).all(|(a, &b)| (a - f32::from(b)).abs() <= 1.0));
+    assert!(differ * 100 < ours.len(), "{differ} of {} differ", ours.len());
 }

@@ -208,6 +208,18 @@ impl ImageFormation {
         Self { native_px: Some((width.max(1), height.max(1))), ..self }
     }
 
+    /// The formation of `design`'s frames: its sensor's native grid, and its lens's light,
+    /// (N0/N)² of the calibration's (Eq. 2 at the design's aperture).
+    pub fn for_design(self, design: &crate::CameraDesign) -> Self {
+        let light_factor = (joca_core::optics::CALIBRATION_F_NUMBER / design.f_number).powi(2);
+        Self { light_factor, ..self.for_sensor(design.sensor()) }
+    }
+
+    /// The signal's factor for the lens's aperture, (N0/N)² (1 at the calibration's f/16).
+    pub fn light_factor(&self) -> f64 {
+        self.light_factor
+    }
+
     /// [`on_native_grid`](ImageFormation::on_native_grid) of `sensor`'s pixel grid.
     pub fn for_sensor(self, sensor: &Sensor) -> Self {
         self.on_native_grid(sensor.res_x, sensor.res_y)

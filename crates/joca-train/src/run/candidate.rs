@@ -94,9 +94,10 @@ pub(super) fn train(
     let stretches = stretches(cx, scenes);
     let real = cx.real.clone();
     let camera = design.view(&c.input, c.lens);
-    let formation = cx.formation.for_sensor(design.sensor());
-    // The pitch of Eq. 2–4 (the sensor's, with the aperture's light folded in).
-    let pitch = design.light_pitch_um();
+    let formation = cx.formation.for_design(design);
+    // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
+    // controller's whole range stays the camera's at every f-number).
+    let pitch = design.sensor().pixel_pitch_um;
     let sim = source(&real, &stretches[0]);
     let sensor = SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s());
     model.set_max_exposure(sensor.max_exposure_s);
@@ -162,6 +163,7 @@ pub(super) fn train(
             width: camera.width_px,
             height: camera.height_px,
             pixel_pitch_um: pitch,
+            light_factor: formation.light_factor(),
         };
         let exposure = decision.into_exposure();
         // The detector learns objects of at least TRAINING_MIN_BOX_PX; the fitness counts every

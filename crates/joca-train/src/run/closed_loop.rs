@@ -63,14 +63,15 @@ impl Driver {
         frame_interval_s: f64,
     ) -> Self {
         model.reset_sequence();
-        // The pitch of Eq. 2–4 (the sensor's, with the aperture's light folded in).
-        let pixel_pitch_um = design.light_pitch_um();
+        // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
+        // controller's whole range stays the camera's at every f-number).
+        let pixel_pitch_um = design.sensor().pixel_pitch_um;
         let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s);
         model.set_max_exposure(sensor.max_exposure_s);
         let mut control =
             test_control(cx.test_controller, cx.config.method.neural(), sensor, cx.ranges);
         let applied = control.start();
-        let formation = cx.formation.for_sensor(design.sensor());
+        let formation = cx.formation.for_design(design);
         Self { control, applied, previous: None, pixel_pitch_um, formation }
     }
 
