@@ -7,12 +7,13 @@
 
 mod config;
 mod frames;
+mod resume;
 mod spread;
 
 pub use config::{DataConfig, EvalConfig, ExperimentalConfig, OptimizerConfig, PretrainConfig};
 
 use crate::TrainError;
-use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
+use crate::checkpoint::{CheckpointDir, write_atomic};
 use crate::control::AverageControl;
 use crate::eval::{EvalSpec, evaluate};
 use frames::{Batch, Block, FRAMES_AHEAD, FrameStream, Repeats, Shot, World, frame_pool};
@@ -29,6 +30,7 @@ use joca_nn::detector::{
 use joca_nn::{AdamConfig, Engine};
 use joca_sim::{CityConfig, Illumination, SimConfig};
 use rand::Rng;
+use resume::{failed_step, start_or_resume, write_checkpoint};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -107,42 +109,9 @@ pub fn pretrain(
     let engine = Engine::cpu(config.trainer_threads());
     let streams = SeedStreams::new(config.seed);
     engine.seed(streams.stream("detector-init").random());
-    let adam = AdamConfig {
-        lr: config.optimizer.lr,
-        weight_decay: config.optimizer.weight_decay,
-        ..AdamConfig::DETECTOR
-    };
-    let mut model = DetectorModel::new(&engine, config.detector, adam);
-    model.set_class_weights(&config.experimental.class_weights);
-    model.set_regression(config.experimental.regression);
-    // bfloat16 only where the CPU has it: emulated, it is many times slower than float32.
-    let precision = config.precision.on_this_cpu();
-    model.set_precision(precision);
-    model.set_min_radius(i64::from(config.experimental.min_radius));
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
-    let mut start = 0;
-    let mut average = None;
-    let resumed_from = ckpt.existing().filter(|_| resume);
-    if let Some(dir) = &resumed_from {
-        let state: State = read_json(&dir.join("state.json"))?;
-        check_resume(&state.config, config, run_dir)?;
-        model.load_weights(&dir.join("detector.safetensors"))?;
-        model.load_optimizer(&dir.join("optimizer.safetensors"))?;
-        start = state.step;
-    } else if !resume && ckpt.existing().is_some() {
-        return Err(TrainError::Config {
-            field: "run directory".into(),
-            value: run_dir.display().to_string(),
-            allowed: "a directory without a checkpoint (pass --resume to continue it)".into(),
-        });
-    }
-    if config.optimizer.ema_decay > 0.0 {
-        let mut a = WeightAverage::new(&engine, &model, config.optimizer.ema_decay);
-        if let Some(dir) = &resumed_from {
-            a.load(&dir.join(AVERAGE_FILE))?;
-        }
-        average = Some(a);
-    }
+    let (mut model, mut average, start) = start_or_resume(config, &engine, &ckpt, run_dir, resume)?;
+    let precision = config.precision.on_this_cpu();
     let log_path = run_dir.join("events.jsonl");
     let mut log = std::fs::OpenOptions::new()
         .create(true)
@@ -228,27 +197,7 @@ pub fn pretrain(
                             "{}",
                             serde_json::json!({"step": step, "error": e.to_string()})
                         );
-                        // Checkpoints are written at block ends, so the last one is this
-                        // block's start; nothing of this block was written.
-                        return Err(match e {
-                            source @ joca_nn::NnError::NonFinite { .. } => {
-                                TrainError::PretrainDiverged {
-                                    frame: step,
-                                    checkpoint: ckpt.existing().map_or_else(
-                                        || "none yet: no block of designs had finished".to_owned(),
-                                        |d| {
-                                            format!(
-                                                "{}, after {} frames",
-                                                d.display(),
-                                                block.first_step
-                                            )
-                                        },
-                                    ),
-                                    source,
-                                }
-                            }
-                            e => e.into(),
-                        });
+                        return Err(failed_step(e, step, &ckpt, block.first_step));
                     }
                 };
                 train_s += clock.elapsed().as_secs_f64();
@@ -286,18 +235,7 @@ pub fn pretrain(
             }
             // Every design's state is rebuilt from the seed at a block's start, so a checkpoint
             // at a block's end is all a resumed run needs.
-            ckpt.write(|dir| {
-                model.save_weights(&dir.join("detector.safetensors"))?;
-                model.save_optimizer(&dir.join("optimizer.safetensors"))?;
-                if let Some(average) = &average {
-                    average.model().save_weights(&dir.join(AVERAGE_FILE))?;
-                }
-                let state = State { step, config: config.clone() };
-                let text = serde_json::to_string_pretty(&state).map_err(|e| {
-                    TrainError::Corrupt { path: "state.json".into(), reason: e.to_string() }
-                })?;
-                write_atomic(&dir.join("state.json"), &text)
-            })?;
+            write_checkpoint(&ckpt, &model, average.as_ref(), step, config)?;
             let _ = progress(&PretrainEvent::Checkpoint { step });
         }
         Ok(())
@@ -324,9 +262,6 @@ pub fn pretrain(
     )?;
     Ok(report)
 }
-
-/// The running weight average in a checkpoint.
-const AVERAGE_FILE: &str = "detector-average.safetensors";
 
 /// Scores the detector weights in `weights` (architecture read from the file) exactly as a
 /// pre-training run with `config` evaluates: reference camera, AverageAE, test town,
