@@ -2,6 +2,7 @@
 
 use super::hardware::HardwareMutation;
 use super::method::{DesignSpec, FixedCamera};
+pub use super::reference::{MAX_REFERENCE_RANGE_M, ReferenceConfig};
 pub use super::source::{RealConfig, Source};
 use crate::TrainError;
 use joca_camera::{CameraDesign, CameraError, DetectorInput, LensModel};
@@ -9,7 +10,7 @@ use joca_core::optics::{CALIBRATION_F_NUMBER, F_NUMBER_RANGE};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
-use joca_sim::{VisibilityRules, Weather};
+use joca_sim::Weather;
 use serde::{Deserialize, Serialize};
 
 /// The highest ego top speed, m/s (144 km/h).
@@ -196,46 +197,6 @@ impl FNumberRange {
     /// Whether this is the calibration's f/16 alone (no aperture gene).
     pub fn is_calibration(&self) -> bool {
         *self == Self::default()
-    }
-}
-
-/// The reference objects of the simulator's ground truth: every object of a class in the
-/// camera's view within the class's range and at least 15 % visible, at any size in pixels.
-/// A field left out of a `[run.reference]` table keeps its default.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ReferenceConfig {
-    /// Farthest vehicle, metres.
-    pub vehicle_m: f64,
-    /// Farthest walker, metres.
-    pub walker_m: f64,
-    /// Farthest traffic sign, metres.
-    pub traffic_sign_m: f64,
-}
-
-/// Longest reference range, metres (objects are drawn to 220 m).
-pub const MAX_REFERENCE_RANGE_M: f64 = 200.0;
-
-impl Default for ReferenceConfig {
-    fn default() -> Self {
-        let r = VisibilityRules::default();
-        Self {
-            vehicle_m: f64::from(r.vehicle_range_m),
-            walker_m: f64::from(r.walker_range_m),
-            traffic_sign_m: f64::from(r.sign_range_m),
-        }
-    }
-}
-
-impl ReferenceConfig {
-    /// The simulator's rules.
-    pub fn rules(&self) -> VisibilityRules {
-        VisibilityRules {
-            vehicle_range_m: self.vehicle_m as f32,
-            walker_range_m: self.walker_m as f32,
-            sign_range_m: self.traffic_sign_m as f32,
-            ..VisibilityRules::default()
-        }
     }
 }
 

@@ -20,6 +20,7 @@ mod hardware;
 pub use hardware::HardwareMutation;
 mod method;
 mod perturbation;
+mod reference;
 mod results;
 mod source;
 mod state;
