@@ -21,6 +21,7 @@
 //! per object, how many pixels its camera-facing faces cover before the depth test; ground truth
 //! uses both (visible pixels over covered pixels is the visible fraction).
 
+mod ground;
 pub mod lens;
 pub mod rain;
 mod raster;
@@ -30,6 +31,7 @@ use crate::city::City;
 use crate::geometry::{OrientedBox, Pose2, V3};
 use crate::lighting::{self, Lighting, RADIANCE_SCALE_DN};
 use crate::objects::{Material, Rgb};
+use ground::ground_and_sky;
 use joca_core::PinholeCamera;
 use raster::{Shade, Vertex};
 use reach::{Reach, hidden, screen_reach};
@@ -252,89 +254,6 @@ fn headlight(lamp: V3, heading: V3, p: V3, n: Option<V3>) -> f32 {
         None => (lamp.z - p.z).max(0.0) / d,
     };
     lighting::EGO_HEADLIGHT * cone * incidence / d2
-}
-
-fn ground_and_sky(
-    city: &City,
-    view: &View<'_>,
-    cam: &CameraFrame,
-    lamp: V3,
-    heading: V3,
-    target: &mut Target,
-) {
-    let w = target.width;
-    let light = &view.lighting;
-    let up_irradiance = light.sun_sky([0.0, 0.0, 1.0]);
-    let lights_on = light.lights_on();
-    let k = RADIANCE_SCALE_DN;
-    // Rightward slope of each column's view ray, once per view rather than once per pixel.
-    let slopes: Vec<f32> = (0..w).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx).collect();
-    let mut points = vec![(0.0f32, 0.0f32, 0.0f32); w];
-    for y in 0..target.height {
-        let b = (y as f32 + 0.5 - cam.cy) / cam.fy; // downward slope of the ray
-        let row = y * w;
-        let t = if b > 1e-6 { cam.origin.z / b } else { f32::INFINITY };
-        if t > GROUND_FAR_M {
-            let dir_z = -b / (1.0 + b * b).sqrt();
-            let sky = light.sky(dir_z.max(0.0));
-            for x in 0..w {
-                if target.inv_depth[row + x] == 0.0 {
-                    target.colour[(row + x) * 3..(row + x) * 3 + 3].copy_from_slice(&sky);
-                }
-            }
-            continue;
-        }
-        let inv_t = 1.0 / t;
-        ground_points(cam, t, &slopes, &mut points);
-        for (x, &(px, py, grain)) in points.iter().enumerate() {
-            if target.inv_depth[row + x] >= inv_t {
-                continue; // an object is nearer than the ground here
-            }
-            let albedo = city.ground_albedo_with(px, py, grain);
-            let (lamps, head) = if lights_on {
-                (city.lamp_irradiance(px, py), headlight(lamp, heading, V3::new(px, py, 0.0), None))
-            } else {
-                (0.0, 0.0)
-            };
-            let i = (row + x) * 3;
-            for ((out, rho), tint) in
-                target.colour[i..i + 3].iter_mut().zip(albedo).zip(lighting::LAMP_TINT)
-            {
-                *out = k * rho * (up_irradiance + lamps * tint + head);
-            }
-            target.inv_depth[row + x] = inv_t;
-            target.id[row + x] = 0;
-        }
-    }
-}
-
-/// Where the view rays of one image row meet the ground, at depth `t` (`slopes`: each column's
-/// rightward slope), and the ground's grain there: `(x, y, grain)` per column. The arithmetic
-/// per column is that of one pixel alone; vector units only do several columns at once (the
-/// AVX2 path gives the same bits as the portable one).
-#[allow(unsafe_code)] // calling a target-feature function once the CPU is known to have it
-fn ground_points(cam: &CameraFrame, t: f32, slopes: &[f32], out: &mut [(f32, f32, f32)]) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { ground_points_avx2(cam, t, slopes, out) };
-    }
-    ground_points_portable(cam, t, slopes, out);
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn ground_points_avx2(cam: &CameraFrame, t: f32, slopes: &[f32], out: &mut [(f32, f32, f32)]) {
-    ground_points_portable(cam, t, slopes, out);
-}
-
-#[inline(always)]
-fn ground_points_portable(cam: &CameraFrame, t: f32, slopes: &[f32], out: &mut [(f32, f32, f32)]) {
-    for (o, &a) in out.iter_mut().zip(slopes) {
-        let px = cam.origin.x + t * (cam.forward.x + a * cam.right.x);
-        let py = cam.origin.y + t * (cam.forward.y + a * cam.right.y);
-        *o = (px, py, crate::city::ground_grain(px, py));
-    }
 }
 
 /// The camera-facing faces of one box (`axes`: its [`OrientedBox::axes`]): corners, texture

@@ -1,5 +1,6 @@
 //! The rasteriser's shortcuts against the full computation.
 
+use super::ground::{ground_points, ground_points_portable};
 use super::*;
 use rand::Rng;
 
