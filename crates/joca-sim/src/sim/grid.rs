@@ -1,8 +1,10 @@
-//! The sub-frame grid that the frames of one instant share, and a centred shutter's weights on
-//! it; the frames integrated on it.
+//! The sub-frame grid that the frames of one instant share: how many cells a shutter needs
+//! (from the scene's image-space travel), a centred shutter's weights on it, and the frames
+//! integrated on it.
 
-use super::{Episode, Simulator, pool};
-use crate::render::Target;
+use super::{Episode, MAX_SUBFRAMES, Simulator, pool};
+use crate::geometry::V3;
+use crate::render::{self, CameraFrame, Target};
 use joca_core::PinholeCamera;
 use rayon::prelude::*;
 
@@ -189,6 +191,86 @@ impl Simulator {
         });
         pool::give(rendered);
         out
+    }
+}
+
+/// How finely a shutter is sampled: from the image-space travel of the scene.
+impl Simulator {
+    /// Number of sub-frames for a shutter from `t0` to `t1`, from the image-space travel of the
+    /// scene seen in `mid`: about one per pixel of the largest displacement, odd (so the middle
+    /// one falls on the shutter midpoint), at most [`MAX_SUBFRAMES`].
+    pub(super) fn subframes(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        t0: f64,
+        t1: f64,
+        mid: &Target,
+    ) -> usize {
+        if t1 <= t0 {
+            return 1;
+        }
+        let c0 = CameraFrame::new(camera, episode.ego.pose_at(t0));
+        let c1 = CameraFrame::new(camera, episode.ego.pose_at(t1));
+        let cm = CameraFrame::new(camera, episode.ego.pose_at(0.5 * (t0 + t1)));
+        let project = |c: &CameraFrame, p: V3| -> Option<(f32, f32)> {
+            let q = c.camera_from_world(p);
+            (q.z > render::NEAR_M).then(|| (c.cx + c.fx * q.x / q.z, c.cy + c.fy * q.y / q.z))
+        };
+        let mut travel = 0.0f32;
+        let mut measure = |a: Option<(f32, f32)>, b: Option<(f32, f32)>| {
+            if let (Some(a), Some(b)) = (a, b) {
+                travel = travel.max(((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt());
+            }
+        };
+        // Static scene: unproject a sparse grid of the middle view, reproject at both ends.
+        let step = 6;
+        for y in (step / 2..mid.height).step_by(step) {
+            for x in (step / 2..mid.width).step_by(step) {
+                let inv_z = mid.inv_depth[y * mid.width + x];
+                if inv_z <= 0.0 {
+                    continue;
+                }
+                let z = 1.0 / inv_z;
+                let a = (x as f32 + 0.5 - cm.cx) / cm.fx;
+                let b = (y as f32 + 0.5 - cm.cy) / cm.fy;
+                let p = cm.origin + cm.forward * z + cm.right * (a * z) + V3::new(0.0, 0.0, -b * z);
+                measure(project(&c0, p), project(&c1, p));
+            }
+        }
+        // Moving objects in view: their own motion too.
+        let mut seen: Vec<u32> = mid.id.iter().copied().filter(|&i| i > 0).collect();
+        seen.sort_unstable();
+        seen.dedup();
+        for id in seen {
+            let object = &self.city.objects[id as usize - 1];
+            if object.motion.is_static() {
+                continue;
+            }
+            for part in &object.parts {
+                let p0 = object.position_at(t0).apply(part.offset);
+                let p1 = object.position_at(t1).apply(part.offset);
+                measure(project(&c0, p0), project(&c1, p1));
+            }
+        }
+        let n = (travel.ceil() as usize).clamp(1, MAX_SUBFRAMES);
+        n | 1
+    }
+
+    /// The grid of sub-frames for shutters up to `longest_s` centred on `request.time_s`: about
+    /// one cell per pixel of the largest image-space travel over the longest shutter, odd, at
+    /// most [`MAX_SUBFRAMES`]. `mid` is the view at the centre.
+    pub(super) fn grid_for(
+        &self,
+        episode: &Episode,
+        camera: &PinholeCamera,
+        centre_s: f64,
+        longest_s: f64,
+        mid: &Target,
+    ) -> ShutterGrid {
+        let half = 0.5 * longest_s;
+        let cells = self.subframes(episode, camera, centre_s - half, centre_s + half, mid);
+        ShutterGrid::new(centre_s, longest_s, cells)
     }
 }
 
