@@ -50,9 +50,7 @@ impl Simulator {
                 id: Vec::new(),
                 coverage: Vec::new(),
             };
-            for drop in &drops {
-                render::rain::streak(&mut target, camera, drop, shutter_s, radiance);
-            }
+            render::rain::streaks(&mut target, camera, &drops, shutter_s, radiance);
             *colour = target.colour;
         }
     }
