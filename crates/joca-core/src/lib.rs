@@ -32,6 +32,7 @@ pub mod optics;
 pub mod output;
 pub mod rng;
 pub mod units;
+pub mod weather;
 
 pub use boxes::{Annotation, BBox, Class, Detection, TRAINING_MIN_BOX_PX, training_targets};
 pub use frame::{Frame, FrameRequest, FrameSource, PinholeCamera, SourceError};

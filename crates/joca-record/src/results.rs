@@ -1,17 +1,20 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
 use crate::{Method, Scenario, Source, TestController};
-use joca_camera::DetectorInput;
+use joca_camera::{DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
+use joca_core::weather::Weather;
 use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// The layout version of `results.json` this joca writes; readers refuse a newer one. Files
-/// without the field are version 0 (written before it existed): every field added since has a
-/// default, so they are read by the same reader (no `input` there means the older
-/// `render_scale` protocol, see [`RunResults::input_note`]).
-pub const RESULTS_FORMAT_VERSION: u32 = 1;
+/// The newest layout version of `results.json` this joca reads and writes; readers refuse a
+/// newer one. Files without the field are version 0 (written before it existed): every field
+/// added since has a default, so they are read by the same reader (no `input` there means the
+/// older `render_scale` protocol, see [`RunResults::input_note`]). Version 2 adds the lens, the
+/// weather and the design's f-number; a file that uses none of them is written as version 1,
+/// which a reader of version 1 reads correctly ([`RunResults::layout_version`]).
+pub const RESULTS_FORMAT_VERSION: u32 = 2;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -84,10 +87,24 @@ pub struct RunResults {
     /// in older runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub perturbation_ties: Option<SearchTies>,
+    /// How the designs' lenses imaged the scene (absent: the paper's ideal pinhole).
+    #[serde(default, skip_serializing_if = "is_pinhole")]
+    pub lens: LensModel,
+    /// The weather of training and test (absent: clear air).
+    #[serde(default, skip_serializing_if = "is_clear")]
+    pub weather: Weather,
     /// The best designs of training, re-scored on the validation town; the tested design is the
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub validation: Vec<Validated>,
+}
+
+fn is_pinhole(lens: &LensModel) -> bool {
+    *lens == LensModel::Pinhole
+}
+
+fn is_clear(weather: &Weather) -> bool {
+    *weather == Weather::Clear
 }
 
 /// How many perturbation searches ran in training, and in how many two or more members tied for
@@ -125,6 +142,16 @@ pub struct Validated {
 }
 
 impl RunResults {
+    /// The lowest layout version that holds this record: 2 where it uses a field of version 2
+    /// (a thin lens, weather, a design's f-number), else 1.
+    pub fn layout_version(&self) -> u32 {
+        let v2 = self.lens != LensModel::Pinhole
+            || self.weather != Weather::Clear
+            || self.design.f_number.is_some()
+            || self.validation.iter().any(|v| v.design.f_number.is_some());
+        if v2 { 2 } else { 1 }
+    }
+
     /// Refuses a layout newer than this joca reads, naming both versions.
     pub fn check_version(&self) -> Result<(), String> {
         if self.format_version > RESULTS_FORMAT_VERSION {
@@ -149,6 +176,19 @@ impl RunResults {
             (None, Some(s)) => format!("render scale {s} of each sensor's grid (an older run)"),
             (None, None) => "input size not recorded".to_owned(),
         }
+    }
+
+    /// The optics and the air beyond the paper's, for a report: `""`, or e.g. ` through a thin
+    /// lens, in fog:300`.
+    pub fn conditions_note(&self) -> String {
+        let mut note = String::new();
+        if self.lens == LensModel::Thin {
+            note.push_str(" through a thin lens (defocus and diffraction by depth)");
+        }
+        if self.weather != Weather::Clear {
+            note.push_str(&format!(", in {}", self.weather));
+        }
+        note
     }
 
     /// Whether the run was tested on recorded frames (the real-image mode).

@@ -210,6 +210,12 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
         assert!(e.contains("results.json") && e.contains("format_version 7 is newer"), "{e}");
-        assert!(e.contains("0 to 1"), "{e}");
+        assert!(e.contains("0 to 2"), "{e}");
+        // Layout 2 (lens, weather, f-number) is read.
+        value["format_version"] = 2.into();
+        value["weather"] = "fog:300".into();
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.weather.to_string()), (2, "fog:300".to_owned()));
     }
 }

@@ -114,7 +114,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
             r.source
         )
     } else {
-        "the test town".to_owned()
+        format!("the test town{}", r.conditions_note())
     };
     let _ = writeln!(
         md,

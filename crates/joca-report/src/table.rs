@@ -316,6 +316,8 @@ pub(crate) mod tests {
             denormals: None,
             cpu: String::new(),
             test_controller: None,
+            lens: Default::default(),
+            weather: Default::default(),
             perturbation_ties: None,
         }
     }

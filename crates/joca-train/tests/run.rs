@@ -155,6 +155,8 @@ fn every_method_runs() {
         cfg.generations = 1;
         let r = run(&cfg, &dir.path().join(method.name()), false, &mut go).unwrap();
         assert_eq!(r.method, method);
+        // Nothing of layout 2 (lens, weather, f-number) used: written as layout 1.
+        assert_eq!(r.format_version, 1);
         assert_eq!(r.design.optimised, method != Method::FixedNeural);
         assert!(r.test.frames == 3);
         // The same training budget for every method, the fixed camera included: population
@@ -195,9 +197,21 @@ fn every_method_runs() {
     cfg.generations = 1;
     cfg.lens = LensModel::Thin;
     cfg.f_number = FNumberRange { min: 1.4, max: 8.0 };
+    cfg.weather = Weather::Fog { visibility_m: 300.0 };
     let r = run(&cfg, &dir.path().join("aperture"), false, &mut go).unwrap();
     let n = r.design.f_number.expect("an f-number below 16 is recorded");
     assert!((1.4..=8.0).contains(&n), "f/{n}");
+    // The lens and the weather are recorded, and a report can say them.
+    assert_eq!((r.lens, r.weather, r.format_version), (LensModel::Thin, cfg.weather, 2));
+    let text = std::fs::read_to_string(dir.path().join("aperture/results.json")).unwrap();
+    assert!(
+        text.contains("\"lens\": \"thin\"") && text.contains("\"weather\": \"fog:300\""),
+        "{text}"
+    );
+    assert_eq!(
+        r.conditions_note(),
+        " through a thin lens (defocus and diffraction by depth), in fog:300"
+    );
     let events = std::fs::read_to_string(dir.path().join("aperture/events.jsonl")).unwrap();
     let apertures: Vec<f64> = events
         .lines()

@@ -2,9 +2,10 @@
 
 use crate::city::{City, CityConfig};
 use crate::ego::EgoTrajectory;
-use crate::lighting::{Illumination, Lighting, Weather};
+use crate::lighting::{Illumination, Lighting};
 use crate::render::{self, Target, View};
 use joca_core::rng::SeedStreams;
+use joca_core::weather::Weather;
 mod grid;
 mod pool;
 mod truth;

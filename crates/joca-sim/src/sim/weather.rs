@@ -2,9 +2,9 @@
 //! each shutter-integrated frame.
 
 use super::{Episode, Simulator};
-use crate::lighting::Weather;
 use crate::render::{self, Target, View};
 use joca_core::rng::SeedStreams;
+use joca_core::weather::Weather;
 use joca_core::{FrameRequest, PinholeCamera};
 
 impl Simulator {

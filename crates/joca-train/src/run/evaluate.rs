@@ -138,8 +138,8 @@ pub(super) fn test_design(
     let plan = Plan::test(&cx.config);
     let tested = closed_loop::test(cx, model, design, plan, out)?;
     let config = &cx.config;
-    Ok(RunResults {
-        format_version: joca_record::RESULTS_FORMAT_VERSION,
+    let mut results = RunResults {
+        format_version: 0,
         method: config.method,
         scenario: config.scenario,
         seed: config.seed,
@@ -165,8 +165,12 @@ pub(super) fn test_design(
         cpu: cpu_description(),
         test_controller: None,
         perturbation_ties: (state.ties.searches > 0).then_some(state.ties),
+        lens: config.lens,
+        weather: config.weather,
         validation,
-    })
+    };
+    results.format_version = results.layout_version();
+    Ok(results)
 }
 
 /// The CPU's model name (Linux: `/proc/cpuinfo`) and widest vector units, for `results.json`.
