@@ -3,10 +3,9 @@
 
 use crate::{draw, io};
 use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
 use joca_camera::{
     AccRanges, AverageAe, Calibration, CameraDesign, DesignSpace, DetectorInput, DynamicSettings,
-    ImageFormation, Resampler, sensor_by_name,
+    ImageFormation, sensor_by_name,
 };
 use joca_core::optics::{CALIBRATION_F_NUMBER, Lens};
 use joca_core::units::{ms_from_s, s_from_ms};
@@ -15,47 +14,8 @@ use joca_sim::{Illumination, SimConfig, Simulator, Weather};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
-/// Illumination schedule of the episode.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum Light {
-    /// Full daylight.
-    Day,
-    /// Night: lamps, lit windows, vehicle lights.
-    Night,
-    /// Abrupt day ↔ tunnel switches every 4 s.
-    Tunnel,
-    /// Gradual day → night → day over 24 s.
-    Cycle,
-}
-
-/// How a sensor's grid is resized to the detector input.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum ResamplerArg {
-    /// Two taps per axis, no anti-aliasing (the paper's detector transform).
-    Bilinear,
-    /// Overlap-weighted mean (binning).
-    Area,
-}
-
-impl From<ResamplerArg> for Resampler {
-    fn from(r: ResamplerArg) -> Self {
-        match r {
-            ResamplerArg::Bilinear => Resampler::Bilinear,
-            ResamplerArg::Area => Resampler::Area,
-        }
-    }
-}
-
-impl From<Light> for Illumination {
-    fn from(l: Light) -> Self {
-        match l {
-            Light::Day => Illumination::Day,
-            Light::Night => Illumination::Night,
-            Light::Tunnel => Illumination::Tunnel,
-            Light::Cycle => Illumination::Cycle,
-        }
-    }
-}
+mod choices;
+pub use choices::{Light, ResamplerArg};
 
 /// Arguments of `joca render`.
 #[derive(Debug, clap::Args)]

@@ -21,8 +21,10 @@
 use super::{Flow, Gray};
 use rayon::prelude::*;
 
+mod derivatives;
 mod packed;
-use packed::{Packed, interior_rows, unpack};
+use derivatives::Derivatives;
+use packed::{Packed, PackedTerms, interior_rows, terms_at, unpack};
 
 /// Weights of the refinement energy.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,58 +121,6 @@ impl Terms {
             b1: -wc * t.iz * t.ix - g1 * t.ixx * t.ixz - g2 * t.ixy * t.iyz,
             b2: -wc * t.iz * t.iy - g1 * t.ixy * t.ixz - g2 * t.iyy * t.iyz,
         }
-    }
-}
-
-/// The data terms of the pixels of one colour, packed as [`Packed`], one plane per field of
-/// [`Terms`] (fixed for the refinement).
-struct PackedTerms([Packed; 11]);
-
-impl PackedTerms {
-    /// The terms of the pixels of colour `c`, rows in parallel.
-    fn new(d: &Derivatives, c: usize, z2: f32) -> Self {
-        let (w, h) = (d.ix.width(), d.ix.height());
-        let mut planes = [(); 11].map(|()| Packed::zeros(w, h));
-        let [p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10] = &mut planes;
-        let r = interior_rows;
-        (r(p0), r(p1), r(p2), r(p3), r(p4), r(p5), r(p6), r(p7), r(p8), r(p9), r(p10))
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(y, (ix, iy, iz, ixx, ixy, iyy, ixz, iyz, n, n1, n2))| {
-                let (s, count) = Packed::span(w, y, c);
-                for i in 0..count {
-                    let t = d.terms(y * w + 2 * i + s, z2);
-                    let at = 1 + i;
-                    (ix[at], iy[at], iz[at], ixx[at], ixy[at], iyy[at]) =
-                        (t.ix, t.iy, t.iz, t.ixx, t.ixy, t.iyy);
-                    (ixz[at], iyz[at], n[at], n1[at], n2[at]) =
-                        (t.ixz, t.iyz, t.inv_n, t.inv_n1, t.inv_n2);
-                }
-            });
-        Self(planes)
-    }
-
-    /// The `count` pixels of image row `y`, one slice per field.
-    fn row(&self, y: usize, count: usize) -> [&[f32]; 11] {
-        self.0.each_ref().map(|p| p.slice(y + 1, 1, count))
-    }
-}
-
-/// Pixel `i` of a row of [`PackedTerms::row`].
-#[inline(always)]
-fn terms_at(t: &[&[f32]; 11], i: usize) -> Terms {
-    Terms {
-        ix: t[0][i],
-        iy: t[1][i],
-        iz: t[2][i],
-        ixx: t[3][i],
-        ixy: t[4][i],
-        iyy: t[5][i],
-        ixz: t[6][i],
-        iyz: t[7][i],
-        inv_n: t[8][i],
-        inv_n1: t[9][i],
-        inv_n2: t[10][i],
     }
 }
 
@@ -360,63 +310,6 @@ fn half_sweep<'a>(
                 vr[i] += omega * (target_v - vr[i]);
             }
         });
-}
-
-/// The images the data terms are made of, from `I0`, `I1` and the incoming flow `base`: the
-/// derivatives of the average of `I0` and the warped `I1`, and their difference and its
-/// derivatives.
-struct Derivatives {
-    ix: Gray,
-    iy: Gray,
-    iz: Gray,
-    ixx: Gray,
-    ixy: Gray,
-    iyy: Gray,
-    ixz: Gray,
-    iyz: Gray,
-}
-
-impl Derivatives {
-    fn new(i0: &Gray, i1: &Gray, base: &[[f32; 2]]) -> Self {
-        let (w, h) = (i0.width(), i0.height());
-        let n = w * h;
-        // I1 warped by the incoming flow, the average image, the temporal difference.
-        let mut warped = vec![0.0f32; n];
-        warped.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, v) in row.iter_mut().enumerate() {
-                let u = base[y * w + x];
-                *v = i1.sample(x as f32 + u[0], y as f32 + u[1]);
-            }
-        });
-        let average = Gray::new(
-            w,
-            h,
-            (0..n).into_par_iter().map(|k| 0.5 * (i0.data()[k] + warped[k])).collect(),
-        );
-        let iz =
-            Gray::new(w, h, (0..n).into_par_iter().map(|k| warped[k] - i0.data()[k]).collect());
-        let (ix, iy) = average.gradients();
-        let ((ixx, ixy), (_, iyy)) = (ix.gradients(), iy.gradients());
-        let (ixz, iyz) = iz.gradients();
-        Self { ix, iy, iz, ixx, ixy, iyy, ixz, iyz }
-    }
-
-    /// The linearised data terms of pixel `k`, normalised with `ζ² = z2`.
-    #[inline(always)]
-    fn terms(&self, k: usize, z2: f32) -> Terms {
-        Terms {
-            ix: self.ix.data()[k],
-            iy: self.iy.data()[k],
-            iz: self.iz.data()[k],
-            ixx: self.ixx.data()[k],
-            ixy: self.ixy.data()[k],
-            iyy: self.iyy.data()[k],
-            ixz: self.ixz.data()[k],
-            iyz: self.iyz.data()[k],
-            ..Terms::default()
-        }
-        .normalised(z2)
-    }
 }
 
 /// Refines `flow` (from `i0` to `i1`, same size as both) in place with `iterations`

@@ -28,6 +28,7 @@ mod bench;
 mod decode;
 mod loss;
 mod model;
+mod precision;
 
 pub use bench::{forward_flops, time_detector, time_training, training_step_times};
 pub use decode::decode;
@@ -90,48 +91,7 @@ impl Default for DetectorConfig {
     }
 }
 
-/// Floating-point type the network computes in (see the module documentation). bfloat16: on a
-/// CPU with AVX-512 BF16 a training step takes about 0.7–0.75× the float32 time (`joca bench
-/// detector`).
-pub use joca_core::compute::Precision;
-
-/// Whether libtorch computes bfloat16 natively here: the CPU has AVX-512 BF16 and the process
-/// runs libtorch's native kernels ([`crate::kernels`]; the AVX2 paths emulate bfloat16).
-/// Emulated, a training step took 17× the float32 time on a 2-core AVX2 EPYC (`joca bench
-/// detector`).
-pub fn native_bf16() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx512bf16")
-            && crate::kernels::chosen() == crate::kernels::CpuKernels::Native
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// What a [`Precision`] means to libtorch on this process.
-pub trait PrecisionExt {
-    /// The precision to compute in on this CPU: bfloat16 only where it is native
-    /// ([`native_bf16`]), float32 otherwise.
-    fn on_this_cpu(self) -> Precision;
-    /// The tensor type of activations.
-    fn kind(self) -> Kind;
-}
-
-impl PrecisionExt for Precision {
-    fn on_this_cpu(self) -> Precision {
-        if self == Precision::Bf16 && !native_bf16() { Precision::Fp32 } else { self }
-    }
-
-    fn kind(self) -> Kind {
-        match self {
-            Precision::Fp32 => Kind::Float,
-            Precision::Bf16 => Kind::BFloat16,
-        }
-    }
-}
+pub use precision::{Precision, PrecisionExt, native_bf16};
 
 /// A convolution without bias, 'same' padding, that runs in its input's floating-point type.
 #[derive(Debug)]

@@ -1,12 +1,13 @@
 //! The `[run]` table: every field of a joint run, checked once by [`RunConfig::validate`].
 
+pub use super::aperture::FNumberRange;
 use super::hardware::HardwareMutation;
 use super::method::{DesignSpec, FixedCamera};
 pub use super::reference::{MAX_REFERENCE_RANGE_M, ReferenceConfig};
 pub use super::source::{RealConfig, Source};
 use crate::TrainError;
 use joca_camera::{CameraDesign, CameraError, DetectorInput, LensModel};
-use joca_core::optics::{CALIBRATION_F_NUMBER, F_NUMBER_RANGE};
+use joca_core::optics::F_NUMBER_RANGE;
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
@@ -175,29 +176,6 @@ fn is_clear(weather: &Weather) -> bool {
 
 fn is_pinhole(model: &LensModel) -> bool {
     *model == LensModel::Pinhole
-}
-
-/// The f-numbers the hardware search may choose.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FNumberRange {
-    /// Fastest allowed aperture.
-    pub min: f64,
-    /// Slowest allowed aperture.
-    pub max: f64,
-}
-
-impl Default for FNumberRange {
-    fn default() -> Self {
-        Self { min: CALIBRATION_F_NUMBER, max: CALIBRATION_F_NUMBER }
-    }
-}
-
-impl FNumberRange {
-    /// Whether this is the calibration's f/16 alone (no aperture gene).
-    pub fn is_calibration(&self) -> bool {
-        *self == Self::default()
-    }
 }
 
 joca_core::named_enum! {

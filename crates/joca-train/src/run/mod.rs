@@ -12,6 +12,7 @@
 //! driving: the test, the validation, the showcases), [`results`] (what a run reports),
 //! [`timing`] (`joca bench step`).
 
+mod aperture;
 mod candidate;
 mod closed_loop;
 mod config;

@@ -1,6 +1,8 @@
 //! The red–black packing of the refinement's planes: each colour of the checkerboard in its own
-//! padded plane, so that a half-sweep reads one plane and writes the other in contiguous runs.
+//! padded plane (the flow and the data terms), so that a half-sweep reads one plane and writes the
+//! other in contiguous runs.
 
+use super::{Derivatives, Terms};
 use rayon::prelude::*;
 
 /// One colour `c` of the red–black ordering of a `w × h` image, packed: row `y` holds the pixels
@@ -80,4 +82,56 @@ pub(super) fn unpack(state: &[(Packed, Packed); 2], field: &mut [[f32; 2]]) {
 pub(super) fn interior_rows(p: &mut Packed) -> rayon::slice::ChunksMut<'_, f32> {
     let (stride, h) = (p.stride, p.height);
     p.data[stride..][..h * stride].par_chunks_mut(stride)
+}
+
+/// The data terms of the pixels of one colour, packed as [`Packed`], one plane per field of
+/// [`Terms`] (fixed for the refinement).
+pub(super) struct PackedTerms([Packed; 11]);
+
+impl PackedTerms {
+    /// The terms of the pixels of colour `c`, rows in parallel.
+    pub(super) fn new(d: &Derivatives, c: usize, z2: f32) -> Self {
+        let (w, h) = (d.ix.width(), d.ix.height());
+        let mut planes = [(); 11].map(|()| Packed::zeros(w, h));
+        let [p0, p1, p2, p3, p4, p5, p6, p7, p8, p9, p10] = &mut planes;
+        let r = interior_rows;
+        (r(p0), r(p1), r(p2), r(p3), r(p4), r(p5), r(p6), r(p7), r(p8), r(p9), r(p10))
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(y, (ix, iy, iz, ixx, ixy, iyy, ixz, iyz, n, n1, n2))| {
+                let (s, count) = Packed::span(w, y, c);
+                for i in 0..count {
+                    let t = d.terms(y * w + 2 * i + s, z2);
+                    let at = 1 + i;
+                    (ix[at], iy[at], iz[at], ixx[at], ixy[at], iyy[at]) =
+                        (t.ix, t.iy, t.iz, t.ixx, t.ixy, t.iyy);
+                    (ixz[at], iyz[at], n[at], n1[at], n2[at]) =
+                        (t.ixz, t.iyz, t.inv_n, t.inv_n1, t.inv_n2);
+                }
+            });
+        Self(planes)
+    }
+
+    /// The `count` pixels of image row `y`, one slice per field.
+    pub(super) fn row(&self, y: usize, count: usize) -> [&[f32]; 11] {
+        self.0.each_ref().map(|p| p.slice(y + 1, 1, count))
+    }
+}
+
+/// Pixel `i` of a row of [`PackedTerms::row`].
+#[inline(always)]
+pub(super) fn terms_at(t: &[&[f32]; 11], i: usize) -> Terms {
+    Terms {
+        ix: t[0][i],
+        iy: t[1][i],
+        iz: t[2][i],
+        ixx: t[3][i],
+        ixy: t[4][i],
+        iyy: t[5][i],
+        ixz: t[6][i],
+        iyz: t[7][i],
+        inv_n: t[8][i],
+        inv_n1: t[9][i],
+        inv_n2: t[10][i],
+    }
 }
