@@ -143,36 +143,42 @@ pub fn streak(
     shutter_s: f64,
     radiance: [f32; 3],
 ) {
-    draw(target, &Swept::of(camera, drop, shutter_s), drop.z_m, radiance);
+    let swept = Swept::of(camera, drop, shutter_s);
+    draw((&mut target.colour, &target.inv_depth, target.width), &swept, drop.z_m, radiance);
 }
 
-fn draw(target: &mut Target, s: &Swept, z_m: f64, radiance: [f32; 3]) {
+/// A view's interleaved RGB colour, its inverse depths and its width in pixels.
+type Canvas<'a> = (&'a mut [f32], &'a [f32], usize);
+
+fn draw((colour, inv_depth, w): Canvas<'_>, s: &Swept, z_m: f64, radiance: [f32; 3]) {
     let inv_z = (1.0 / z_m) as f32;
-    let (w, h) = (target.width, target.height);
+    let h = inv_depth.len() / w.max(1);
     let cols = (s.x0.floor().max(0.0) as usize)..(s.x1.ceil().min(w as f64) as usize);
     for y in (s.y0.floor().max(0.0) as usize)..(s.y1.ceil().min(h as f64) as usize) {
         let oy = (s.y1.min(y as f64 + 1.0) - s.y0.max(y as f64)).max(0.0);
         for x in cols.clone() {
             let ox = (s.x1.min(x as f64 + 1.0) - s.x0.max(x as f64)).max(0.0);
             let p = y * w + x;
-            if target.inv_depth[p] > inv_z {
+            if inv_depth[p] > inv_z {
                 continue; // the scene is nearer than the drop here
             }
             let a = (s.density * ox * oy).min(1.0) as f32;
-            for (c, r) in target.colour[p * 3..p * 3 + 3].iter_mut().zip(radiance) {
+            for (c, r) in colour[p * 3..p * 3 + 3].iter_mut().zip(radiance) {
                 *c += a * (r - *c);
             }
         }
     }
 }
 
-/// Draws all `drops`' streaks: each one whose share of a pixel reaches [`VEIL_SHARE`] as
+/// Draws all `drops`' streaks into `colour` (interleaved RGB of `camera`'s view, whose inverse
+/// depths are `inv_depth`): each one whose share of a pixel reaches [`VEIL_SHARE`] as
 /// [`streak`] does; the fainter ones (most of the far and small drops) as a veil instead — their
 /// images' total area, by depth band, spread evenly over the view and blended into every pixel
 /// whose scene lies behind the band. The veil keeps the frame's expected light and drops only
 /// the sub-0.2 % texture (tested against drawing every drop).
 pub fn streaks(
-    target: &mut Target,
+    colour: &mut [f32],
+    inv_depth: &[f32],
     camera: &PinholeCamera,
     drops: &[Drop],
     shutter_s: f64,
@@ -183,13 +189,13 @@ pub fn streaks(
     for drop in drops {
         let s = Swept::of(camera, drop, shutter_s);
         if s.density >= VEIL_SHARE {
-            draw(target, &s, drop.z_m, radiance);
+            draw((&mut *colour, inv_depth, camera.width_px), &s, drop.z_m, radiance);
         } else {
             let band = (((drop.z_m - NEAREST_M) / band_m) as usize).min(VEIL_BANDS - 1);
             veil[band] += std::f64::consts::FRAC_PI_4 * s.d * s.d;
         }
     }
-    let pixels = (target.width * target.height) as f64;
+    let pixels = inv_depth.len() as f64;
     // Per band: its share of every pixel, and the inverse depth of its middle.
     let bands: Vec<(f32, f32)> = (0..VEIL_BANDS)
         .map(|b| {
@@ -197,8 +203,8 @@ pub fn streaks(
             ((veil[b] / pixels) as f32, (1.0 / z) as f32)
         })
         .collect();
-    for (px, &inv_depth) in target.colour.chunks_exact_mut(3).zip(&target.inv_depth) {
-        let a: f32 = bands.iter().filter(|b| inv_depth <= b.1).map(|b| b.0).sum();
+    for (px, &inv_z) in colour.chunks_exact_mut(3).zip(inv_depth) {
+        let a: f32 = bands.iter().filter(|b| inv_z <= b.1).map(|b| b.0).sum();
         if a > 0.0 {
             for (c, r) in px.iter_mut().zip(radiance) {
                 *c += a * (r - *c);
@@ -283,7 +289,7 @@ mod tests {
             streak(&mut exact, &cam, drop, 10e-3, radiance);
         }
         let mut veiled = scene();
-        streaks(&mut veiled, &cam, &drops, 10e-3, radiance);
+        streaks(&mut veiled.colour, &veiled.inv_depth, &cam, &drops, 10e-3, radiance);
         let drawn =
             drops.iter().filter(|d| Swept::of(&cam, d, 10e-3).density >= VEIL_SHARE).count();
         assert!(

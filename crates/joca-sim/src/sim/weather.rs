@@ -40,18 +40,8 @@ impl Simulator {
         let drops = render::rain::drops(camera, rate_mm_h, &mut rng);
         // A drop refracts the sky above and behind the camera (see render::rain).
         let radiance = self.view(episode, camera, request.time_s).lighting.sky(0.5);
-        let (w, h) = (camera.width_px, camera.height_px);
         for (colour, &shutter_s) in colours.iter_mut().zip(shutters) {
-            let mut target = Target {
-                width: w,
-                height: h,
-                colour: std::mem::take(colour),
-                inv_depth: mid.inv_depth.clone(),
-                id: Vec::new(),
-                coverage: Vec::new(),
-            };
-            render::rain::streaks(&mut target, camera, &drops, shutter_s, radiance);
-            *colour = target.colour;
+            render::rain::streaks(colour, &mid.inv_depth, camera, &drops, shutter_s, radiance);
         }
     }
 }
