@@ -91,3 +91,50 @@ macro_rules! named_enum {
         }
     };
 }
+
+/// serde for a type written in files as the text its `Display` prints and `$parse` reads back
+/// (`fn(&str) -> Result<Self, String>`; its error becomes serde's), such as `fog:300` or
+/// `folder:DIR`.
+///
+/// ```
+/// #[derive(Debug, PartialEq)]
+/// struct Level(u8);
+/// impl std::fmt::Display for Level {
+///     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+///         write!(f, "level:{}", self.0)
+///     }
+/// }
+/// impl Level {
+///     fn parse(text: &str) -> Result<Self, String> {
+///         let n = text.strip_prefix("level:").and_then(|n| n.parse().ok());
+///         n.map(Level).ok_or_else(|| format!("not a level: {text:?}"))
+///     }
+/// }
+/// joca_core::serde_as_text!(Level, Level::parse);
+/// assert_eq!(serde_json::to_string(&Level(3)).unwrap(), "\"level:3\"");
+/// assert_eq!(serde_json::from_str::<Level>("\"level:3\"").unwrap(), Level(3));
+/// assert!(serde_json::from_str::<Level>("\"high\"").unwrap_err().to_string().contains("not a level"));
+/// ```
+#[macro_export]
+macro_rules! serde_as_text {
+    ($Type:ty, $parse:path) => {
+        impl ::serde::Serialize for $Type {
+            fn serialize<S: ::serde::Serializer>(
+                &self,
+                serializer: S,
+            ) -> ::std::result::Result<S::Ok, S::Error> {
+                serializer.collect_str(self)
+            }
+        }
+
+        impl<'de> ::serde::Deserialize<'de> for $Type {
+            fn deserialize<D: ::serde::Deserializer<'de>>(
+                deserializer: D,
+            ) -> ::std::result::Result<Self, D::Error> {
+                let text =
+                    <::std::string::String as ::serde::Deserialize>::deserialize(deserializer)?;
+                $parse(&text).map_err(<D::Error as ::serde::de::Error>::custom)
+            }
+        }
+    };
+}

@@ -69,15 +69,4 @@ impl std::fmt::Display for Weather {
     }
 }
 
-impl serde::Serialize for Weather {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.collect_str(self)
-    }
-}
-
-impl<'de> serde::Deserialize<'de> for Weather {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        let text = String::deserialize(deserializer)?;
-        Weather::parse(&text).map_err(serde::de::Error::custom)
-    }
-}
+crate::serde_as_text!(Weather, Weather::parse);

@@ -3,7 +3,6 @@
 //! `results.json`, each by one parser and one printer.
 
 use joca_camera::MID_GREY_DN;
-use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
 /// Where frames come from (`source`, `test_source`): written `sim` (or empty), `folder:DIR` or
@@ -56,18 +55,7 @@ impl std::fmt::Display for Source {
     }
 }
 
-impl Serialize for Source {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.collect_str(self)
-    }
-}
-
-impl<'de> Deserialize<'de> for Source {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        let text = String::deserialize(deserializer)?;
-        Source::parse(&text).map_err(serde::de::Error::custom)
-    }
-}
+joca_core::serde_as_text!(Source, Source::parse);
 
 /// Which controller a re-test (`joca eval --controller`) drives the trained design with: the
 /// run's own, or AverageAE at a chosen frame mean — to measure what another exposure policy
@@ -121,18 +109,13 @@ impl TestController {
     }
 }
 
-impl Serialize for TestController {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.serialize_str(&self.name())
+impl std::fmt::Display for TestController {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
     }
 }
 
-impl<'de> Deserialize<'de> for TestController {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        let text = String::deserialize(deserializer)?;
-        TestController::from_name(&text).map_err(serde::de::Error::custom)
-    }
-}
+joca_core::serde_as_text!(TestController, TestController::from_name);
 
 #[cfg(test)]
 mod tests {
