@@ -51,7 +51,7 @@ fn tiny(method: Method) -> RunConfig {
         train_maps: 2,
         max_speed_mps: 15.0,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },
-        detector_weights: String::new(),
+        detector_weights: None,
         test_episodes: 1,
         test_frames_per_episode: 3,
         source: Source::Sim,
@@ -238,7 +238,7 @@ fn every_method_runs() {
     .unwrap();
     let mut cfg = tiny(Method::FrozenDetector);
     cfg.generations = 1;
-    cfg.detector_weights = weights.display().to_string();
+    cfg.detector_weights = Some(weights.clone());
     let r = run(&cfg, &dir.path().join("frozen"), false, &mut go).unwrap();
     assert_eq!(r.method, Method::FrozenDetector);
     assert_eq!(

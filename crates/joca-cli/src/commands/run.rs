@@ -201,10 +201,10 @@ fn clock(seconds: f64) -> String {
 /// Relative weight paths are tried from the working directory, then from the repository root
 /// (where the presets' shipped weights live), so `joca run` works from any directory.
 pub fn resolve_weights(cfg: &mut RunConfig) {
-    if !cfg.detector_weights.is_empty() && !Path::new(&cfg.detector_weights).exists() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(&cfg.detector_weights);
+    if let Some(weights) = cfg.detector_weights.as_mut().filter(|w| !w.exists()) {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(&*weights);
         if root.exists() {
-            cfg.detector_weights = root.display().to_string();
+            *weights = root;
         }
     }
 }

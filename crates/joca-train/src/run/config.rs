@@ -12,7 +12,8 @@ use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
 use joca_sim::Weather;
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::path::PathBuf;
 
 /// The highest ego top speed, m/s (144 km/h).
 pub const MAX_SPEED_MPS: f64 = 40.0;
@@ -147,8 +148,10 @@ pub struct RunConfig {
     /// Detector size.
     pub detector: DetectorConfig,
     /// Detector weights to start from (relative paths are relative to the working directory);
-    /// empty: train from scratch. `frozen-detector` requires them.
-    pub detector_weights: String,
+    /// absent: train from scratch. `frozen-detector` requires them. Older files wrote "none" as
+    /// `detector_weights = ""`, which still reads as absent.
+    #[serde(default, deserialize_with = "empty_is_none", skip_serializing_if = "Option::is_none")]
+    pub detector_weights: Option<PathBuf>,
     /// Test episodes on the test town, stratified by illumination (episode e: day, night,
     /// tunnel, cycle for e mod 4).
     pub test_episodes: u64,
@@ -334,10 +337,10 @@ impl RunConfig {
                  lens = \"thin\" to search the aperture",
             );
         }
-        if self.method == Method::FrozenDetector && self.detector_weights.is_empty() {
+        if self.method == Method::FrozenDetector && self.detector_weights.is_none() {
             return bad(
                 "detector_weights",
-                "\"\"".into(),
+                "none".into(),
                 "a weights file from `joca train-detector` (frozen-detector freezes it)",
             );
         }
@@ -380,4 +383,43 @@ fn design_error(e: CameraError, d: &DesignSpec) -> TrainError {
 #[derive(Serialize, Deserialize)]
 pub(super) struct ConfigFile {
     pub(super) run: RunConfig,
+}
+
+/// Reads an optional path where older files wrote an empty string for "none".
+fn empty_is_none<'de, D: Deserializer<'de>>(d: D) -> Result<Option<PathBuf>, D::Error> {
+    let text = Option::<String>::deserialize(d)?;
+    Ok(text.filter(|t| !t.is_empty()).map(PathBuf::from))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RunConfig;
+    use std::path::PathBuf;
+
+    /// The quick preset's `[run]` with `detector_weights` set to `value` (or removed).
+    fn with_weights(value: Option<&str>) -> RunConfig {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../presets/quick.toml");
+        let mut table: toml::Table =
+            toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let run = table.get_mut("run").and_then(|r| r.as_table_mut()).unwrap();
+        run.remove("detector_weights");
+        if let Some(v) = value {
+            run.insert("detector_weights".into(), v.into());
+        }
+        table.remove("run").unwrap().try_into().unwrap()
+    }
+
+    #[test]
+    fn detector_weights_are_a_path_or_none() {
+        assert_eq!(with_weights(None).detector_weights, None);
+        // Older files (and a user's override of a preset) write "none" as an empty string.
+        assert_eq!(with_weights(Some("")).detector_weights, None);
+        let some = with_weights(Some("w/d.safetensors"));
+        assert_eq!(some.detector_weights, Some(PathBuf::from("w/d.safetensors")));
+        // Written back, "none" leaves the field out and a path keeps it.
+        assert!(!toml::to_string(&with_weights(Some(""))).unwrap().contains("detector_weights"));
+        let text = toml::to_string(&some).unwrap();
+        assert!(text.contains("detector_weights = \"w/d.safetensors\""), "{text}");
+        assert_eq!(toml::from_str::<RunConfig>(&text).unwrap(), some);
+    }
 }

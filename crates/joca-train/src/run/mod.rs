@@ -231,8 +231,8 @@ fn setup(
     let formation =
         ImageFormation::new(cal)?.with_noise_scale(n)?.with_resampler(config.input.resampler);
     let mut model = JointModel::new(&engine, config.detector, ranges, formation);
-    if !config.detector_weights.is_empty() {
-        model.load_detector(Path::new(&config.detector_weights))?;
+    if let Some(weights) = &config.detector_weights {
+        model.load_detector(weights)?;
     }
     model.set_detector_trainable(config.method != Method::FrozenDetector);
     model.set_clip_gradient(config.clip_gradient);
