@@ -933,7 +933,10 @@ fn a_run_on_a_recorded_folder_reports_the_real_image_layout() {
     std::fs::write(&cfg, format!("{TINY_RUN}[run.real]\non_bad_frame = \"ignore\"\n")).unwrap();
     let o = joca(&args);
     assert!(
-        stderr(&o).contains("run.real.on_bad_frame") && stderr(&o).contains("\"stop\" or \"skip\""),
+        stderr(&o).contains("[run]")
+            && stderr(&o).contains("real.on_bad_frame")
+            && stderr(&o).contains("`skip` or `stop`")
+            && stderr(&o).contains(cfg.to_str().unwrap()),
         "{}",
         stderr(&o)
     );

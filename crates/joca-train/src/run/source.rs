@@ -12,11 +12,11 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields, default)]
 pub struct RealConfig {
     /// `srgb` (undo the sRGB curve of 8-bit frames) or `none` (frames are linear).
-    pub linearize: String,
+    pub linearize: Linearize,
     /// Exposure of frames without `exposure_s`, ms; 0 refuses such frames.
     pub default_exposure_ms: f64,
     /// A frame that cannot be read: `stop` the run naming it, or `skip` it with a warning.
-    pub on_bad_frame: String,
+    pub on_bad_frame: OnBadFrame,
     /// Waymo camera to use (`key.camera_name`; FRONT_LEFT = 2, the paper's).
     pub waymo_camera: i64,
 }
@@ -24,9 +24,9 @@ pub struct RealConfig {
 impl Default for RealConfig {
     fn default() -> Self {
         Self {
-            linearize: "srgb".into(),
+            linearize: Linearize::Srgb,
             default_exposure_ms: 0.0,
-            on_bad_frame: "stop".into(),
+            on_bad_frame: OnBadFrame::Stop,
             waymo_camera: joca_data::waymo::FRONT_LEFT,
         }
     }
@@ -41,9 +41,7 @@ impl RealConfig {
         };
         let cal = Calibration::DEFAULT;
         Ok(FolderConfig {
-            linearize: Linearize::from_name(&self.linearize).map_err(|_| {
-                bad("linearize", format!("{:?}", self.linearize), "\"srgb\" or \"none\"")
-            })?,
+            linearize: self.linearize,
             default_exposure_s: if self.default_exposure_ms > 0.0 {
                 Some(self.default_exposure_ms * 1e-3)
             } else if self.default_exposure_ms == 0.0 {
@@ -55,9 +53,7 @@ impl RealConfig {
                     "0 (none) or above",
                 ));
             },
-            on_bad_frame: OnBadFrame::from_name(&self.on_bad_frame).map_err(|_| {
-                bad("on_bad_frame", format!("{:?}", self.on_bad_frame), "\"stop\" or \"skip\"")
-            })?,
+            on_bad_frame: self.on_bad_frame,
             calibration_exposure_s: cal.exposure_s,
             calibration_gain_db: cal.gain_db,
             ..FolderConfig::default()
