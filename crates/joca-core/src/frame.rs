@@ -91,14 +91,10 @@ pub enum SourceError {
         /// What was out of range.
         reason: String,
     },
-    /// Reading or decoding recorded data failed.
-    #[error("cannot read {path}: {reason}")]
-    Read {
-        /// The file.
-        path: String,
-        /// What went wrong.
-        reason: String,
-    },
+    /// Reading or decoding recorded data failed: the reader's error (it names the file), with
+    /// its causes.
+    #[error(transparent)]
+    Recorded(Box<dyn std::error::Error + Send + Sync + 'static>),
 }
 
 /// Something that produces calibrated frames for a camera: the built-in simulator or a recorded

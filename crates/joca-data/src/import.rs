@@ -17,41 +17,19 @@
 //! longer exposure is emulated with, would be wrong across it. Timestamps are the frame number
 //! times the frame interval, from the first frame.
 
+use crate::DataError;
 use crate::folder::class_named;
 use joca_core::Class;
 use serde::Deserialize;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 mod labelme;
 pub use labelme::labelme;
 
-/// Why a label file or frame folder cannot be imported.
-#[derive(Debug)]
-pub struct ImportError {
-    /// The file (or folder).
-    pub path: PathBuf,
-    /// The line, for text formats.
-    pub line: Option<usize>,
-    /// What is wrong.
-    pub reason: String,
-}
-
-impl fmt::Display for ImportError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.line {
-            Some(line) => write!(f, "{}:{line}: {}", self.path.display(), self.reason),
-            None => write!(f, "{}: {}", self.path.display(), self.reason),
-        }
-    }
-}
-
-impl std::error::Error for ImportError {}
-
-fn err(path: &Path, line: Option<usize>, reason: impl Into<String>) -> ImportError {
-    ImportError { path: path.to_path_buf(), line, reason: reason.into() }
+fn err(path: &Path, line: Option<usize>, reason: impl Into<String>) -> DataError {
+    DataError::invalid_at(path, line, reason)
 }
 
 /// One frame of an import.
@@ -158,7 +136,7 @@ impl Import {
     /// its `file_name`, and `annotations.json` (see [`Import::annotations_json`]).
     /// Two frames with one `file_name` (two labelled frames naming one picture) are refused
     /// before anything is copied: one would overwrite the other under the other's labels.
-    pub fn write_folder(&self, dir: &Path, exposure_s: Option<f64>) -> Result<(), ImportError> {
+    pub fn write_folder(&self, dir: &Path, exposure_s: Option<f64>) -> Result<(), DataError> {
         let mut names = std::collections::HashMap::new();
         for f in &self.frames {
             if let Some(first) = names.insert(f.file_name.as_str(), &f.source) {
@@ -177,25 +155,22 @@ impl Import {
             let to = dir.join(&f.file_name);
             if let Some(parent) = to.parent() {
                 std::fs::create_dir_all(parent)
-                    .map_err(|e| err(parent, None, format!("cannot create: {e}")))?;
+                    .map_err(DataError::io(parent, "create the folder"))?;
             }
-            std::fs::copy(&f.source, &to).map_err(|e| {
-                err(&f.source, None, format!("cannot copy to {}: {e}", to.display()))
-            })?;
+            std::fs::copy(&f.source, &to)
+                .map_err(DataError::io(&f.source, format!("copy to {}", to.display())))?;
         }
         let path = dir.join("annotations.json");
         let text = serde_json::to_string_pretty(&self.annotations_json(exposure_s))
-            .map_err(|e| err(&path, None, e.to_string()))?;
-        joca_core::fs::write_atomic(&path, text.as_bytes())
-            .map_err(|e| err(&path, None, format!("cannot write: {e}")))
+            .map_err(DataError::json(&path, "serialisable as COCO JSON"))?;
+        joca_core::fs::write_atomic(&path, text.as_bytes()).map_err(DataError::io(&path, "write"))
     }
 }
 
 /// Files of `dir` with one of `extensions` whose stem is a frame number, in number order;
 /// refuses an empty folder and a gap in the numbering.
-fn numbered(dir: &Path, extensions: &[&str]) -> Result<Vec<(u64, PathBuf)>, ImportError> {
-    let entries =
-        std::fs::read_dir(dir).map_err(|e| err(dir, None, format!("cannot list: {e}")))?;
+fn numbered(dir: &Path, extensions: &[&str]) -> Result<Vec<(u64, PathBuf)>, DataError> {
+    let entries = std::fs::read_dir(dir).map_err(DataError::io(dir, "list the folder"))?;
     let mut files: Vec<(u64, PathBuf)> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
@@ -245,9 +220,12 @@ fn numbered(dir: &Path, extensions: &[&str]) -> Result<Vec<(u64, PathBuf)>, Impo
     Ok(files)
 }
 
-fn dimensions(path: &Path) -> Result<(u32, u32), ImportError> {
-    image::image_dimensions(path)
-        .map_err(|e| err(path, None, format!("cannot read the image: {e}")))
+fn dimensions(path: &Path) -> Result<(u32, u32), DataError> {
+    image::image_dimensions(path).map_err(|source| DataError::Image {
+        path: path.to_path_buf(),
+        what: "the image".into(),
+        source,
+    })
 }
 
 /// A box `[x0, y0, x1, y1]` (pixels) must be finite, of positive size, and inside the `w × h`
@@ -266,7 +244,7 @@ fn coco_box([x0, y0, x1, y1]: [f64; 4], (w, h): (u32, u32)) -> Result<[f64; 4], 
     Ok([x0, y0, x1 - x0, y1 - y0])
 }
 
-fn check_interval(frame_interval_s: f64, what: &Path) -> Result<(), ImportError> {
+fn check_interval(frame_interval_s: f64, what: &Path) -> Result<(), DataError> {
     if frame_interval_s.is_finite() && frame_interval_s > 0.0 && frame_interval_s <= 10.0 {
         Ok(())
     } else {
@@ -299,7 +277,7 @@ pub fn kitti_tracking(
     labels: &Path,
     images: &Path,
     frame_interval_s: f64,
-) -> Result<Import, ImportError> {
+) -> Result<Import, DataError> {
     check_interval(frame_interval_s, labels)?;
     let sequence = labels.file_stem().and_then(|s| s.to_str()).unwrap_or("sequence").to_owned();
     let files = numbered(images, &["png"])?;
@@ -319,8 +297,7 @@ pub fn kitti_tracking(
             sequence: sequence.clone(),
         });
     }
-    let text = std::fs::read_to_string(labels)
-        .map_err(|e| err(labels, None, format!("cannot read: {e}")))?;
+    let text = std::fs::read_to_string(labels).map_err(DataError::io(labels, "read"))?;
     for (k, line) in text.lines().enumerate() {
         let at = Some(k + 1);
         let fields: Vec<&str> = line.split_whitespace().collect();

@@ -20,7 +20,10 @@
 #![deny(missing_docs)]
 
 pub mod blur;
+mod error;
 pub mod flow;
 pub mod folder;
 pub mod import;
 pub mod waymo;
+
+pub use error::DataError;

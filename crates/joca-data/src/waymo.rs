@@ -10,7 +10,8 @@
 //! default, the paper's). Each segment is a sequence. The kept camera's JPEGs are held in memory
 //! (about 60 MB per 20 s segment).
 
-use crate::folder::{FolderConfig, FrameOrigin, OnBadFrame, RecordedFrame, Recording, read_err};
+use crate::DataError;
+use crate::folder::{FolderConfig, FrameOrigin, OnBadFrame, RecordedFrame, Recording, bad};
 use joca_core::{Annotation, BBox, Class, SourceError};
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::record::Field;
@@ -34,13 +35,13 @@ pub const FRONT_LEFT: i64 = 2;
 
 fn parquet_files(dir: &Path) -> Result<Vec<PathBuf>, SourceError> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| read_err(dir, e))?
+        .map_err(DataError::io(dir, "list the folder"))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "parquet"))
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(read_err(dir, "no .parquet files"));
+        return Err(bad(dir, "no .parquet files"));
     }
     Ok(files)
 }
@@ -55,14 +56,14 @@ fn for_each_row(
     columns: &[&str],
     mut f: impl FnMut(&Row<'_>) -> Result<(), SourceError>,
 ) -> Result<(), SourceError> {
-    let file = std::fs::File::open(path).map_err(|e| read_err(path, e))?;
-    let reader = SerializedFileReader::new(file).map_err(|e| read_err(path, e))?;
+    let file = std::fs::File::open(path).map_err(DataError::io(path, "open"))?;
+    let reader = SerializedFileReader::new(file).map_err(DataError::parquet(path))?;
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let fields = schema.root_schema().get_fields();
     let mut projected = Vec::new();
     for &c in columns {
         let field = fields.iter().find(|f| f.name() == c).ok_or_else(|| {
-            read_err(
+            bad(
                 path,
                 format!(
                     "no column `{c}` (is this a Waymo Open Dataset v2 file of the right component?)"
@@ -74,10 +75,10 @@ fn for_each_row(
     let projection = parquet::schema::types::Type::group_type_builder("schema")
         .with_fields(projected)
         .build()
-        .map_err(|e| read_err(path, e))?;
-    let iter = reader.get_row_iter(Some(projection)).map_err(|e| read_err(path, e))?;
+        .map_err(DataError::parquet(path))?;
+    let iter = reader.get_row_iter(Some(projection)).map_err(DataError::parquet(path))?;
     for row in iter {
-        let row = row.map_err(|e| read_err(path, e))?;
+        let row = row.map_err(DataError::parquet(path))?;
         let fields: Row<'_> = row.get_column_iter().map(|(n, v)| (n.as_str(), v)).collect();
         f(&fields)?;
     }
@@ -93,7 +94,7 @@ fn int(row: &Row<'_>, c: &str, path: &Path) -> Result<i64, SourceError> {
         Some(Field::UByte(v)) => Ok(i64::from(*v)),
         Some(Field::UShort(v)) => Ok(i64::from(*v)),
         Some(Field::UInt(v)) => Ok(i64::from(*v)),
-        other => Err(read_err(path, format!("column `{c}`: expected an integer, found {other:?}"))),
+        other => Err(bad(path, format!("column `{c}`: expected an integer, found {other:?}"))),
     }
 }
 
@@ -101,7 +102,7 @@ fn float(row: &Row<'_>, c: &str, path: &Path) -> Result<f64, SourceError> {
     match row.get(c).copied() {
         Some(Field::Float(v)) => Ok(f64::from(*v)),
         Some(Field::Double(v)) => Ok(*v),
-        other => Err(read_err(path, format!("column `{c}`: expected a number, found {other:?}"))),
+        other => Err(bad(path, format!("column `{c}`: expected a number, found {other:?}"))),
     }
 }
 
@@ -109,7 +110,7 @@ fn text(row: &Row<'_>, c: &str, path: &Path) -> Result<String, SourceError> {
     match row.get(c).copied() {
         Some(Field::Str(v)) => Ok(v.clone()),
         Some(Field::Bytes(v)) => Ok(String::from_utf8_lossy(v.data()).into_owned()),
-        other => Err(read_err(path, format!("column `{c}`: expected a string, found {other:?}"))),
+        other => Err(bad(path, format!("column `{c}`: expected a string, found {other:?}"))),
     }
 }
 
@@ -163,7 +164,7 @@ impl Recording {
                 let bytes = match row.get(IMAGE).copied() {
                     Some(Field::Bytes(b)) => b.data().to_vec(),
                     other => {
-                        return Err(read_err(
+                        return Err(bad(
                             &path,
                             format!("column `{IMAGE}`: expected JPEG bytes, found {other:?}"),
                         ));
@@ -174,7 +175,7 @@ impl Recording {
                     shutter
                 } else {
                     config.default_exposure_s.ok_or_else(|| {
-                        read_err(
+                        bad(
                             &path,
                             format!(
                                 "{label} has no usable exposure ({SHUTTER} = {shutter}); set a \
@@ -186,17 +187,12 @@ impl Recording {
                 let origin = FrameOrigin::Encoded { label: label.clone(), bytes: Arc::new(bytes) };
                 // The size comes from the JPEG's header; a frame that does not decode is handled
                 // as configured.
-                let size = match origin.dimensions() {
+                let size = match origin.dimensions("the JPEG") {
                     Ok(size) => size,
                     Err(e) => match config.on_bad_frame {
-                        OnBadFrame::Stop => {
-                            return Err(read_err(
-                                &path,
-                                format!("{label}: cannot decode the JPEG: {e}"),
-                            ));
-                        }
+                        OnBadFrame::Stop => return Err(e.into()),
                         OnBadFrame::Skip => {
-                            skipped.push(format!("{label}: {e}"));
+                            skipped.push(e.with_causes());
                             return Ok(());
                         }
                     },

@@ -12,8 +12,8 @@
 //! A file is written whole or not at all: to a temporary name next to it, then renamed.
 
 use super::Flow;
-use std::fmt;
-use std::path::{Path, PathBuf};
+use crate::DataError;
+use std::path::Path;
 
 /// The `.flo` magic number.
 pub const FLO_MAGIC: f32 = 202_021.25;
@@ -22,29 +22,12 @@ pub const UNKNOWN_FLOW: f32 = 1e9;
 /// Largest side a flow file may declare.
 const MAX_SIDE: usize = 1 << 15;
 
-/// Why a flow or disparity file cannot be read or written.
-#[derive(Debug)]
-pub struct FlowFileError {
-    /// The file.
-    pub path: PathBuf,
-    /// What is wrong with it.
-    pub reason: String,
-}
-
-impl fmt::Display for FlowFileError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.path.display(), self.reason)
-    }
-}
-
-impl std::error::Error for FlowFileError {}
-
-fn err(path: &Path, reason: impl Into<String>) -> FlowFileError {
-    FlowFileError { path: path.to_path_buf(), reason: reason.into() }
+fn err(path: &Path, reason: impl Into<String>) -> DataError {
+    DataError::invalid(path, reason)
 }
 
 /// Writes `flow` as a Middlebury `.flo` file.
-pub fn write_flo(path: &Path, flow: &Flow) -> Result<(), FlowFileError> {
+pub fn write_flo(path: &Path, flow: &Flow) -> Result<(), DataError> {
     let mut bytes = Vec::with_capacity(12 + 8 * flow.data().len());
     bytes.extend_from_slice(&FLO_MAGIC.to_le_bytes());
     bytes.extend_from_slice(&(flow.width() as i32).to_le_bytes());
@@ -53,7 +36,7 @@ pub fn write_flo(path: &Path, flow: &Flow) -> Result<(), FlowFileError> {
         bytes.extend_from_slice(&v[0].to_le_bytes());
         bytes.extend_from_slice(&v[1].to_le_bytes());
     }
-    joca_core::fs::write_atomic(path, &bytes).map_err(|e| err(path, format!("cannot write: {e}")))
+    joca_core::fs::write_atomic(path, &bytes).map_err(DataError::io(path, "write"))
 }
 
 /// A flow field whose vectors may be unknown (`None`).
@@ -68,8 +51,8 @@ fn known(v: [f32; 2]) -> Option<[f32; 2]> {
 }
 
 /// Reads a Middlebury `.flo` file; unknown vectors are `None`.
-pub fn read_flo(path: &Path) -> Result<KnownFlow, FlowFileError> {
-    let bytes = std::fs::read(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
+pub fn read_flo(path: &Path) -> Result<KnownFlow, DataError> {
+    let bytes = std::fs::read(path).map_err(DataError::io(path, "read"))?;
     if bytes.len() < 12 {
         return Err(err(path, format!("{} bytes: too short for a .flo header (12)", bytes.len())));
     }
@@ -108,8 +91,8 @@ pub fn read_flo(path: &Path) -> Result<KnownFlow, FlowFileError> {
 
 /// Reads a ground-truth disparity map (`.npy` or `.pfm`) as the flow `(−d, 0)` of the left
 /// image; unknown where `d` is not finite or not positive.
-pub fn read_disparity(path: &Path) -> Result<KnownFlow, FlowFileError> {
-    let bytes = std::fs::read(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
+pub fn read_disparity(path: &Path) -> Result<KnownFlow, DataError> {
+    let bytes = std::fs::read(path).map_err(DataError::io(path, "read"))?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let (w, h, d) = match ext.as_str() {
         "npy" => parse_npy(&bytes).map_err(|r| err(path, r))?,

@@ -142,35 +142,37 @@ impl Recording {
     /// Opens `dir/annotations.json` and checks every frame's header.
     pub fn open(dir: &Path, config: FolderConfig) -> Result<Self, SourceError> {
         let json_path = dir.join("annotations.json");
-        let text = std::fs::read_to_string(&json_path).map_err(|e| read_err(&json_path, e))?;
-        let coco: CocoFile = serde_json::from_str(&text).map_err(|e| read_err(&json_path, e))?;
+        let text =
+            std::fs::read_to_string(&json_path).map_err(DataError::io(&json_path, "read"))?;
+        let coco: CocoFile = serde_json::from_str(&text)
+            .map_err(DataError::json(&json_path, "a COCO annotations file"))?;
         let mut classes = HashMap::new();
         for c in &coco.categories {
-            classes.insert(c.id, class_of(c).map_err(|e| read_err(&json_path, e))?);
+            classes.insert(c.id, class_of(c).map_err(|e| bad(&json_path, e))?);
         }
         let mut boxes: HashMap<u64, Vec<Annotation>> = HashMap::new();
         let mut crowds: HashMap<u64, Vec<Annotation>> = HashMap::new();
         let mut sizes: HashMap<u64, (u32, u32)> = HashMap::new();
         for img in &coco.images {
             if sizes.insert(img.id, (img.width, img.height)).is_some() {
-                return Err(read_err(&json_path, format!("image id {} is declared twice", img.id)));
+                return Err(bad(&json_path, format!("image id {} is declared twice", img.id)));
             }
         }
         for a in &coco.annotations {
             let size = sizes.get(&a.image_id).copied().ok_or_else(|| {
-                read_err(
+                bad(
                     &json_path,
                     format!("an annotation has image_id {} that no image declares", a.image_id),
                 )
             })?;
             check_box(a.bbox, size).map_err(|why| {
-                read_err(
+                bad(
                     &json_path,
                     format!("an annotation of image {}: bbox {:?} {why}", a.image_id, a.bbox),
                 )
             })?;
             let class = *classes.get(&a.category_id).ok_or_else(|| {
-                read_err(
+                bad(
                     &json_path,
                     format!(
                         "an annotation of image {} has category_id {} that no category declares",
@@ -197,11 +199,11 @@ impl Recording {
         let mut skipped = Vec::new();
         let mut files = HashSet::new();
         for img in &coco.images {
-            let path = inside(dir, &img.file_name).map_err(|e| read_err(&json_path, e))?;
+            let path = inside(dir, &img.file_name).map_err(|e| bad(&json_path, e))?;
             // `a/./b.png` and `a/b.png` are one file: compare the normalised relative path.
             let normal: PathBuf = Path::new(&img.file_name).components().collect();
             if !files.insert(normal) {
-                return Err(read_err(
+                return Err(bad(
                     &json_path,
                     format!(
                         "image {}: file_name {:?} is already another image's; each frame is one \
@@ -210,9 +212,9 @@ impl Recording {
                     ),
                 ));
             }
-            check_settings(img, config.default_exposure_s).map_err(|e| read_err(&json_path, e))?;
+            check_settings(img, config.default_exposure_s).map_err(|e| bad(&json_path, e))?;
             let timestamp_s = img.timestamp_s.ok_or_else(|| {
-                read_err(
+                bad(
                     &json_path,
                     format!(
                         "image {} ({}) has no timestamp_s; every frame needs its capture time \
@@ -222,7 +224,7 @@ impl Recording {
                 )
             })?;
             let exposure_s = img.exposure_s.or(config.default_exposure_s).ok_or_else(|| {
-                read_err(
+                bad(
                     &json_path,
                     format!(
                         "image {} ({}) has no exposure_s: add the recorded exposure time in \
@@ -235,9 +237,9 @@ impl Recording {
             let origin = FrameOrigin::File(path);
             if let Err(why) = check_header(&origin, (img.width, img.height), img.id) {
                 match config.on_bad_frame {
-                    OnBadFrame::Stop => return Err(read_err(Path::new(&origin.label()), why)),
+                    OnBadFrame::Stop => return Err(why.into()),
                     OnBadFrame::Skip => {
-                        skipped.push(format!("{}: {why}", origin.label()));
+                        skipped.push(why.with_causes());
                         continue;
                     }
                 }

@@ -25,6 +25,7 @@ mod source;
 pub(crate) use coco::class_named;
 pub use coco::inside as path_inside;
 
+use crate::DataError;
 use crate::blur::Linearize;
 use crate::flow::{DisParams, DisPreset, Gray, dis};
 use joca_core::{Annotation, BBox, Class, SourceError};
@@ -106,32 +107,36 @@ impl FrameOrigin {
         }
     }
 
-    /// Width and height from the header only.
-    pub(crate) fn dimensions(&self) -> Result<(u32, u32), String> {
+    /// Width and height from the header only (`what` names the frame in the error).
+    pub(crate) fn dimensions(&self, what: &str) -> Result<(u32, u32), DataError> {
+        use image::{ImageError, ImageReader};
         // Only the header is read: opening a folder must not read every frame in full.
         let size = match self {
-            FrameOrigin::File(p) => image::ImageReader::open(p)
-                .and_then(image::ImageReader::with_guessed_format)
-                .map_err(|e| e.to_string())?
-                .into_dimensions(),
+            FrameOrigin::File(p) => ImageReader::open(p)
+                .and_then(ImageReader::with_guessed_format)
+                .map_err(ImageError::IoError)
+                .and_then(ImageReader::into_dimensions),
             FrameOrigin::Encoded { bytes, .. } => {
-                image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
+                ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
                     .with_guessed_format()
-                    .map_err(|e| e.to_string())?
-                    .into_dimensions()
+                    .map_err(ImageError::IoError)
+                    .and_then(ImageReader::into_dimensions)
             }
         };
-        size.map_err(|e| e.to_string())
+        size.map_err(|source| self.undecodable(what, source))
     }
 
     /// The decoded image.
-    fn decode(&self) -> Result<image::RgbImage, String> {
-        match self {
-            FrameOrigin::File(p) => image::open(p).map(|i| i.to_rgb8()).map_err(|e| e.to_string()),
-            FrameOrigin::Encoded { bytes, .. } => {
-                image::load_from_memory(bytes).map(|i| i.to_rgb8()).map_err(|e| e.to_string())
-            }
-        }
+    fn decode(&self) -> Result<image::RgbImage, DataError> {
+        let image = match self {
+            FrameOrigin::File(p) => image::open(p),
+            FrameOrigin::Encoded { bytes, .. } => image::load_from_memory(bytes),
+        };
+        image.map(|i| i.to_rgb8()).map_err(|source| self.undecodable("the frame", source))
+    }
+
+    fn undecodable(&self, what: &str, source: image::ImageError) -> DataError {
+        DataError::Image { path: PathBuf::from(self.label()), what: what.into(), source }
     }
 }
 
@@ -177,19 +182,23 @@ pub(crate) fn check_header(
     origin: &FrameOrigin,
     claimed: (u32, u32),
     id: impl std::fmt::Display,
-) -> Result<(), String> {
-    match origin.dimensions() {
-        Ok(size) if size == claimed => Ok(()),
-        Ok(size) => Err(format!(
+) -> Result<(), DataError> {
+    let size = origin.dimensions(&format!("frame {id}"))?;
+    if size == claimed {
+        return Ok(());
+    }
+    Err(DataError::invalid(
+        Path::new(&origin.label()),
+        format!(
             "frame {id} is {}×{} but its metadata says {}×{}",
             size.0, size.1, claimed.0, claimed.1
-        )),
-        Err(e) => Err(format!("cannot decode frame {id}: {e}")),
-    }
+        ),
+    ))
 }
 
-pub(crate) fn read_err(path: &Path, reason: impl std::fmt::Display) -> SourceError {
-    SourceError::Read { path: path.display().to_string(), reason: reason.to_string() }
+/// What is wrong in `path` (a content error, no underlying cause), as a frame source's error.
+pub(crate) fn bad(path: &Path, reason: impl Into<String>) -> SourceError {
+    DataError::invalid(path, reason).into()
 }
 
 impl Recording {
@@ -206,7 +215,9 @@ impl Recording {
             s.sort_by(|a, b| a.timestamp_s.total_cmp(&b.timestamp_s));
         }
         if sequences.is_empty() {
-            return Err(read_err(dir, "no sequence with at least 2 readable frames"));
+            return Err(
+                DataError::invalid(dir, "no sequence with at least 2 readable frames").into()
+            );
         }
         let mut gaps: Vec<f64> = sequences
             .iter()
@@ -215,10 +226,11 @@ impl Recording {
         gaps.sort_by(f64::total_cmp);
         let frame_interval_s = gaps[gaps.len() / 2];
         if frame_interval_s.is_nan() || frame_interval_s <= 0.0 {
-            return Err(read_err(
+            return Err(DataError::invalid(
                 dir,
                 "frames of a sequence share timestamps; timestamps must increase",
-            ));
+            )
+            .into());
         }
         Ok(Self {
             dir: dir.to_owned(),
@@ -277,9 +289,7 @@ impl Recording {
             return Ok(hit.clone());
         }
         let rec = &self.sequences[s][k];
-        let img = rec.origin.decode().map_err(|e| {
-            read_err(Path::new(&rec.origin.label()), format!("cannot decode frame: {e}"))
-        })?;
+        let img = rec.origin.decode()?;
         let (rw, rh) = (img.width() as f64, img.height() as f64);
         // Centre crop to the target aspect ratio.
         let target = w as f64 / h as f64;

@@ -1,7 +1,7 @@
 //! A recording as a [`FrameSource`]: the frame nearest the requested time, in calibrated units,
 //! with the requested exposure's motion blur along the flow to the next frame.
 
-use super::{Recording, read_err};
+use super::{Recording, bad};
 use crate::blur::motion_blur;
 use joca_core::{Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError};
 use std::path::Path;
@@ -38,7 +38,7 @@ impl FrameSource for Recording {
             .map(|&v| self.linear[usize::from(v)] * to_calibrated)
             .collect();
         let sharp = HdrImage::from_vec(w, h, data)
-            .map_err(|e| read_err(Path::new(&rec.origin.label()), e))?;
+            .map_err(|e| bad(Path::new(&rec.origin.label()), e.to_string()))?;
         let dt = seq[k + 1].timestamp_s - rec.timestamp_s;
         let travel = (request.exposure_s / dt.max(1e-6) * request.motion_scale) as f32;
         let (hdr, subframes) = if travel > 0.0 {

@@ -58,7 +58,7 @@ pub fn labelme(
     dir: &Path,
     frame_interval_s: f64,
     classes: &[(String, String)],
-) -> Result<Import, ImportError> {
+) -> Result<Import, DataError> {
     check_interval(frame_interval_s, dir)?;
     for (label, class) in classes {
         if !matches!(class.as_str(), "vehicle" | "walker" | "traffic_sign" | "ignore") {
@@ -86,10 +86,9 @@ pub fn labelme(
     let first = files[0].0;
     let mut import = Import::default();
     for (n, json_path) in &files {
-        let text = std::fs::read_to_string(json_path)
-            .map_err(|e| err(json_path, None, format!("cannot read: {e}")))?;
-        let file: LabelmeFile = serde_json::from_str(&text)
-            .map_err(|e| err(json_path, None, format!("not a labelme file: {e}")))?;
+        let text = std::fs::read_to_string(json_path).map_err(DataError::io(json_path, "read"))?;
+        let file: LabelmeFile =
+            serde_json::from_str(&text).map_err(DataError::json(json_path, "a labelme file"))?;
         let rel = Path::new(&file.image_path);
         let plain = rel.components().all(|c| matches!(c, std::path::Component::Normal(_)));
         if rel.is_absolute() || !plain {
