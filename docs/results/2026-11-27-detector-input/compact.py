@@ -1,0 +1,35 @@
+#!/usr/bin/env python3
+"""Copies a finished grid cell's compact record into docs/results: results.json, best_design.json,
+config.toml, cell.toml, report.md, and sensors_by_generation.json (each generation's sensors, from
+events.jsonl, which stays out of the repository). Skips unfinished cells.
+Usage: compact.py GRID_DIR DEST_DIR [CELL ...]"""
+import json, shutil, sys
+from collections import defaultdict
+from pathlib import Path
+
+def compact(src, dest):
+    if not (src / "results.json").exists():
+        return False
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in ["results.json", "best_design.json", "config.toml", "cell.toml", "report.md"]:
+        if (src / name).exists():
+            shutil.copyfile(src / name, dest / name)
+    gens = defaultdict(list)
+    for line in (src / "events.jsonl").read_text().splitlines():
+        e = json.loads(line)
+        if "candidate" in e and "design" in e:
+            gens[e["generation"]].append(e["design"]["sensor"])
+    if gens:
+        (dest / "sensors_by_generation.json").write_text(json.dumps(gens, indent=0) + "\n")
+    return True
+
+def main(grid, dest, names):
+    cells = Path(grid) / "cells"
+    for d in sorted(cells.iterdir()):
+        if names and d.name not in names:
+            continue
+        if compact(d, Path(dest) / "cells" / d.name):
+            print("copied", d.name)
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2], sys.argv[3:])
