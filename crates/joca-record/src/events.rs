@@ -1,6 +1,6 @@
 //! The lines of a run's `events.jsonl` and `test/trace.jsonl`: one JSON object per line.
 
-use crate::DesignSummary;
+use crate::{DesignSummary, Light};
 use joca_metrics::TaskScores;
 use serde::{Deserialize, Serialize};
 
@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 pub enum Event {
     /// A logged training step (every 5th).
     Step(StepRecord),
-    /// A finished hardware candidate.
-    Candidate(CandidateRecord),
+    /// A finished hardware candidate (boxed: its design and scores dwarf a step's record).
+    Candidate(Box<CandidateRecord>),
     /// A finished generation.
     Generation(GenerationRecord),
 }
@@ -31,9 +31,9 @@ pub struct StepRecord {
     pub exposure_ms: f64,
     /// Gain applied, dB.
     pub gain_db: f64,
-    /// The episode's illumination schedule (`recorded` for real frames).
-    #[serde(default)]
-    pub illumination: String,
+    /// The episode's illumination schedule (`recorded` for real frames; absent in older runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub illumination: Option<Light>,
 }
 
 /// The parts of the detector's task loss.
@@ -83,7 +83,7 @@ pub struct TraceRecord {
     /// Time in the episode, s.
     pub time_s: f64,
     /// Illumination schedule (`recorded` for real frames).
-    pub illumination: String,
+    pub illumination: Light,
     /// Ambient light relative to full daylight (none for real frames).
     pub ambient: Option<f32>,
     /// Exposure applied, ms.

@@ -31,4 +31,4 @@ pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecor
 pub use method::{Method, Scenario};
 pub use results::{DesignSummary, RESULTS_FORMAT_VERSION, RunResults, SearchTies, Validated};
 pub use showcase::{LightStep, Showcase, ShowcaseFrame};
-pub use vocabulary::{Source, TestController};
+pub use vocabulary::{Light, Source, TestController};

@@ -1,6 +1,6 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
-use crate::{Method, Scenario, Source, TestController};
+use crate::{Light, Method, Scenario, Source, TestController};
 use joca_camera::{DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
 use joca_core::weather::Weather;
@@ -39,16 +39,16 @@ pub struct RunResults {
     /// Test scores by illumination (`day`, `night`, `tunnel`, `cycle`; `recorded` for
     /// recordings): the same frames as `test`, split by the episode's light. Empty in older runs.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub test_by_illumination: BTreeMap<String, TaskScores>,
+    pub test_by_illumination: BTreeMap<Light, TaskScores>,
     /// Mean exposure (ms) and gain (dB) by illumination during the test.
-    pub settings_by_illumination: BTreeMap<String, (f64, f64)>,
+    pub settings_by_illumination: BTreeMap<Light, (f64, f64)>,
     /// Mean of exposure (ms) × linear gain (10^(G/20)) over the test frames, by illumination:
     /// the total amplification the controller applies to the light it sees.
     #[serde(default)]
-    pub exposure_gain_by_illumination: BTreeMap<String, f64>,
+    pub exposure_gain_by_illumination: BTreeMap<Light, f64>,
     /// Mean 8-bit value of the formed test frames by illumination, DN.
     #[serde(default)]
-    pub mean_dn_by_illumination: BTreeMap<String, f64>,
+    pub mean_dn_by_illumination: BTreeMap<Light, f64>,
     /// Best hardware fitness seen in training.
     #[serde(default)]
     pub best_fitness: f64,

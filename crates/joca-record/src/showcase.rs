@@ -1,6 +1,7 @@
 //! `test/showcase.json`: fixed closed-loop sequences on the test town, the same scenes for every
 //! run, whose frames, settings and boxes the reports draw.
 
+use crate::Light;
 use joca_core::{Annotation, Detection};
 use serde::{Deserialize, Serialize};
 
@@ -31,7 +32,7 @@ pub struct Showcase {
     /// Name (`tunnel`, `day`, `night`).
     pub name: String,
     /// Illumination schedule (`day`, `night`, `tunnel`, `cycle`).
-    pub illumination: String,
+    pub illumination: Light,
     /// Output frame size, pixels.
     pub size_px: (usize, usize),
     /// Frames in order.
@@ -114,7 +115,7 @@ mod tests {
         frames.extend((5..20).map(|k| frame(k, 1.0, 12.0, 0.0)));
         let s = Showcase {
             name: "tunnel".into(),
-            illumination: "tunnel".into(),
+            illumination: Light::Tunnel,
             size_px: (8, 6),
             frames,
         };

@@ -1,6 +1,6 @@
-//! Where a run's frames came from ([`Source`]) and which controller its test drove the design
-//! with ([`TestController`]): named in configuration files, on the command line and in
-//! `results.json`, each by one parser and one printer.
+//! Where a run's frames came from ([`Source`]), the light they were taken in ([`Light`]) and
+//! which controller its test drove the design with ([`TestController`]): named in configuration
+//! files, on the command line and in `results.json`, each by one parser and one printer.
 
 use joca_camera::MID_GREY_DN;
 use std::path::PathBuf;
@@ -56,6 +56,36 @@ impl std::fmt::Display for Source {
 }
 
 joca_core::serde_as_text!(Source, Source::parse);
+
+joca_core::named_enum! {
+    /// The light a frame was taken in, as the records name it: the simulator's illumination
+    /// schedules, and `recorded` for frames of a recording. Maps keyed by it are ordered by
+    /// name, as the string keys of earlier files were.
+    pub enum Light("light") {
+        /// Full daylight throughout.
+        Day = "day",
+        /// Night throughout.
+        Night = "night",
+        /// Switches between daylight and a dark tunnel.
+        Tunnel = "tunnel",
+        /// A gradual day → night → day cycle.
+        Cycle = "cycle",
+        /// A recording's frames (their light is whatever was recorded).
+        Recorded = "recorded",
+    }
+}
+
+impl Ord for Light {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.name().cmp(other.name())
+    }
+}
+
+impl PartialOrd for Light {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
 
 /// Which controller a re-test (`joca eval --controller`) drives the trained design with: the
 /// run's own, or AverageAE at a chosen frame mean — to measure what another exposure policy
@@ -151,5 +181,24 @@ mod tests {
             let e = Source::parse(bad).unwrap_err();
             assert!(e.contains(&format!("{bad:?}")) && e.contains("folder:DIR"), "{e}");
         }
+    }
+
+    #[test]
+    fn maps_keyed_by_light_are_written_as_the_string_keyed_maps_were() {
+        use std::collections::BTreeMap;
+        let typed: BTreeMap<Light, f64> =
+            Light::ALL.iter().zip(1..).map(|(&l, v)| (l, v.into())).collect();
+        let named: BTreeMap<String, f64> =
+            typed.iter().map(|(l, v)| (l.name().to_owned(), *v)).collect();
+        // Same keys in the same (alphabetical) order: files keep their bytes.
+        let text = serde_json::to_string(&typed).unwrap();
+        assert_eq!(text, serde_json::to_string(&named).unwrap());
+        assert!(
+            text.starts_with("{\"cycle\":4.0,\"day\":1.0,\"night\":2.0,\"recorded\""),
+            "{text}"
+        );
+        assert_eq!(serde_json::from_str::<BTreeMap<Light, f64>>(&text).unwrap(), typed);
+        let e = serde_json::from_str::<BTreeMap<Light, f64>>("{\"dusk\":1}").unwrap_err();
+        assert!(e.to_string().contains("unknown variant `dusk`"), "{e}");
     }
 }

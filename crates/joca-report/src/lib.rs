@@ -182,7 +182,7 @@ pub fn settings_markdown(r: &RunResults) -> String {
             G (dB) | mean E × gain (ms) | relative to night | mean frame (DN) |\n\
             |---|---|---|---|---|---|\n",
     );
-    let night = r.exposure_gain_by_illumination.get("night").copied();
+    let night = r.exposure_gain_by_illumination.get(&joca_record::Light::Night).copied();
     for (light, (e, g)) in &r.settings_by_illumination {
         let eg = r.exposure_gain_by_illumination.get(light);
         let cell = eg.map_or_else(|| "-".to_owned(), |v| format!("{v:.1}"));

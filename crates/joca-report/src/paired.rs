@@ -9,10 +9,10 @@
 
 use crate::seeds::mean_interval;
 use crate::table::Row;
-use joca_record::Method;
+use joca_record::{Light, Method};
 
 /// The illuminations of the test, in report order.
-pub const LIGHTS: [&str; 4] = ["day", "night", "tunnel", "cycle"];
+pub const LIGHTS: [Light; 4] = [Light::Day, Light::Night, Light::Tunnel, Light::Cycle];
 
 /// Ours against one baseline of one scenario, on the (design, seed) units both finished.
 #[derive(Debug)]
@@ -147,8 +147,8 @@ impl Comparison<'_> {
 }
 
 /// The mAP of `light` in a row's per-illumination test scores.
-pub fn light_map(r: &Row, light: &str) -> Option<f64> {
-    r.results.test_by_illumination.get(light).map(|s| s.map)
+pub fn light_map(r: &Row, light: Light) -> Option<f64> {
+    r.results.test_by_illumination.get(&light).map(|s| s.map)
 }
 
 #[cfg(test)]

@@ -92,7 +92,7 @@ fn light_table(rows: &[Row]) -> Vec<Vec<String>> {
             continue;
         }
         let mut row = vec![c.group.clone(), format!("{} − {}", c.ours, c.other)];
-        row.extend(LIGHTS.iter().map(|l| cell(c.difference(|r| light_map(r, l)))));
+        row.extend(LIGHTS.iter().map(|l| cell(c.difference(|r| light_map(r, *l)))));
         table.push(row);
     }
     if table.len() == 1 { Vec::new() } else { table }
@@ -345,7 +345,7 @@ mod tests {
             results.seed = seed;
             let mut n = results.test;
             n.map = night;
-            results.test_by_illumination.insert("night".into(), n);
+            results.test_by_illumination.insert(joca_record::Light::Night, n);
             Row {
                 group: "Calibrated".into(),
                 label: label.into(),

@@ -3,7 +3,7 @@
 //! TP/All@180°, best of each group in bold and second underlined. Markdown, HTML and CSV are
 //! three views of one [`Table`].
 
-use joca_record::RunResults;
+use joca_record::{Light, RunResults};
 use std::fmt::Write as _;
 
 /// One row: a method (or sweep value) in one group.
@@ -242,10 +242,10 @@ impl Table {
                 t.ap50,
                 t.tp_ratio,
                 t.frames,
-                opt(r.results.settings_by_illumination.get("day").map(|s| s.0)),
-                opt(r.results.settings_by_illumination.get("night").map(|s| s.0)),
-                opt(r.results.exposure_gain_by_illumination.get("day").copied()),
-                opt(r.results.exposure_gain_by_illumination.get("night").copied()),
+                opt(r.results.settings_by_illumination.get(&Light::Day).map(|s| s.0)),
+                opt(r.results.settings_by_illumination.get(&Light::Night).map(|s| s.0)),
+                opt(r.results.exposure_gain_by_illumination.get(&Light::Day).copied()),
+                opt(r.results.exposure_gain_by_illumination.get(&Light::Night).copied()),
             );
         }
         c

@@ -174,7 +174,6 @@ pub(super) fn train(
         cx.watch.add_model_step(&report.timings);
         metrics.update(&frame.boxes, &frame.ignore, &report.detections, frame.visible_180);
         if step % 5 == 0 {
-            let illumination = stretch.illumination.map_or("recorded", Illumination::name);
             let l = report.loss;
             cx.log(&Event::Step(StepRecord {
                 step: global,
@@ -187,7 +186,7 @@ pub(super) fn train(
                 ga_loss: report.ga_loss,
                 exposure_ms: report.applied.exposure_s * 1e3,
                 gain_db: report.applied.gain_db,
-                illumination: illumination.to_owned(),
+                illumination: Some(super::light_of(stretch.illumination)),
             }))?;
         }
         previous_frame = Some(report.frame);

@@ -11,7 +11,7 @@
 //!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
 //! - `<sequence>/NNN.png` — those frames.
 
-use super::{Context, SettingsByLight, simulator};
+use super::{Context, SettingsByLight, light_of, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use crate::control::{ExposureControl, SensorLimits, test_control};
@@ -20,7 +20,7 @@ use joca_core::units::linear_from_db;
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{BandScores, TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
-use joca_record::TraceRecord;
+use joca_record::{Light, TraceRecord};
 pub use joca_record::{Showcase, ShowcaseFrame};
 use joca_sim::{Illumination, Simulator, TUNNEL_PHASE_S, test_map_seed};
 use std::collections::BTreeMap;
@@ -162,8 +162,8 @@ pub(super) fn test(
     let mut metrics = TaskMetrics::default();
     // The same frames scored per illumination (the tunnel exit and the day–night cycle are
     // where the paper claims a controller's gain).
-    let mut by_light: BTreeMap<String, TaskMetrics> = BTreeMap::new();
-    let mut sums: BTreeMap<String, LightSums> = BTreeMap::new();
+    let mut by_light: BTreeMap<Light, TaskMetrics> = BTreeMap::new();
+    let mut sums: BTreeMap<Light, LightSums> = BTreeMap::new();
     let mut trace = String::new();
     let real = cx.real.clone();
     // The test is stratified by illumination: episode e drives the test town under
@@ -197,15 +197,15 @@ pub(super) fn test(
                 continue;
             }
             metrics.update(&s.frame.boxes, &s.frame.ignore, &s.detections, s.frame.visible_180);
-            let (illumination, ambient) = match (&real, town) {
+            let (light, ambient) = match (&real, town) {
                 (None, Some(town)) => (
-                    town.episode(episode).illumination.name(),
+                    light_of(Some(town.episode(episode).illumination)),
                     Some(ambient(town, episode, time_s)),
                 ),
-                _ => ("recorded", None),
+                _ => (Light::Recorded, None),
             };
-            sums.entry(illumination.to_owned()).or_default().add(s.settings, s.mean_dn);
-            by_light.entry(illumination.to_owned()).or_default().update(
+            sums.entry(light).or_default().add(s.settings, s.mean_dn);
+            by_light.entry(light).or_default().update(
                 &s.frame.boxes,
                 &s.frame.ignore,
                 &s.detections,
@@ -215,7 +215,7 @@ pub(super) fn test(
                 episode,
                 frame: k - WARMUP_FRAMES,
                 time_s,
-                illumination: illumination.to_owned(),
+                illumination: light,
                 ambient,
                 exposure_ms: s.settings.exposure_s * 1e3,
                 gain_db: s.settings.gain_db,
@@ -229,13 +229,11 @@ pub(super) fn test(
             }
         }
     }
-    let mean = |f: fn(&LightSums) -> f64| -> BTreeMap<String, f64> {
-        sums.iter().map(|(k, v)| (k.clone(), f(v) / v.frames)).collect()
+    let mean = |f: fn(&LightSums) -> f64| -> BTreeMap<Light, f64> {
+        sums.iter().map(|(k, v)| (*k, f(v) / v.frames)).collect()
     };
-    let settings = sums
-        .iter()
-        .map(|(k, v)| (k.clone(), (v.exposure_ms / v.frames, v.gain_db / v.frames)))
-        .collect();
+    let settings =
+        sums.iter().map(|(k, v)| (*k, (v.exposure_ms / v.frames, v.gain_db / v.frames))).collect();
     let exposure_gain = mean(|v| v.exposure_gain_ms);
     let mean_dn = mean(|v| v.mean_dn);
     if let Some(dir) = out {
@@ -252,7 +250,7 @@ pub(super) fn test(
     Ok(Tested {
         scores: metrics.compute(),
         bands: metrics.bands(),
-        by_light: by_light.iter().map(|(k, m)| (k.clone(), m.compute())).collect(),
+        by_light: by_light.iter().map(|(k, m)| (*k, m.compute())).collect(),
         settings,
         exposure_gain,
         mean_dn,
@@ -288,13 +286,13 @@ pub(super) struct Tested {
     /// Scores per distance band.
     pub(super) bands: Vec<BandScores>,
     /// Scores by illumination.
-    pub(super) by_light: BTreeMap<String, TaskScores>,
+    pub(super) by_light: BTreeMap<Light, TaskScores>,
     /// Mean exposure and gain by illumination.
     pub(super) settings: SettingsByLight,
     /// Mean exposure × linear gain (ms) by illumination.
-    pub(super) exposure_gain: BTreeMap<String, f64>,
+    pub(super) exposure_gain: BTreeMap<Light, f64>,
     /// Mean 8-bit value of the formed frames by illumination, DN.
-    pub(super) mean_dn: BTreeMap<String, f64>,
+    pub(super) mean_dn: BTreeMap<Light, f64>,
 }
 
 /// The showcase sequences: a tunnel transition (every frame saved), a day and a night drive
@@ -334,7 +332,7 @@ fn showcases(
         let mut driver = Driver::new(cx, model, design, dt);
         let mut sequence = Showcase {
             name: name.to_owned(),
-            illumination: illumination.name().to_owned(),
+            illumination: light_of(Some(illumination)),
             size_px: (camera.width_px, camera.height_px),
             frames: Vec::with_capacity(frames),
         };

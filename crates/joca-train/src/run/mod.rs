@@ -47,7 +47,7 @@ use joca_core::output::{self, DirLock, OutputKind};
 use joca_data::folder::Recording;
 use joca_nn::Engine;
 use joca_nn::joint::JointModel;
-use joca_record::Event;
+use joca_record::{Event, Light};
 pub use joca_record::{Method, Scenario};
 use joca_sim::{Illumination, SimConfig, Simulator};
 pub use method::{DesignSpec, FixedCamera};
@@ -211,8 +211,19 @@ pub fn run(
     Ok(results)
 }
 
-/// Mean exposure (ms) and gain (dB) per illumination name.
-type SettingsByLight = BTreeMap<String, (f64, f64)>;
+/// Mean exposure (ms) and gain (dB) per light.
+type SettingsByLight = BTreeMap<Light, (f64, f64)>;
+
+/// The records' name for the light of frames under `illumination` (`None`: a recording's).
+pub(crate) fn light_of(illumination: Option<Illumination>) -> Light {
+    match illumination {
+        None => Light::Recorded,
+        Some(Illumination::Day) => Light::Day,
+        Some(Illumination::Night) => Light::Night,
+        Some(Illumination::Tunnel) => Light::Tunnel,
+        Some(Illumination::Cycle) => Light::Cycle,
+    }
+}
 
 /// Engine, model (with its starting detector weights) and loop context for `config`.
 fn setup(

@@ -148,13 +148,13 @@ impl RunState {
             self.best = Some((genes.clone(), fitness));
         }
         self.rank(genes, fitness);
-        cx.log(&Event::Candidate(CandidateRecord {
+        cx.log(&Event::Candidate(Box::new(CandidateRecord {
             generation: self.generation,
             candidate: self.candidate,
             design: summary(&design, cx.config.hardware_search()),
             scores,
             fitness,
-        }))?;
+        })))?;
         self.candidate += 1;
         if self.candidate == members.len() {
             self.end_generation(cx)?;
