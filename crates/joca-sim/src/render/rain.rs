@@ -10,12 +10,17 @@
 //! 0.365·R^0.63 per km (1.6 per km, a visibility of 1.9 km, at 10 mm/h). It acts on each ray as
 //! fog does (Koschmieder, with the horizon sky as airlight).
 //!
-//! **Streaks.** A drop at depth z is imaged as a disc of d = f_px·D/z pixels that moves down by
-//! ℓ = f_px·v·T/z pixels during a shutter of T seconds (the drop's fall; the camera's own motion
-//! relative to the drops is not modelled). Its time-averaged image spreads the disc's area
-//! (π/4)·d² over the swept rectangle, ℓ + d long and max(d, 1) wide, so each pixel there is
-//! blended toward the drop's radiance by its share of that area: a few per cent for a 2 mm drop
-//! over a 10 ms shutter (the share is ≈ D/(v·T) whatever the depth), more for short shutters.
+//! **Streaks.** A drop of diameter D at depth z is imaged as a disc of d = f_px·D/z pixels.
+//! During the shutter it falls at v(D) while the camera moves with the ego vehicle, so its
+//! image sweeps the path between its projections at the shutter's opening and closing: straight
+//! down, ℓ = f_px·v·T/z pixels, for a standing camera; away from the focus of expansion, and
+//! growing as the drop nears, for a driving one (the camera's pose at each instant is the ego's,
+//! turning included; wind is not modelled). The time-averaged image is the average of the disc's
+//! images at [`samples`](fn@streak) instants evenly spread over the shutter, each a square of side
+//! max(d, 1) carrying the disc's area (π/4)·d² (so the streak's light is exact however it is
+//! sampled); each pixel is blended toward the drop's radiance by its share of that area: a few
+//! per cent for a 2 mm drop over a 10 ms shutter (≈ D/(v·T) whatever the depth), more for short
+//! shutters. While the drop is nearer than [`NEAREST_M`] / 2 it draws nothing.
 //! A drop refracts a wide cone of the scene above and behind the camera (Garg and Nayar, 2004);
 //! its radiance is taken as the sky's at 30° elevation. Streaks are drawn for drops from
 //! [`NEAREST_M`] to [`FARTHEST_M`] of at least [`SMALLEST_MM`], where the scene lies behind
@@ -23,6 +28,7 @@
 //! through the extinction only.
 
 use super::Target;
+use crate::geometry::Pose2;
 use joca_core::PinholeCamera;
 use rand::Rng;
 
@@ -103,68 +109,173 @@ pub const VEIL_SHARE: f64 = 2e-3;
 /// Depth bands of the veil between [`NEAREST_M`] and [`FARTHEST_M`].
 const VEIL_BANDS: usize = 8;
 
-/// Where a drop's time-averaged image lies and how much of each pixel it covers.
+/// The ego's pose at an offset (s) from the middle of the shutter.
+pub type EgoAt<'a> = &'a dyn Fn(f64) -> Pose2;
+
+/// The most instants a streak is drawn from (a drop passing close to a fast camera).
+const MAX_SAMPLES: usize = 512;
+
+/// A drop's image at one instant of the shutter: centre, disc diameter (pixels), inverse depth.
 #[derive(Debug, Clone, Copy)]
-struct Swept {
-    /// Image diameter, pixels.
+struct Instant {
+    x: f64,
+    y: f64,
     d: f64,
-    /// Rectangle swept during the shutter, pixels: left, right, top, bottom.
-    x0: f64,
-    x1: f64,
-    y0: f64,
-    y1: f64,
-    /// Share of a fully covered pixel: the disc's area over the rectangle's.
-    density: f64,
+    inv_z: f32,
 }
 
-impl Swept {
-    fn of(camera: &PinholeCamera, drop: &Drop, shutter_s: f64) -> Self {
+/// A drop's path through the image during one shutter.
+#[derive(Debug, Clone)]
+struct Path {
+    /// Its image at the middles of `count` equal parts of the shutter (those where it is nearer
+    /// than `NEAREST_M / 2` left out), each carrying `1 / count` of the shutter.
+    instants: Vec<Instant>,
+    count: usize,
+    /// The largest share of a pixel the streak covers, about: the middle disc's area over the
+    /// path's swept area.
+    peak_share: f64,
+}
+
+/// The camera's position (world metres) and heading's sine and cosine on the ego pose `q`, in
+/// f64 (as `CameraFrame::new` places it in f32).
+fn camera_on(camera: &PinholeCamera, q: Pose2) -> ([f64; 3], (f64, f64)) {
+    let (s, c) = f64::from(q.yaw).sin_cos();
+    let m = camera.mount_m;
+    ([f64::from(q.x) + c * m[0] - s * m[1], f64::from(q.y) + s * m[0] + c * m[1], m[2]], (s, c))
+}
+
+/// Camera coordinates (right, down, forward) `dt` seconds after the shutter's middle of a drop
+/// whose offset from the middle's camera, in world axes, was `offset` then and which falls at
+/// `v_fall`. Differences of poses in f64, so that a standing camera sees the drop exactly where
+/// it was placed.
+fn seen_at(
+    camera: &PinholeCamera,
+    ego: EgoAt<'_>,
+    offset: [f64; 3],
+    v_fall: f64,
+    dt: f64,
+) -> [f64; 3] {
+    let (o0, _) = camera_on(camera, ego(0.0));
+    let (o, (s, c)) = camera_on(camera, ego(dt));
+    let r = [offset[0] - (o[0] - o0[0]), offset[1] - (o[1] - o0[1]), offset[2] - v_fall * dt];
+    // right = (sin, −cos, 0), forward = (cos, sin, 0), down = −z.
+    [r[0] * s - r[1] * c, -r[2], r[0] * c + r[1] * s]
+}
+
+impl Path {
+    fn of(camera: &PinholeCamera, ego: EgoAt<'_>, drop: &Drop, shutter_s: f64) -> Self {
+        let (_, (s, c)) = camera_on(camera, ego(0.0));
+        let (x, y, z) = (
+            (drop.u - camera.cx_px) * drop.z_m / camera.fx_px,
+            (drop.v - camera.cy_px) * drop.z_m / camera.fy_px,
+            drop.z_m,
+        );
+        // right·x + forward·z, and y is down.
+        let offset = [s * x + c * z, -c * x + s * z, -y];
+        let v_fall = terminal_speed_mps(drop.d_mm);
+        let image = |[x, y, z]: [f64; 3]| -> Option<Instant> {
+            (z >= NEAREST_M / 2.0).then(|| Instant {
+                x: camera.cx_px + camera.fx_px * x / z,
+                y: camera.cy_px + camera.fy_px * y / z,
+                d: camera.fx_px * drop.d_mm * 1e-3 / z,
+                inv_z: (1.0 / z) as f32,
+            })
+        };
+        let half = shutter_s / 2.0;
+        let ends = [-half, half].map(|dt| image(seen_at(camera, ego, offset, v_fall, dt)));
+        let length = match ends {
+            [Some(a), Some(b)] => (a.x - b.x).hypot(a.y - b.y),
+            _ => MAX_SAMPLES as f64,
+        };
+        // Two instants per pixel of path: the squares (side ≥ 1) overlap, and the coverage along
+        // the streak ripples by a few per cent at most.
+        let count = (((2.0 * length).ceil() as usize) + 1).clamp(2, MAX_SAMPLES);
+        let instants = (0..count)
+            .filter_map(|k| {
+                // The middle of each of `count` equal parts of the shutter.
+                let dt = -half + shutter_s * (k as f64 + 0.5) / count as f64;
+                image(seen_at(camera, ego, offset, v_fall, dt))
+            })
+            .collect();
         let d = camera.fx_px * drop.d_mm * 1e-3 / drop.z_m;
-        let fall = camera.fy_px * terminal_speed_mps(drop.d_mm) * shutter_s / drop.z_m;
-        let (width, length) = (d.max(1.0), fall + d);
+        let w = d.max(1.0);
         Self {
-            d,
-            x0: drop.u - width / 2.0,
-            x1: drop.u + width / 2.0,
-            y0: drop.v - length / 2.0,
-            y1: drop.v + length / 2.0,
-            // The disc's area spread evenly over the swept rectangle.
-            density: std::f64::consts::FRAC_PI_4 * d * d / (width * length),
+            instants,
+            count,
+            peak_share: std::f64::consts::FRAC_PI_4 * d * d / (w * (length + w)),
         }
     }
 }
 
 /// Draws `drop`'s streak over a shutter of `shutter_s` into `target` (radiance `radiance`),
-/// where the scene lies behind the drop.
+/// where the scene lies behind the drop; `ego` places the camera during the shutter.
 pub fn streak(
     target: &mut Target,
     camera: &PinholeCamera,
+    ego: EgoAt<'_>,
     drop: &Drop,
     shutter_s: f64,
     radiance: [f32; 3],
 ) {
-    let swept = Swept::of(camera, drop, shutter_s);
-    draw((&mut target.colour, &target.inv_depth, target.width), &swept, drop.z_m, radiance);
+    let path = Path::of(camera, ego, drop, shutter_s);
+    draw((&mut target.colour, &target.inv_depth, target.width), &path, radiance, &mut Vec::new());
 }
 
 /// A view's interleaved RGB colour, its inverse depths and its width in pixels.
 type Canvas<'a> = (&'a mut [f32], &'a [f32], usize);
 
-fn draw((colour, inv_depth, w): Canvas<'_>, s: &Swept, z_m: f64, radiance: [f32; 3]) {
-    let inv_z = (1.0 / z_m) as f32;
+/// Blends the drop's time-averaged image into the pixels it covers: each instant's square (side
+/// max(d, 1), the disc's area spread over it, a `1 / count` share of the shutter) adds its
+/// overlap to the pixel's share of the shutter the drop covers it, where the scene lies behind
+/// the drop at that instant; each pixel is then blended once by its share (light adds over
+/// time, so the shares sum before blending). `scratch` holds the shares.
+fn draw(
+    (colour, inv_depth, w): Canvas<'_>,
+    path: &Path,
+    radiance: [f32; 3],
+    scratch: &mut Vec<f32>,
+) {
     let h = inv_depth.len() / w.max(1);
-    let cols = (s.x0.floor().max(0.0) as usize)..(s.x1.ceil().min(w as f64) as usize);
-    for y in (s.y0.floor().max(0.0) as usize)..(s.y1.ceil().min(h as f64) as usize) {
-        let oy = (s.y1.min(y as f64 + 1.0) - s.y0.max(y as f64)).max(0.0);
-        for x in cols.clone() {
-            let ox = (s.x1.min(x as f64 + 1.0) - s.x0.max(x as f64)).max(0.0);
-            let p = y * w + x;
-            if inv_depth[p] > inv_z {
-                continue; // the scene is nearer than the drop here
+    let squares = path.instants.iter().map(|i| {
+        let side = i.d.max(1.0);
+        (i, side, (i.x - side / 2.0, i.x + side / 2.0, i.y - side / 2.0, i.y + side / 2.0))
+    });
+    // The pixels any square touches.
+    let (mut bx0, mut bx1, mut by0, mut by1) = (w, 0, h, 0);
+    for (_, _, (x0, x1, y0, y1)) in squares.clone() {
+        bx0 = bx0.min(x0.floor().max(0.0) as usize);
+        bx1 = bx1.max(x1.ceil().clamp(0.0, w as f64) as usize);
+        by0 = by0.min(y0.floor().max(0.0) as usize);
+        by1 = by1.max(y1.ceil().clamp(0.0, h as f64) as usize);
+    }
+    if bx0 >= bx1 || by0 >= by1 {
+        return;
+    }
+    let bw = bx1 - bx0;
+    scratch.clear();
+    scratch.resize(bw * (by1 - by0), 0.0);
+    for (i, side, (x0, x1, y0, y1)) in squares {
+        let density = std::f64::consts::FRAC_PI_4 * i.d * i.d / (side * side) / path.count as f64;
+        let cols = (x0.floor().max(0.0) as usize)..(x1.ceil().min(w as f64) as usize);
+        for y in (y0.floor().max(0.0) as usize)..(y1.ceil().min(h as f64) as usize) {
+            let oy = (y1.min(y as f64 + 1.0) - y0.max(y as f64)).max(0.0);
+            for x in cols.clone() {
+                if inv_depth[y * w + x] > i.inv_z {
+                    continue; // the scene is nearer than the drop here
+                }
+                let ox = (x1.min(x as f64 + 1.0) - x0.max(x as f64)).max(0.0);
+                scratch[(y - by0) * bw + (x - bx0)] += (density * ox * oy) as f32;
             }
-            let a = (s.density * ox * oy).min(1.0) as f32;
-            for (c, r) in colour[p * 3..p * 3 + 3].iter_mut().zip(radiance) {
-                *c += a * (r - *c);
+        }
+    }
+    for (row, shares) in scratch.chunks_exact(bw).enumerate() {
+        for (col, &a) in shares.iter().enumerate() {
+            if a > 0.0 {
+                let p = (by0 + row) * w + bx0 + col;
+                let a = a.min(1.0);
+                for (c, r) in colour[p * 3..p * 3 + 3].iter_mut().zip(radiance) {
+                    *c += a * (r - *c);
+                }
             }
         }
     }
@@ -177,22 +288,24 @@ fn draw((colour, inv_depth, w): Canvas<'_>, s: &Swept, z_m: f64, radiance: [f32;
 /// whose scene lies behind the band. The veil keeps the frame's expected light and drops only
 /// the sub-0.2 % texture (tested against drawing every drop).
 pub fn streaks(
-    colour: &mut [f32],
-    inv_depth: &[f32],
+    (colour, inv_depth): (&mut [f32], &[f32]),
     camera: &PinholeCamera,
+    ego: EgoAt<'_>,
     drops: &[Drop],
     shutter_s: f64,
     radiance: [f32; 3],
 ) {
     let band_m = (FARTHEST_M - NEAREST_M) / VEIL_BANDS as f64;
     let mut veil = [0.0f64; VEIL_BANDS];
+    let mut scratch = Vec::new();
     for drop in drops {
-        let s = Swept::of(camera, drop, shutter_s);
-        if s.density >= VEIL_SHARE {
-            draw((&mut *colour, inv_depth, camera.width_px), &s, drop.z_m, radiance);
+        let path = Path::of(camera, ego, drop, shutter_s);
+        if path.peak_share >= VEIL_SHARE {
+            draw((&mut *colour, inv_depth, camera.width_px), &path, radiance, &mut scratch);
         } else {
             let band = (((drop.z_m - NEAREST_M) / band_m) as usize).min(VEIL_BANDS - 1);
-            veil[band] += std::f64::consts::FRAC_PI_4 * s.d * s.d;
+            let d = camera.fx_px * drop.d_mm * 1e-3 / drop.z_m;
+            veil[band] += std::f64::consts::FRAC_PI_4 * d * d;
         }
     }
     let pixels = inv_depth.len() as f64;
@@ -214,140 +327,4 @@ pub fn streaks(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use joca_core::SeedStreams;
-
-    fn camera(w: usize, h: usize, f_px: f64) -> PinholeCamera {
-        PinholeCamera {
-            width_px: w,
-            height_px: h,
-            fx_px: f_px,
-            fy_px: f_px,
-            cx_px: w as f64 / 2.0,
-            cy_px: h as f64 / 2.0,
-            mount_m: [0.0, 0.0, 1.5],
-            lens: None,
-        }
-    }
-
-    #[test]
-    fn extinction_and_fall_speed_match_their_closed_forms() {
-        // β = π·N0/Λ³: at 10 mm/h Λ = 4.1·10^−0.21 = 2.5281 per mm, β = 1.5556e-3 per m.
-        let lambda: f64 = 4.1 * 10f64.powf(-0.21);
-        assert!((mp_slope(10.0) - lambda).abs() < 1e-12);
-        let beta = extinction_per_m(10.0);
-        assert!((beta - std::f64::consts::PI * 8000.0 / lambda.powi(3) * 1e-6).abs() < 1e-15);
-        assert!((beta - 1.5556e-3).abs() < 1e-7, "{beta}");
-        // The visibility ln 20 / β: 1.9 km in moderate rain, under 1 km in a downpour.
-        assert!((20f64.ln() / beta - 1925.8).abs() < 0.5);
-        assert!(20f64.ln() / extinction_per_m(50.0) < 1000.0);
-        // Atlas et al.: 2 mm drops fall at 6.55 m/s, the largest near 9.4 m/s.
-        assert!((terminal_speed_mps(2.0) - 6.5477).abs() < 1e-3);
-        assert!((terminal_speed_mps(6.0) - 9.3686).abs() < 1e-3);
-    }
-
-    #[test]
-    fn a_streak_is_as_long_as_the_drop_falls_during_the_shutter() {
-        // A 2 mm drop 2 m away, 500 px focal length: d = 0.5 px, v = 6.55 m/s.
-        for shutter_s in [5e-3, 20e-3, 40e-3] {
-            let cam = camera(40, 400, 500.0);
-            let mut t = Target::new(40, 400, 0);
-            let drop = Drop { u: 20.5, v: 200.0, z_m: 2.0, d_mm: 2.0 };
-            streak(&mut t, &cam, &drop, shutter_s, [1.0; 3]);
-            let column: Vec<f32> = (0..400).map(|y| t.colour[(y * 40 + 20) * 3]).collect();
-            let peak = column.iter().copied().fold(0.0f32, f32::max);
-            // Covered length: the coverage summed along the column over its full value.
-            let length = f64::from(column.iter().sum::<f32>() / peak);
-            let want = 500.0 * terminal_speed_mps(2.0) * shutter_s / 2.0 + 0.5;
-            assert!((length - want).abs() < 0.02 * want + 0.5, "{shutter_s}: {length} vs {want}");
-            // Every pixel of it shares the disc's area: (π/4)·d²/(ℓ + d) with width 1 px.
-            let share = std::f64::consts::FRAC_PI_4 * 0.25 / want;
-            assert!((f64::from(peak) - share).abs() < 1e-6, "{peak} vs {share}");
-            // Nothing left or right of the drop's column.
-            assert!(t.colour.iter().enumerate().all(|(i, &c)| c == 0.0 || (i / 3) % 40 == 20));
-        }
-    }
-
-    #[test]
-    fn the_veil_of_faint_drops_keeps_the_light_of_drawing_every_drop() {
-        // 320 × 240 at 186 px focal length, 25 mm/h, 10 ms: a grey scene 20 m away with a
-        // wall 1 m away over its lower third (drops behind the wall are hidden there).
-        let cam = camera(320, 240, 186.0);
-        let drops = drops(&cam, 25.0, &mut SeedStreams::new(3).stream("rain"));
-        let scene = || {
-            let mut t = Target::new(320, 240, 0);
-            t.colour.iter_mut().for_each(|c| *c = 60.0);
-            for (k, d) in t.inv_depth.iter_mut().enumerate() {
-                *d = if k / 320 >= 160 { 1.0 } else { 1.0 / 20.0 };
-            }
-            t
-        };
-        let radiance = [200.0f32; 3];
-        let mut exact = scene();
-        for drop in &drops {
-            streak(&mut exact, &cam, drop, 10e-3, radiance);
-        }
-        let mut veiled = scene();
-        streaks(&mut veiled.colour, &veiled.inv_depth, &cam, &drops, 10e-3, radiance);
-        let drawn =
-            drops.iter().filter(|d| Swept::of(&cam, d, 10e-3).density >= VEIL_SHARE).count();
-        assert!(
-            drawn * 3 < drops.len(),
-            "{drawn} of {} drawn: the veil should take most",
-            drops.len()
-        );
-        // The mean light above and below the wall's edge, and every pixel, against the exact one
-        // (the difference to the radiance is 140 DN).
-        for rows in [0..160usize, 160..240] {
-            let mean = |t: &Target| {
-                let v: Vec<f32> = rows
-                    .clone()
-                    .flat_map(|y| (0..320).map(move |x| (y, x)))
-                    .map(|(y, x)| t.colour[(y * 320 + x) * 3])
-                    .collect();
-                f64::from(v.iter().sum::<f32>()) / v.len() as f64
-            };
-            let (e, v) = (mean(&exact), mean(&veiled));
-            assert!(
-                (e - v).abs() < 0.02 * (e - 60.0).abs().max(0.05),
-                "rows {rows:?}: exact {e}, veiled {v}"
-            );
-        }
-        let worst = exact
-            .colour
-            .iter()
-            .zip(&veiled.colour)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        assert!(worst < 0.02 * 140.0, "worst pixel differs by {worst} DN");
-    }
-
-    #[test]
-    fn streaks_stay_behind_nearer_surfaces_and_drops_fill_the_view_alike() {
-        let cam = camera(40, 400, 500.0);
-        let mut t = Target::new(40, 400, 0);
-        // A wall at 1 m over the lower half: a drop at 2 m is hidden there.
-        for y in 200..400 {
-            for x in 0..40 {
-                t.inv_depth[y * 40 + x] = 1.0;
-            }
-        }
-        let drop = Drop { u: 20.5, v: 200.0, z_m: 2.0, d_mm: 2.0 };
-        streak(&mut t, &cam, &drop, 40e-3, [1.0; 3]);
-        assert!((0..200).any(|y| t.colour[(y * 40 + 20) * 3] > 0.0));
-        assert!((200..400).all(|y| t.colour[(y * 40 + 20) * 3] == 0.0));
-        // The same rate and seed give the same drops; their count follows the volume.
-        let cam = camera(320, 240, 186.0);
-        let a = drops(&cam, 10.0, &mut SeedStreams::new(1).stream("rain"));
-        assert_eq!(a, drops(&cam, 10.0, &mut SeedStreams::new(1).stream("rain")));
-        let slope = mp_slope(10.0);
-        let per_m3 = 8000.0 / slope * (-slope * 0.5).exp();
-        let volume = 320.0 / 186.0 * 240.0 / 186.0 * (125.0 - 0.027) / 3.0;
-        assert_eq!(a.len(), (per_m3 * volume).round() as usize);
-        let near = a.iter().filter(|d| d.z_m < (0.3f64.powi(3) / 2.0 + 62.5).cbrt()).count();
-        // Half the volume lies nearer than the cube root of the mean of z0³ and z1³.
-        assert!((near as f64 / a.len() as f64 - 0.5).abs() < 0.01, "{near} of {}", a.len());
-        assert!(a.iter().all(|d| (0.5..=6.0).contains(&d.d_mm)));
-    }
-}
+mod tests;

@@ -24,8 +24,8 @@ impl Simulator {
     }
 
     /// Draws the streaks of the instant's drops (the same drops for every shutter) into each
-    /// shutter's integrated colour, behind the scene's surfaces of the middle instant; `at` is
-    /// the request, the rain rate (mm/h) and the shutters (s).
+    /// shutter's integrated colour, behind the scene's surfaces of the middle instant, as the
+    /// moving camera sees them; `at` is the request, the rain rate (mm/h) and the shutters (s).
     pub(super) fn rain_streaks(
         &self,
         episode: &Episode,
@@ -40,8 +40,12 @@ impl Simulator {
         let drops = render::rain::drops(camera, rate_mm_h, &mut rng);
         // A drop refracts the sky above and behind the camera (see render::rain).
         let radiance = self.view(episode, camera, request.time_s).lighting.sky(0.5);
+        // The camera moves with the ego during the shutter: streaks lean away from the focus of
+        // expansion as well as falling.
+        let ego = |dt: f64| episode.ego.pose_at(request.time_s + dt);
         for (colour, &shutter_s) in colours.iter_mut().zip(shutters) {
-            render::rain::streaks(colour, &mid.inv_depth, camera, &drops, shutter_s, radiance);
+            let canvas = (colour.as_mut_slice(), mid.inv_depth.as_slice());
+            render::rain::streaks(canvas, camera, &ego, &drops, shutter_s, radiance);
         }
     }
 }
