@@ -124,86 +124,130 @@ struct Instant {
     inv_z: f32,
 }
 
+/// The camera during one shutter, from the ego's poses at its opening, middle and closing:
+/// position (relative to the middle's, world axes, f64, so a standing camera is exact) and
+/// heading (its sine and cosine), linear between those three (over tens of milliseconds the
+/// ego's path is straight to well under a millimetre and its heading turns by hundredths of a
+/// radian; the heading's vector is renormalised).
+#[derive(Debug, Clone, Copy)]
+struct ShutterMotion {
+    half_s: f64,
+    origin: [[f64; 3]; 3],
+    heading: [(f64, f64); 3],
+}
+
+impl ShutterMotion {
+    fn new(camera: &PinholeCamera, ego: EgoAt<'_>, shutter_s: f64) -> Self {
+        let half_s = shutter_s / 2.0;
+        let on = |q: Pose2| {
+            let (s, c) = f64::from(q.yaw).sin_cos();
+            let m = camera.mount_m;
+            let o =
+                [f64::from(q.x) + c * m[0] - s * m[1], f64::from(q.y) + s * m[0] + c * m[1], m[2]];
+            (o, (s, c))
+        };
+        let [(o0, h0), (o1, h1), (o2, h2)] = [-half_s, 0.0, half_s].map(|dt| on(ego(dt)));
+        let rel = |o: [f64; 3]| [o[0] - o1[0], o[1] - o1[1], o[2] - o1[2]];
+        Self { half_s, origin: [rel(o0), [0.0; 3], rel(o2)], heading: [h0, h1, h2] }
+    }
+
+    /// The camera's position relative to the middle's and its heading's (sine, cosine), `dt`
+    /// seconds after the middle.
+    fn at(&self, dt: f64) -> ([f64; 3], (f64, f64)) {
+        let u = if self.half_s > 0.0 { (dt / self.half_s + 1.0).clamp(0.0, 2.0) } else { 1.0 };
+        let (k, f) = if u < 1.0 { (0, u) } else { (1, u - 1.0) };
+        if f == 0.0 || f == 1.0 {
+            let k = k + f as usize;
+            return (self.origin[k], self.heading[k]);
+        }
+        let lerp = |a: f64, b: f64| a + f * (b - a);
+        let (a, b) = (self.origin[k], self.origin[k + 1]);
+        let o = [lerp(a[0], b[0]), lerp(a[1], b[1]), lerp(a[2], b[2])];
+        let ((s0, c0), (s1, c1)) = (self.heading[k], self.heading[k + 1]);
+        let (s, c) = (lerp(s0, s1), lerp(c0, c1));
+        let norm = (s * s + c * c).sqrt();
+        (o, (s / norm, c / norm))
+    }
+}
+
 /// A drop's path through the image during one shutter.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 struct Path {
-    /// Its image at the middles of `count` equal parts of the shutter (those where it is nearer
-    /// than `NEAREST_M / 2` left out), each carrying `1 / count` of the shutter.
-    instants: Vec<Instant>,
+    /// The drop's offset from the middle's camera, world axes, metres, at the middle.
+    offset: [f64; 3],
+    v_fall: f64,
+    d_mm: f64,
+    /// Its image is taken at the middles of `count` equal parts of the shutter.
     count: usize,
     /// The largest share of a pixel the streak covers, about: the middle disc's area over the
     /// path's swept area.
     peak_share: f64,
 }
 
-/// The camera's position (world metres) and heading's sine and cosine on the ego pose `q`, in
-/// f64 (as `CameraFrame::new` places it in f32).
-fn camera_on(camera: &PinholeCamera, q: Pose2) -> ([f64; 3], (f64, f64)) {
-    let (s, c) = f64::from(q.yaw).sin_cos();
-    let m = camera.mount_m;
-    ([f64::from(q.x) + c * m[0] - s * m[1], f64::from(q.y) + s * m[0] + c * m[1], m[2]], (s, c))
-}
-
-/// Camera coordinates (right, down, forward) `dt` seconds after the shutter's middle of a drop
-/// whose offset from the middle's camera, in world axes, was `offset` then and which falls at
-/// `v_fall`. Differences of poses in f64, so that a standing camera sees the drop exactly where
-/// it was placed.
-fn seen_at(
-    camera: &PinholeCamera,
-    ego: EgoAt<'_>,
-    offset: [f64; 3],
-    v_fall: f64,
-    dt: f64,
-) -> [f64; 3] {
-    let (o0, _) = camera_on(camera, ego(0.0));
-    let (o, (s, c)) = camera_on(camera, ego(dt));
-    let r = [offset[0] - (o[0] - o0[0]), offset[1] - (o[1] - o0[1]), offset[2] - v_fall * dt];
-    // right = (sin, −cos, 0), forward = (cos, sin, 0), down = −z.
-    [r[0] * s - r[1] * c, -r[2], r[0] * c + r[1] * s]
-}
-
 impl Path {
-    fn of(camera: &PinholeCamera, ego: EgoAt<'_>, drop: &Drop, shutter_s: f64) -> Self {
-        let (_, (s, c)) = camera_on(camera, ego(0.0));
+    fn of(camera: &PinholeCamera, motion: &ShutterMotion, drop: &Drop) -> Self {
+        let (_, (s, c)) = motion.at(0.0);
         let (x, y, z) = (
             (drop.u - camera.cx_px) * drop.z_m / camera.fx_px,
             (drop.v - camera.cy_px) * drop.z_m / camera.fy_px,
             drop.z_m,
         );
-        // right·x + forward·z, and y is down.
+        // right·x + forward·z (right = (sin, −cos, 0), forward = (cos, sin, 0)); y is down.
         let offset = [s * x + c * z, -c * x + s * z, -y];
-        let v_fall = terminal_speed_mps(drop.d_mm);
-        let image = |[x, y, z]: [f64; 3]| -> Option<Instant> {
-            (z >= NEAREST_M / 2.0).then(|| Instant {
-                x: camera.cx_px + camera.fx_px * x / z,
-                y: camera.cy_px + camera.fy_px * y / z,
-                d: camera.fx_px * drop.d_mm * 1e-3 / z,
-                inv_z: (1.0 / z) as f32,
-            })
+        let mut path = Self {
+            offset,
+            v_fall: terminal_speed_mps(drop.d_mm),
+            d_mm: drop.d_mm,
+            count: 0,
+            peak_share: 0.0,
         };
-        let half = shutter_s / 2.0;
-        let ends = [-half, half].map(|dt| image(seen_at(camera, ego, offset, v_fall, dt)));
-        let length = match ends {
-            [Some(a), Some(b)] => (a.x - b.x).hypot(a.y - b.y),
-            _ => MAX_SAMPLES as f64,
+        let h = motion.half_s;
+        let (length, side) = match [-h, h].map(|dt| path.image(camera, motion, dt)) {
+            [Some(a), Some(b)] => {
+                (((a.x - b.x).powi(2) + (a.y - b.y).powi(2)).sqrt(), a.d.min(b.d).max(1.0))
+            }
+            _ => (MAX_SAMPLES as f64, 1.0),
         };
-        // Two instants per pixel of path: the squares (side ≥ 1) overlap, and the coverage along
-        // the streak ripples by a few per cent at most.
-        let count = (((2.0 * length).ceil() as usize) + 1).clamp(2, MAX_SAMPLES);
-        let instants = (0..count)
-            .filter_map(|k| {
-                // The middle of each of `count` equal parts of the shutter.
-                let dt = -half + shutter_s * (k as f64 + 0.5) / count as f64;
-                image(seen_at(camera, ego, offset, v_fall, dt))
-            })
-            .collect();
+        // About one instant per square's side of path (the smallest square's): the squares
+        // touch, the light is exact, and the coverage along the streak ripples by up to ~10 %
+        // of the streak's own faint share.
+        path.count = (((length / side).ceil() as usize) + 1).clamp(2, MAX_SAMPLES);
         let d = camera.fx_px * drop.d_mm * 1e-3 / drop.z_m;
         let w = d.max(1.0);
-        Self {
-            instants,
-            count,
-            peak_share: std::f64::consts::FRAC_PI_4 * d * d / (w * (length + w)),
-        }
+        path.peak_share = std::f64::consts::FRAC_PI_4 * d * d / (w * (length + w));
+        path
+    }
+
+    /// The drop's image `dt` seconds after the shutter's middle (none while it is nearer than
+    /// `NEAREST_M / 2`).
+    fn image(&self, camera: &PinholeCamera, motion: &ShutterMotion, dt: f64) -> Option<Instant> {
+        let (o, (s, c)) = motion.at(dt);
+        let r = [
+            self.offset[0] - o[0],
+            self.offset[1] - o[1],
+            self.offset[2] - o[2] - self.v_fall * dt,
+        ];
+        let (x, y, z) = (r[0] * s - r[1] * c, -r[2], r[0] * c + r[1] * s);
+        (z >= NEAREST_M / 2.0).then(|| Instant {
+            x: camera.cx_px + camera.fx_px * x / z,
+            y: camera.cy_px + camera.fy_px * y / z,
+            d: camera.fx_px * self.d_mm * 1e-3 / z,
+            inv_z: (1.0 / z) as f32,
+        })
+    }
+
+    /// Its image at the middles of `count` equal parts of the shutter, each carrying `1 / count`
+    /// of it (instants where the drop is too near left out).
+    fn instants<'a>(
+        &'a self,
+        camera: &'a PinholeCamera,
+        motion: &'a ShutterMotion,
+    ) -> impl Iterator<Item = Instant> + 'a {
+        let n = self.count as f64;
+        (0..self.count).filter_map(move |k| {
+            let dt = motion.half_s * (2.0 * (k as f64 + 0.5) / n - 1.0);
+            self.image(camera, motion, dt)
+        })
     }
 }
 
@@ -217,66 +261,65 @@ pub fn streak(
     shutter_s: f64,
     radiance: [f32; 3],
 ) {
-    let path = Path::of(camera, ego, drop, shutter_s);
-    draw((&mut target.colour, &target.inv_depth, target.width), &path, radiance, &mut Vec::new());
+    let motion = ShutterMotion::new(camera, ego, shutter_s);
+    let path = Path::of(camera, &motion, drop);
+    let canvas = (&mut target.colour[..], &target.inv_depth[..], target.width);
+    draw(canvas, (camera, &motion, &path), radiance, &mut Shares::default());
 }
 
 /// A view's interleaved RGB colour, its inverse depths and its width in pixels.
 type Canvas<'a> = (&'a mut [f32], &'a [f32], usize);
 
+/// Per pixel of the view, the share of the shutter the drop being drawn covers it, and the
+/// pixels it touched (so that clearing costs what drawing did).
+#[derive(Debug, Default)]
+struct Shares {
+    share: Vec<f32>,
+    touched: Vec<u32>,
+}
+
 /// Blends the drop's time-averaged image into the pixels it covers: each instant's square (side
 /// max(d, 1), the disc's area spread over it, a `1 / count` share of the shutter) adds its
 /// overlap to the pixel's share of the shutter the drop covers it, where the scene lies behind
 /// the drop at that instant; each pixel is then blended once by its share (light adds over
-/// time, so the shares sum before blending). `scratch` holds the shares.
+/// time, so the shares sum before blending).
 fn draw(
     (colour, inv_depth, w): Canvas<'_>,
-    path: &Path,
+    (camera, motion, path): (&PinholeCamera, &ShutterMotion, &Path),
     radiance: [f32; 3],
-    scratch: &mut Vec<f32>,
+    shares: &mut Shares,
 ) {
     let h = inv_depth.len() / w.max(1);
-    let squares = path.instants.iter().map(|i| {
+    shares.share.resize(inv_depth.len(), 0.0);
+    for i in path.instants(camera, motion) {
         let side = i.d.max(1.0);
-        (i, side, (i.x - side / 2.0, i.x + side / 2.0, i.y - side / 2.0, i.y + side / 2.0))
-    });
-    // The pixels any square touches.
-    let (mut bx0, mut bx1, mut by0, mut by1) = (w, 0, h, 0);
-    for (_, _, (x0, x1, y0, y1)) in squares.clone() {
-        bx0 = bx0.min(x0.floor().max(0.0) as usize);
-        bx1 = bx1.max(x1.ceil().clamp(0.0, w as f64) as usize);
-        by0 = by0.min(y0.floor().max(0.0) as usize);
-        by1 = by1.max(y1.ceil().clamp(0.0, h as f64) as usize);
-    }
-    if bx0 >= bx1 || by0 >= by1 {
-        return;
-    }
-    let bw = bx1 - bx0;
-    scratch.clear();
-    scratch.resize(bw * (by1 - by0), 0.0);
-    for (i, side, (x0, x1, y0, y1)) in squares {
         let density = std::f64::consts::FRAC_PI_4 * i.d * i.d / (side * side) / path.count as f64;
+        let (x0, x1, y0, y1) =
+            (i.x - side / 2.0, i.x + side / 2.0, i.y - side / 2.0, i.y + side / 2.0);
         let cols = (x0.floor().max(0.0) as usize)..(x1.ceil().min(w as f64) as usize);
         for y in (y0.floor().max(0.0) as usize)..(y1.ceil().min(h as f64) as usize) {
             let oy = (y1.min(y as f64 + 1.0) - y0.max(y as f64)).max(0.0);
             for x in cols.clone() {
-                if inv_depth[y * w + x] > i.inv_z {
+                let p = y * w + x;
+                if inv_depth[p] > i.inv_z {
                     continue; // the scene is nearer than the drop here
                 }
                 let ox = (x1.min(x as f64 + 1.0) - x0.max(x as f64)).max(0.0);
-                scratch[(y - by0) * bw + (x - bx0)] += (density * ox * oy) as f32;
+                let a = (density * ox * oy) as f32;
+                if a > 0.0 {
+                    if shares.share[p] == 0.0 {
+                        shares.touched.push(p as u32);
+                    }
+                    shares.share[p] += a;
+                }
             }
         }
     }
-    for (row, shares) in scratch.chunks_exact(bw).enumerate() {
-        for (col, &a) in shares.iter().enumerate() {
-            if a > 0.0 {
-                let p = (by0 + row) * w + bx0 + col;
-                let a = a.min(1.0);
-                for (c, r) in colour[p * 3..p * 3 + 3].iter_mut().zip(radiance) {
-                    *c += a * (r - *c);
-                }
-            }
+    for p in shares.touched.drain(..) {
+        let p = p as usize;
+        let a = std::mem::take(&mut shares.share[p]).min(1.0);
+        for (c, r) in colour[p * 3..p * 3 + 3].iter_mut().zip(radiance) {
+            *c += a * (r - *c);
         }
     }
 }
@@ -297,11 +340,13 @@ pub fn streaks(
 ) {
     let band_m = (FARTHEST_M - NEAREST_M) / VEIL_BANDS as f64;
     let mut veil = [0.0f64; VEIL_BANDS];
-    let mut scratch = Vec::new();
+    let mut shares = Shares::default();
+    let motion = ShutterMotion::new(camera, ego, shutter_s);
     for drop in drops {
-        let path = Path::of(camera, ego, drop, shutter_s);
+        let path = Path::of(camera, &motion, drop);
         if path.peak_share >= VEIL_SHARE {
-            draw((&mut *colour, inv_depth, camera.width_px), &path, radiance, &mut scratch);
+            let canvas = (&mut *colour, inv_depth, camera.width_px);
+            draw(canvas, (camera, &motion, &path), radiance, &mut shares);
         } else {
             let band = (((drop.z_m - NEAREST_M) / band_m) as usize).min(VEIL_BANDS - 1);
             let d = camera.fx_px * drop.d_mm * 1e-3 / drop.z_m;
