@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod common;
-use common::{TINY_RUN, joca, stderr, stdout};
+use common::{TINY_RUN, cli, joca, stderr, stdout};
 
 /// The detector weights the repository ships (what every preset starts from).
 fn shipped_weights() -> PathBuf {
@@ -16,12 +16,12 @@ fn shipped_weights() -> PathBuf {
 
 #[test]
 fn sensors_lists_the_catalogue_and_restricts_it() {
-    let all = joca(&["sensors", "--format", "json"]);
+    let all = cli!("sensors --format json");
     assert!(all.status.success(), "{}", stderr(&all));
     let rows: serde_json::Value = serde_json::from_str(&stdout(&all)).unwrap();
     assert_eq!(rows.as_array().unwrap().len(), 43);
 
-    let csv = joca(&["sensors", "--format", "csv", "--fits", "1920x1280", "--focal-mm", "2.4"]);
+    let csv = cli!("sensors --format csv --fits 1920x1280 --focal-mm 2.4");
     let text = stdout(&csv);
     let lines: Vec<&str> = text.lines().collect();
     assert!(lines[0].ends_with("hfov_deg,vfov_deg"));
@@ -36,51 +36,26 @@ fn sensors_lists_the_catalogue_and_restricts_it() {
 
 #[test]
 fn bad_values_name_the_flag_and_the_range() {
-    let o = joca(&["sensors", "--focal-mm", "0.5"]);
-    assert!(!o.status.success());
-    assert!(
-        stderr(&o).contains("--focal-mm = 0.5 is out of range: allowed 1 to 10 mm"),
-        "{}",
-        stderr(&o)
-    );
-
-    let o = joca(&[
-        "form",
-        "--input",
-        "x.png",
-        "--exposure-ms",
-        "80",
-        "--gain-db",
-        "10",
-        "--sensor",
-        "AR0134",
-        "--out",
-        "y.png",
-    ]);
-    assert!(
-        stderr(&o).contains("--exposure-ms") && stderr(&o).contains("allowed 0.0001 to 0.05 s"),
-        "{}",
-        stderr(&o)
-    );
-
-    let o = joca(&[
-        "form",
-        "--input",
-        "x.png",
-        "--exposure-ms",
-        "5",
-        "--gain-db",
-        "10",
-        "--sensor",
-        "IMX999",
-        "--out",
-        "y.png",
-    ]);
-    assert!(
-        stderr(&o).contains("unknown sensor \"IMX999\"") && stderr(&o).contains("IMX172"),
-        "{}",
-        stderr(&o)
-    );
+    let form = "form --input x.png --gain-db 10 --out y.png";
+    let cases: [(String, &[&str]); 3] = [
+        (
+            "sensors --focal-mm 0.5".into(),
+            &["--focal-mm = 0.5 is out of range: allowed 1 to 10 mm"],
+        ),
+        (
+            format!("{form} --exposure-ms 80 --sensor AR0134"),
+            &["--exposure-ms", "allowed 0.0001 to 0.05 s"],
+        ),
+        (
+            format!("{form} --exposure-ms 5 --sensor IMX999"),
+            &["unknown sensor \"IMX999\"", "IMX172"],
+        ),
+    ];
+    for (line, wants) in cases {
+        let o = cli!(line.as_str());
+        assert!(!o.status.success(), "{line}");
+        assert!(wants.iter().all(|w| stderr(&o).contains(w)), "{line}: {}", stderr(&o));
+    }
 }
 
 fn write_png16(path: &Path, width: u32, height: u32, f: impl Fn(u32, u32) -> u16) {
@@ -100,19 +75,7 @@ fn form_applies_exposure_and_reports_unreadable_files() {
     write_png16(&input, 64, 48, |_, _| 257 * 40);
     let out = dir.path().join("formed.png");
     // Twice E0 at G0 on the calibration pitch: mean 80 DN.
-    let o = joca(&[
-        "form",
-        "--input",
-        input.to_str().unwrap(),
-        "--exposure-ms",
-        "10",
-        "--gain-db",
-        "10",
-        "--sensor",
-        "AR0134",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = cli!("form --input", input, "--exposure-ms 10 --gain-db 10 --sensor AR0134 --out", out);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(&out).unwrap().to_rgb8();
     let mean = img.as_raw().iter().map(|&v| f64::from(v)).sum::<f64>() / img.as_raw().len() as f64;
@@ -120,19 +83,7 @@ fn form_applies_exposure_and_reports_unreadable_files() {
 
     let broken = dir.path().join("broken.png");
     std::fs::write(&broken, b"not a png").unwrap();
-    let o = joca(&[
-        "form",
-        "--input",
-        broken.to_str().unwrap(),
-        "--exposure-ms",
-        "5",
-        "--gain-db",
-        "10",
-        "--sensor",
-        "AR0134",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = cli!("form --input", broken, "--exposure-ms 5 --gain-db 10 --sensor AR0134 --out", out);
     assert!(!o.status.success());
     assert!(
         stderr(&o).contains("cannot read image") && stderr(&o).contains("broken.png"),
@@ -144,21 +95,11 @@ fn form_applies_exposure_and_reports_unreadable_files() {
 #[test]
 fn a_bad_calibration_file_names_the_file_and_the_field() {
     let form_with = |cal: &Path| {
-        joca(&[
-            "form",
-            "--input",
-            "x.png",
-            "--exposure-ms",
-            "5",
-            "--gain-db",
-            "10",
-            "--sensor",
-            "AR0134",
-            "--calibration",
-            cal.to_str().unwrap(),
-            "--out",
-            "y.png",
-        ])
+        cli!(
+            "form --input x.png --exposure-ms 5 --gain-db 10 --sensor AR0134 --calibration",
+            cal,
+            "--out y.png"
+        )
     };
     let dir = tempfile::tempdir().unwrap();
     let cal = dir.path().join("cal.toml");
@@ -224,7 +165,7 @@ fn calibrate_noise_recovers_known_parameters_from_png_frames() {
         )
         .unwrap();
     }
-    let o = joca(&["calibrate-noise", "--frames", dir.path().to_str().unwrap()]);
+    let o = cli!("calibrate-noise --frames", dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
     let parse = |key: &str| -> Vec<f64> {
@@ -240,7 +181,7 @@ fn calibrate_noise_recovers_known_parameters_from_png_frames() {
         assert!((got / want - 1.0).abs() < 0.10, "{got} vs {want}");
     }
 
-    let o = joca(&["calibrate-noise", "--frames", "/nonexistent-dir"]);
+    let o = cli!("calibrate-noise --frames /nonexistent-dir");
     assert!(stderr(&o).contains("/nonexistent-dir"), "{}", stderr(&o));
     // A gain that is not a number is refused with its range, not printed into the TOML.
     let frames = dir.path().to_str().unwrap();
@@ -256,7 +197,7 @@ fn calibrate_noise_recovers_known_parameters_from_png_frames() {
     for k in 0..3 {
         std::fs::copy(dir.path().join("f0.png"), copies.path().join(format!("c{k}.png"))).unwrap();
     }
-    let o = joca(&["calibrate-noise", "--frames", copies.path().to_str().unwrap()]);
+    let o = cli!("calibrate-noise --frames", copies.path());
     assert!(stderr(&o).contains("the frames are identical"), "{}", stderr(&o));
 }
 
@@ -264,19 +205,8 @@ fn calibrate_noise_recovers_known_parameters_from_png_frames() {
 fn render_writes_frames_ground_truth_and_a_contact_sheet() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    let o = joca(&[
-        "render",
-        "--illumination",
-        "day",
-        "--frames",
-        "3",
-        "--short-px",
-        "150",
-        "--long-max-px",
-        "200",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o =
+        cli!("render --illumination day --frames 3 --short-px 150 --long-max-px 200 --out", out);
     assert!(o.status.success(), "{}", stderr(&o));
     for f in ["frames/000000.png", "frames/000002.png", "contact_sheet.png", "sequence.gif"] {
         assert!(out.join(f).exists(), "{f}");
@@ -312,26 +242,17 @@ fn render_writes_frames_ground_truth_and_a_contact_sheet() {
 
 #[test]
 fn render_refuses_bad_names_and_impossible_mounts() {
-    let o = joca(&["render", "--illumination", "dusk", "--out", "/tmp/x"]);
-    let e = stderr(&o);
-    assert!(
-        !o.status.success() && e.contains("day") && e.contains("tunnel") && e.contains("cycle"),
-        "{e}"
-    );
-    let o = joca(&["render", "--x", "5", "--out", "/tmp/x"]);
-    assert!(stderr(&o).contains("--x = 5 is out of range: allowed 0 to 2.4 m"), "{}", stderr(&o));
-    let o = joca(&["render", "--focal-mm", "0.2", "--out", "/tmp/x"]);
-    assert!(
-        stderr(&o).contains("--focal-mm") && stderr(&o).contains("1 to 10 mm"),
-        "{}",
-        stderr(&o)
-    );
-    let o = joca(&["render", "--sensor", "nope", "--out", "/tmp/x"]);
-    assert!(
-        stderr(&o).contains("unknown sensor") && stderr(&o).contains("AR0134"),
-        "{}",
-        stderr(&o)
-    );
+    let cases: [(&str, &[&str]); 4] = [
+        ("--illumination dusk", &["day", "tunnel", "cycle"]),
+        ("--x 5", &["--x = 5 is out of range: allowed 0 to 2.4 m"]),
+        ("--focal-mm 0.2", &["--focal-mm", "1 to 10 mm"]),
+        ("--sensor nope", &["unknown sensor", "AR0134"]),
+    ];
+    for (flags, wants) in cases {
+        let o = cli!("render --out /tmp/x", flags);
+        assert!(!o.status.success(), "{flags}");
+        assert!(wants.iter().all(|w| stderr(&o).contains(w)), "{flags}: {}", stderr(&o));
+    }
     // Lens and weather: each refusal names the flag and what is allowed, and writes nothing.
     let out = std::env::temp_dir().join(format!("joca-render-optics-{}", std::process::id()));
     let o_str = out.to_str().unwrap();
@@ -360,7 +281,7 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
     let (gt, dt) = (dir.path().join("gt.json"), dir.path().join("dt.json"));
     std::fs::write(&gt, v["gt"].to_string()).unwrap();
     std::fs::write(&dt, v["dt"].to_string()).unwrap();
-    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    let o = cli!("metrics --gt", gt, "--dt", dt);
     assert!(o.status.success(), "{}", stderr(&o));
     let first = stdout(&o).lines().next().unwrap().to_owned();
     let want = format!("{:.3}", v["stats"][0].as_f64().unwrap());
@@ -379,7 +300,7 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
 
     std::fs::write(&dt, r#"[{"image_id": 1, "category_id": 1, "bbox": [1, 2, 3], "score": 0.5}]"#)
         .unwrap();
-    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    let o = cli!("metrics --gt", gt, "--dt", dt);
     assert!(
         stderr(&o).contains("dt.json")
             && stderr(&o).contains("detection 0")
@@ -393,7 +314,7 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
         r#"[{"image_id": 1.5, "category_id": 1, "bbox": [1, 2, 3, 4], "score": 1}]"#,
     )
     .unwrap();
-    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    let o = cli!("metrics --gt", gt, "--dt", dt);
     assert!(stderr(&o).contains("`image_id` of detection 0 is 1.5"), "{}", stderr(&o));
     // Ground truth only on an undeclared image and an undeclared category: pycocotools has
     // nothing to evaluate and prints -1.000 (pycocotools 2.0.11 on this pair:
@@ -411,7 +332,7 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
         r#"[{"image_id": 1, "category_id": 1, "bbox": [10, 10, 20, 20], "score": 0.9}]"#,
     )
     .unwrap();
-    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    let o = cli!("metrics --gt", gt, "--dt", dt);
     assert!(o.status.success(), "{}", stderr(&o));
     let first = stdout(&o).lines().next().unwrap().to_owned();
     assert!(first.ends_with("= -1.000"), "{first}");
@@ -420,20 +341,20 @@ fn metrics_prints_the_pycocotools_summary_and_names_bad_fields() {
 
 #[test]
 fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
-    let o = joca(&["run", "--method", "magic", "--out", "/tmp/joca-never"]);
+    let o = cli!("run --method magic --out /tmp/joca-never");
     assert!(
         stderr(&o).contains("unknown method \"magic\"")
             && stderr(&o).contains("tacos-average, fixed-neural"),
         "{}",
         stderr(&o)
     );
-    let o = joca(&["run", "--scenario", "fog", "--out", "/tmp/joca-never"]);
+    let o = cli!("run --scenario fog --out /tmp/joca-never");
     assert!(
         stderr(&o).contains("unknown scenario \"fog\"") && stderr(&o).contains("noise10"),
         "{}",
         stderr(&o)
     );
-    let o = joca(&["run", "--preset", "huge", "--out", "/tmp/joca-never"]);
+    let o = cli!("run --preset huge --out /tmp/joca-never");
     assert!(
         stderr(&o).contains("unknown preset \"huge\"")
             && stderr(&o).contains("quick, standard, paper"),
@@ -443,7 +364,7 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("mine.toml");
     std::fs::write(&cfg, "[run]\ngenerations = 2\npopulaton = 4\n").unwrap();
-    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let o = cli!("run --config", cfg, "--out /tmp/joca-never");
     assert!(
         stderr(&o).contains("mine.toml") && stderr(&o).contains("unknown field `populaton`"),
         "{}",
@@ -451,13 +372,13 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
     );
     // `joca experiment --seeds 0` is refused before anything is written.
     let exp_dir = dir.path().join("exp");
-    let o = joca(&["experiment", "ablation", "--seeds", "0", "--out", exp_dir.to_str().unwrap()]);
+    let o = cli!("experiment ablation --seeds 0 --out", exp_dir);
     let e = stderr(&o);
     assert!(!o.status.success() && e.contains("--seeds = 0 is invalid: 1 to 100"), "{e}");
     assert!(!exp_dir.exists());
     // A misspelt table is refused, not ignored.
     std::fs::write(&cfg, "[runn]\ngenerations = 2\n").unwrap();
-    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let o = cli!("run --config", cfg, "--out /tmp/joca-never");
     assert!(
         !o.status.success()
             && stderr(&o).contains("mine.toml")
@@ -469,18 +390,17 @@ fn run_refuses_unknown_methods_scenarios_presets_and_config_fields() {
     // `--resume` where nothing ran is refused, and so is `--out` at a folder of other files,
     // which is left untouched.
     let empty = dir.path().join("empty");
-    let o = joca(&["run", "--resume", "--out", empty.to_str().unwrap()]);
+    let o = cli!("run --resume --out", empty);
     assert!(stderr(&o).contains("nothing to resume"), "{}", stderr(&o));
     let other = dir.path().join("other");
     std::fs::create_dir_all(&other).unwrap();
     std::fs::write(other.join("notes.txt"), "mine").unwrap();
-    let o = joca(&["run", "--out", other.to_str().unwrap()]);
+    let o = cli!("run --out", other);
     assert!(stderr(&o).contains("is not a joca run output"), "{}", stderr(&o));
     let left: Vec<_> = std::fs::read_dir(&other).unwrap().collect();
     assert_eq!(left.len(), 1);
     // A speed that is not a number is refused before anything runs.
-    let o =
-        joca(&["render", "--max-speed-mps", "NaN", "--frames", "1", "--out", "/tmp/joca-never"]);
+    let o = cli!("render --max-speed-mps NaN --frames 1 --out /tmp/joca-never");
     assert!(stderr(&o).contains("--max-speed-mps = NaN is out of range"), "{}", stderr(&o));
 }
 
@@ -543,14 +463,14 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
     for (line, message) in cases {
         std::fs::write(&cfg, format!("[run]\n{line}\n")).unwrap();
         let out = dir.path().join("r");
-        let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let o = cli!("run --config", cfg, "--out", out);
         assert!(!o.status.success());
         assert!(stderr(&o).contains(message) && stderr(&o).contains("mine.toml"), "{}", stderr(&o));
         assert!(!out.exists(), "{line}: the run directory was created");
     }
     // An unknown perturbation mutation names the field and the values it may take.
     std::fs::write(&cfg, "[run]\nperturbation_mutation = \"gaussian\"\n").unwrap();
-    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let o = cli!("run --config", cfg, "--out /tmp/joca-never");
     let e = stderr(&o);
     assert!(
         e.contains("perturbation_mutation") && e.contains("`paper`") && e.contains("`additive`"),
@@ -558,14 +478,14 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
     );
     // So does an unknown scoring precision.
     std::fs::write(&cfg, "[run]\nscoring_precision = \"fp16\"\n").unwrap();
-    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let o = cli!("run --config", cfg, "--out /tmp/joca-never");
     let e = stderr(&o);
     assert!(e.contains("scoring_precision") && e.contains("`fp32`") && e.contains("`bf16`"), "{e}");
     // A reference range of zero (or less) names the field, the allowed range and the file,
     // before a run directory exists; the other ranges of a partial table keep their defaults.
     std::fs::write(&cfg, "[run.reference]\nwalker_m = 0.0\n").unwrap();
     let never = dir.path().join("never");
-    let o = joca(&["run", "--config", cfg.to_str().unwrap(), "--out", never.to_str().unwrap()]);
+    let o = cli!("run --config", cfg, "--out", never);
     let e = stderr(&o);
     assert!(
         !o.status.success()
@@ -598,7 +518,7 @@ fn experiment_files_with_unknown_methods_or_scenarios_name_them_and_the_valid_on
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("mine.toml");
     std::fs::write(&file, TINY_EXPERIMENT.replace("tacos-average", "tacos-magic")).unwrap();
-    let o = joca(&["experiment", file.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let o = cli!("experiment", file, "--out /tmp/joca-never");
     let e = stderr(&o);
     assert!(
         e.contains("mine.toml")
@@ -608,13 +528,13 @@ fn experiment_files_with_unknown_methods_or_scenarios_name_them_and_the_valid_on
         "{e}"
     );
     std::fs::write(&file, TINY_EXPERIMENT.replace("\"blur4\"", "\"fog\"")).unwrap();
-    let o = joca(&["experiment", file.to_str().unwrap(), "--out", "/tmp/joca-never"]);
+    let o = cli!("experiment", file, "--out /tmp/joca-never");
     let e = stderr(&o);
     assert!(
         e.contains("mine.toml: scenarios: unknown scenario \"fog\"") && e.contains("noise10"),
         "{e}"
     );
-    let o = joca(&["experiment", "table9", "--out", "/tmp/joca-never"]);
+    let o = cli!("experiment table9 --out /tmp/joca-never");
     let e = stderr(&o);
     assert!(
         e.contains("unknown experiment \"table9\"") && e.contains("table1, ablation, sweep-weight"),
@@ -747,8 +667,7 @@ fn flow_reports_motion_and_refuses_bad_input() {
     let a = frames.join("000.png");
     let b = frames.join("001.png");
     let out = dir.path().join("flow.png");
-    let o =
-        joca(&["flow", a.to_str().unwrap(), b.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = cli!("flow", a, b, "--out", out);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("mean displacement 2.0"), "{}", stdout(&o));
     assert!(out.is_file());
@@ -835,7 +754,7 @@ fn flow_reports_motion_and_refuses_bad_input() {
     );
     let small = dir.path().join("small.png");
     image::RgbImage::new(10, 10).save(&small).unwrap();
-    let o = joca(&["flow", a.to_str().unwrap(), small.to_str().unwrap(), "--out", "x.png"]);
+    let o = cli!("flow", a, small, "--out x.png");
     assert!(stderr(&o).contains("96×64 but") && stderr(&o).contains("10×10"), "{}", stderr(&o));
 }
 
@@ -844,14 +763,7 @@ fn blur_smears_along_the_flow_and_refuses_bad_input() {
     let dir = tempfile::tempdir().unwrap();
     let frames = shifted_frames(dir.path());
     let blurred = dir.path().join("blurred");
-    let o = joca(&[
-        "blur",
-        frames.to_str().unwrap(),
-        "--exposure-ms",
-        "50",
-        "--out",
-        blurred.to_str().unwrap(),
-    ]);
+    let o = cli!("blur", frames, "--exposure-ms 50 --out", blurred);
     assert!(o.status.success(), "{}", stderr(&o));
     // 2 px per 100 ms frame interval, 50 ms exposure: a 1 px smear.
     assert!(stdout(&o).contains("mean smear 1.0"), "{}", stdout(&o));
@@ -859,16 +771,7 @@ fn blur_smears_along_the_flow_and_refuses_bad_input() {
     assert_eq!(std::fs::read_dir(&blurred).unwrap().count(), 3);
     assert!(blurred.join(".joca-output").is_file());
 
-    let o = joca(&[
-        "blur",
-        frames.to_str().unwrap(),
-        "--exposure-ms",
-        "5",
-        "--linearize",
-        "gamma",
-        "--out",
-        "x",
-    ]);
+    let o = cli!("blur", frames, "--exposure-ms 5 --linearize gamma --out x");
     assert!(stderr(&o).contains("valid: srgb, none"), "{}", stderr(&o));
 }
 
@@ -878,19 +781,8 @@ fn a_run_on_a_recorded_folder_reports_the_real_image_layout() {
     let rec = dir.path().join("rec");
     // `joca render` writes the folder format: frames plus annotations.json with timestamp_s and
     // exposure_s. Its frames are linear 8-bit values, hence linearize = "none" below.
-    let o = joca(&[
-        "render",
-        "--frames",
-        "8",
-        "--short-px",
-        "600",
-        "--long-max-px",
-        "800",
-        "--illumination",
-        "day",
-        "--out",
-        rec.to_str().unwrap(),
-    ]);
+    let o =
+        cli!("render --frames 8 --short-px 600 --long-max-px 800 --illumination day --out", rec);
     assert!(o.status.success(), "{}", stderr(&o));
     let cfg = dir.path().join("real.toml");
     std::fs::write(&cfg, format!("{TINY_RUN}[run.real]\nlinearize = \"none\"\n")).unwrap();
@@ -917,7 +809,7 @@ fn a_run_on_a_recorded_folder_reports_the_real_image_layout() {
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     // Only sensors whose grid fits inside the 800×600 recording can be chosen.
     let sensor = results["design"]["sensor"].as_str().unwrap().to_owned();
-    let o = joca(&["sensors", "--format", "csv", "--fits", "800x600"]);
+    let o = cli!("sensors --format csv --fits 800x600");
     assert!(stdout(&o).contains(&format!(",{sensor},")), "{sensor} does not fit 800x600");
 
     // Frames without exposure are refused with the fix; a bad setting names the field.
@@ -966,7 +858,7 @@ fn detect_writes_coco_results_that_metrics_scores() {
     assert!(
         first["image_id"].as_u64().unwrap() >= 1 && first["bbox"].as_array().unwrap().len() == 4
     );
-    let o = joca(&["metrics", "--gt", gt.to_str().unwrap(), "--dt", dt.to_str().unwrap()]);
+    let o = cli!("metrics --gt", gt, "--dt", dt);
     assert!(stdout(&o).contains("area= small"), "{}", stdout(&o));
     // Weights of another width are refused naming a tensor.
     let o = detect(&["--width", "8"]);
@@ -976,28 +868,20 @@ fn detect_writes_coco_results_that_metrics_scores() {
 #[test]
 fn eval_detector_scores_weights_and_names_a_missing_file() {
     let weights = shipped_weights();
-    let o = joca(&[
-        "eval-detector",
-        "--weights",
-        weights.to_str().unwrap(),
-        "--episodes",
-        "1",
-        "--threads",
-        "1",
-    ]);
+    let o = cli!("eval-detector --weights", weights, "--episodes 1 --threads 1");
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     // One episode of 10 frames per light, each AP cell with the boxes it rests on.
     assert!(out.contains("1 episodes × 10 frames"), "{out}");
     let day = out.lines().find(|l| l.starts_with("| day |")).unwrap();
     assert!(day.trim_end().ends_with("| 10 |") && day.contains(" ("), "{day}");
-    let o = joca(&["eval-detector", "--weights", "/nonexistent/w.safetensors"]);
+    let o = cli!("eval-detector --weights /nonexistent/w.safetensors");
     assert!(
         !o.status.success() && stderr(&o).contains("/nonexistent/w.safetensors"),
         "{}",
         stderr(&o)
     );
-    let o = joca(&["eval-detector", "--weights", weights.to_str().unwrap(), "--episodes", "0"]);
+    let o = cli!("eval-detector --weights", weights, "--episodes 0");
     assert!(
         stderr(&o).contains("eval.final_episodes") && stderr(&o).contains("1 to 10000"),
         "{}",

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
 
 mod common;
-use common::{TINY_RUN, joca, stderr, stdout};
+use common::{TINY_RUN, cli, stderr, stdout};
 
 const PANEL: &str = r#"
 title = "controllers on a panel"
@@ -45,18 +45,7 @@ fn a_panel_compares_controllers_on_the_same_designs() {
     std::fs::write(&cfg, run.replace("test_frames_per_episode = 2", "test_frames_per_episode = 1"))
         .unwrap();
     let exp = dir.path().join("exp");
-    let o = joca(&[
-        "experiment",
-        file.to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-        "--seeds",
-        "2",
-        "--jobs",
-        "2",
-        "--out",
-        exp.to_str().unwrap(),
-    ]);
+    let o = cli!("experiment", file, "--config", cfg, "--seeds 2 --jobs 2 --out", exp);
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
     // Every cell drove its panel design, not a searched one.
     for (cell, sensor) in [
