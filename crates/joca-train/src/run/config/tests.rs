@@ -1,0 +1,29 @@
+//! Reading `[run]` fields whose file form differs from their type.
+use super::RunConfig;
+use std::path::PathBuf;
+
+/// The quick preset's `[run]` with `detector_weights` set to `value` (or removed).
+fn with_weights(value: Option<&str>) -> RunConfig {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../presets/quick.toml");
+    let mut table: toml::Table = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let run = table.get_mut("run").and_then(|r| r.as_table_mut()).unwrap();
+    run.remove("detector_weights");
+    if let Some(v) = value {
+        run.insert("detector_weights".into(), v.into());
+    }
+    table.remove("run").unwrap().try_into().unwrap()
+}
+
+#[test]
+fn detector_weights_are_a_path_or_none() {
+    assert_eq!(with_weights(None).detector_weights, None);
+    // Older files (and a user's override of a preset) write "none" as an empty string.
+    assert_eq!(with_weights(Some("")).detector_weights, None);
+    let some = with_weights(Some("w/d.safetensors"));
+    assert_eq!(some.detector_weights, Some(PathBuf::from("w/d.safetensors")));
+    // Written back, "none" leaves the field out and a path keeps it.
+    assert!(!toml::to_string(&with_weights(Some(""))).unwrap().contains("detector_weights"));
+    let text = toml::to_string(&some).unwrap();
+    assert!(text.contains("detector_weights = \"w/d.safetensors\""), "{text}");
+    assert_eq!(toml::from_str::<RunConfig>(&text).unwrap(), some);
+}
