@@ -1,6 +1,6 @@
 //! The lines of a run's `events.jsonl` and `test/trace.jsonl`: one JSON object per line.
 
-use crate::{DesignSummary, Light};
+use crate::{DesignSummary, Light, Settings};
 use joca_metrics::TaskScores;
 use serde::{Deserialize, Serialize};
 
@@ -27,10 +27,9 @@ pub struct StepRecord {
     /// DF-Grad's GA supervision loss, on the steps it applies.
     #[serde(default)]
     pub ga_loss: Option<f64>,
-    /// Exposure applied, ms.
-    pub exposure_ms: f64,
-    /// Gain applied, dB.
-    pub gain_db: f64,
+    /// Exposure (ms) and gain (dB) applied, written as two fields.
+    #[serde(flatten)]
+    pub settings: Settings,
     /// The episode's illumination schedule (`recorded` for real frames; absent in older runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub illumination: Option<Light>,
@@ -86,10 +85,9 @@ pub struct TraceRecord {
     pub illumination: Light,
     /// Ambient light relative to full daylight (none for real frames).
     pub ambient: Option<f32>,
-    /// Exposure applied, ms.
-    pub exposure_ms: f64,
-    /// Gain applied, dB.
-    pub gain_db: f64,
+    /// Exposure (ms) and gain (dB) applied, written as two fields.
+    #[serde(flatten)]
+    pub settings: Settings,
     /// Annotated objects.
     pub objects: usize,
     /// Objects visible in the 180° field.

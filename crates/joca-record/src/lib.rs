@@ -20,6 +20,7 @@
 mod events;
 mod method;
 mod results;
+mod settings;
 mod showcase;
 mod vocabulary;
 
@@ -30,5 +31,6 @@ pub use joca_metrics::{BandScores, TaskScores};
 pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
 pub use method::{Method, Scenario};
 pub use results::{DesignSummary, RESULTS_FORMAT_VERSION, RunResults, SearchTies, Validated};
+pub use settings::Settings;
 pub use showcase::{LightStep, Showcase, ShowcaseFrame};
 pub use vocabulary::{Light, Source, TestController};

@@ -1,6 +1,6 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
-use crate::{Light, Method, Scenario, Source, TestController};
+use crate::{Light, Method, Scenario, Settings, Source, TestController};
 use joca_camera::{DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
 use joca_core::weather::Weather;
@@ -40,8 +40,9 @@ pub struct RunResults {
     /// recordings): the same frames as `test`, split by the episode's light. Empty in older runs.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub test_by_illumination: BTreeMap<Light, TaskScores>,
-    /// Mean exposure (ms) and gain (dB) by illumination during the test.
-    pub settings_by_illumination: BTreeMap<Light, (f64, f64)>,
+    /// Mean exposure (ms) and gain (dB) by illumination during the test, each written `[ms, dB]`.
+    #[serde(with = "crate::settings::as_pairs")]
+    pub settings_by_illumination: BTreeMap<Light, Settings>,
     /// Mean of exposure (ms) × linear gain (10^(G/20)) over the test frames, by illumination:
     /// the total amplification the controller applies to the light it sees.
     #[serde(default)]

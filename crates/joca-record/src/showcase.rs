@@ -1,7 +1,7 @@
 //! `test/showcase.json`: fixed closed-loop sequences on the test town, the same scenes for every
 //! run, whose frames, settings and boxes the reports draw.
 
-use crate::Light;
+use crate::{Light, Settings};
 use joca_core::{Annotation, Detection};
 use serde::{Deserialize, Serialize};
 
@@ -14,10 +14,9 @@ pub struct ShowcaseFrame {
     pub time_s: f64,
     /// Ambient light relative to full daylight.
     pub ambient: f32,
-    /// Exposure the sensor used, ms.
-    pub exposure_ms: f64,
-    /// Gain the sensor used, dB.
-    pub gain_db: f64,
+    /// Exposure (ms) and gain (dB) applied, written as two fields.
+    #[serde(flatten)]
+    pub settings: Settings,
     /// Ground truth at the shutter midpoint.
     pub boxes: Vec<Annotation>,
     /// Detections on the formed frame.
@@ -58,7 +57,7 @@ pub struct LightStep {
 impl ShowcaseFrame {
     /// Exposure × linear gain, ms.
     pub fn exposure_gain_ms(&self) -> f64 {
-        self.exposure_ms * 10f64.powf(self.gain_db / 20.0)
+        self.settings.exposure_gain_ms()
     }
 }
 
@@ -96,8 +95,7 @@ mod tests {
             frame: k,
             time_s: 0.1 * k as f64,
             ambient,
-            exposure_ms,
-            gain_db,
+            settings: Settings { exposure_ms, gain_db },
             boxes: Vec::new(),
             detections: Vec::new(),
             image: None,

@@ -146,8 +146,8 @@ fn parse_events(bytes: &[u8]) -> (Vec<GenerationFitness>, Vec<StepLog>, Vec<usiz
                     StepLog {
                         step: s.step,
                         loss: s.loss.total,
-                        exposure_ms: s.exposure_ms,
-                        gain_db: s.gain_db,
+                        exposure_ms: s.settings.exposure_ms,
+                        gain_db: s.settings.gain_db,
                     },
                 );
             }

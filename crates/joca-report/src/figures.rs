@@ -2,7 +2,6 @@
 //! loss, the qualitative frames, the field-of-view diagram and the tunnel animation.
 
 use crate::{DRAW_MIN_SCORE, Figure, ReportError, RunData, frames, io_err, plot};
-use joca_core::units::linear_from_db;
 use joca_record::{DesignSummary, Showcase, ShowcaseFrame};
 use std::path::Path;
 
@@ -170,14 +169,14 @@ fn settings_figure(
                 },
                 plot::Panel {
                     y_label: "exposure time (ms)".into(),
-                    series: series(|f| f.exposure_ms),
+                    series: series(|f| f.settings.exposure_ms),
                 },
-                plot::Panel { y_label: "gain (dB)".into(), series: series(|f| f.gain_db) },
+                plot::Panel { y_label: "gain (dB)".into(), series: series(|f| f.settings.gain_db) },
                 // On the ambient panel's log scale: a controller that keeps the image level
                 // moves this by as much as the ambient light moves, the other way.
                 plot::Panel {
                     y_label: "exposure × gain, log10 (ms)".into(),
-                    series: series(|f| (f.exposure_ms * linear_from_db(f.gain_db)).log10()),
+                    series: series(|f| f.settings.exposure_gain_ms().log10()),
                 },
             ],
             (900, 1060),

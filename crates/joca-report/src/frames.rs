@@ -257,7 +257,7 @@ pub fn tunnel_animation(path: &Path, runs: &[(String, &RunData)]) -> Result<(), 
                 let y = (head + tile.1) as i32;
                 let text = (FAMILY, 12).into_font().color(&BLACK);
                 root.draw(&Text::new(
-                    format!("E {:.2} ms   G {:.1} dB", f.exposure_ms, f.gain_db),
+                    format!("E {:.2} ms   G {:.1} dB", f.settings.exposure_ms, f.settings.gain_db),
                     (x + 4, y + 4),
                     text.clone(),
                 ))?;

@@ -183,7 +183,8 @@ pub fn settings_markdown(r: &RunResults) -> String {
             |---|---|---|---|---|---|\n",
     );
     let night = r.exposure_gain_by_illumination.get(&joca_record::Light::Night).copied();
-    for (light, (e, g)) in &r.settings_by_illumination {
+    for (light, s) in &r.settings_by_illumination {
+        let (e, g) = (s.exposure_ms, s.gain_db);
         let eg = r.exposure_gain_by_illumination.get(light);
         let cell = eg.map_or_else(|| "-".to_owned(), |v| format!("{v:.1}"));
         let relative = match (eg, night) {

@@ -242,8 +242,8 @@ impl Table {
                 t.ap50,
                 t.tp_ratio,
                 t.frames,
-                opt(r.results.settings_by_illumination.get(&Light::Day).map(|s| s.0)),
-                opt(r.results.settings_by_illumination.get(&Light::Night).map(|s| s.0)),
+                opt(r.results.settings_by_illumination.get(&Light::Day).map(|s| s.exposure_ms)),
+                opt(r.results.settings_by_illumination.get(&Light::Night).map(|s| s.exposure_ms)),
                 opt(r.results.exposure_gain_by_illumination.get(&Light::Day).copied()),
                 opt(r.results.exposure_gain_by_illumination.get(&Light::Night).copied()),
             );

@@ -184,8 +184,7 @@ pub(super) fn train(
                     offset: l.offset,
                 },
                 ga_loss: report.ga_loss,
-                exposure_ms: report.applied.exposure_s * 1e3,
-                gain_db: report.applied.gain_db,
+                settings: report.applied.into(),
                 illumination: Some(super::light_of(stretch.illumination)),
             }))?;
         }

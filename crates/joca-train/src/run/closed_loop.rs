@@ -20,7 +20,7 @@ use joca_core::units::linear_from_db;
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{BandScores, TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
-use joca_record::{Light, TraceRecord};
+use joca_record::{Light, Settings, TraceRecord};
 pub use joca_record::{Showcase, ShowcaseFrame};
 use joca_sim::{Illumination, Simulator, TUNNEL_PHASE_S, test_map_seed};
 use std::collections::BTreeMap;
@@ -217,8 +217,7 @@ pub(super) fn test(
                 time_s,
                 illumination: light,
                 ambient,
-                exposure_ms: s.settings.exposure_s * 1e3,
-                gain_db: s.settings.gain_db,
+                settings: s.settings.into(),
                 objects: s.frame.boxes.len(),
                 visible_180: s.frame.visible_180,
                 detections: s.detections.len(),
@@ -232,8 +231,12 @@ pub(super) fn test(
     let mean = |f: fn(&LightSums) -> f64| -> BTreeMap<Light, f64> {
         sums.iter().map(|(k, v)| (*k, f(v) / v.frames)).collect()
     };
-    let settings =
-        sums.iter().map(|(k, v)| (*k, (v.exposure_ms / v.frames, v.gain_db / v.frames))).collect();
+    let settings = sums
+        .iter()
+        .map(|(k, v)| {
+            (*k, Settings { exposure_ms: v.exposure_ms / v.frames, gain_db: v.gain_db / v.frames })
+        })
+        .collect();
     let exposure_gain = mean(|v| v.exposure_gain_ms);
     let mean_dn = mean(|v| v.mean_dn);
     if let Some(dir) = out {
@@ -354,8 +357,7 @@ fn showcases(
                 frame: k,
                 time_s,
                 ambient: ambient(&sim, episode, time_s),
-                exposure_ms: s.settings.exposure_s * 1e3,
-                gain_db: s.settings.gain_db,
+                settings: s.settings.into(),
                 boxes: s.frame.boxes,
                 detections: s.detections,
                 image,

@@ -212,7 +212,7 @@ pub fn run(
 }
 
 /// Mean exposure (ms) and gain (dB) per light.
-type SettingsByLight = BTreeMap<Light, (f64, f64)>;
+type SettingsByLight = BTreeMap<Light, joca_record::Settings>;
 
 /// The records' name for the light of frames under `illumination` (`None`: a recording's).
 pub(crate) fn light_of(illumination: Option<Illumination>) -> Light {
