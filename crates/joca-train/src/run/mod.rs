@@ -307,3 +307,14 @@ fn simulator(
         }))
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_records_name_each_light_as_the_simulator_does() {
+        for &i in joca_sim::Illumination::ALL {
+            assert_eq!(super::light_of(Some(i)).name(), i.name());
+        }
+        assert_eq!(super::light_of(None).name(), "recorded");
+    }
+}
