@@ -1,4 +1,5 @@
-//! Images: linear HDR RGB in calibrated digital numbers, and 8-bit RGB frames.
+//! Images: linear HDR RGB in calibrated digital numbers, and 8-bit RGB frames, one generic type
+//! ([`RgbImage`]) with a name for each.
 //!
 //! Both store pixels row-major with interleaved channels (`[r, g, b, r, g, b, …]`), the layout
 //! of PNG files and of libtorch's HWC tensors, so no conversion is needed at either boundary.
@@ -22,26 +23,35 @@ pub enum ImageError {
     },
 }
 
+/// An RGB image: `width × height` pixels, row-major, channels interleaved. One type for the
+/// two pixel kinds joca uses (see [`HdrImage`] and [`Rgb8Image`]); the optical flow's grey
+/// images (`joca_data::flow::Gray`) are single-channel and padded for its search, so they are
+/// their own type.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RgbImage<T> {
+    width: usize,
+    height: usize,
+    data: Vec<T>,
+}
+
 /// Linear RGB radiometry in calibrated digital numbers (DN): the `I0` of the paper's Eq. 2.
 ///
 /// A value is what the calibration camera (pixel pitch p0, exposure E0, gain G0 of DESIGN.md)
 /// would record at that pixel before clipping, so daylight white paper reads about 200–230 and
 /// values above 255 (a lamp, the sun) are legal: clipping happens in image formation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct HdrImage {
-    width: usize,
-    height: usize,
-    data: Vec<f32>,
-}
+pub type HdrImage = RgbImage<f32>;
 
-impl HdrImage {
+/// An 8-bit RGB frame, as the camera delivers it after image formation.
+pub type Rgb8Image = RgbImage<u8>;
+
+impl<T: Copy + Default + Into<f64>> RgbImage<T> {
     /// A black image.
     pub fn zeros(width: usize, height: usize) -> Self {
-        Self { width, height, data: vec![0.0; width * height * 3] }
+        Self { width, height, data: vec![T::default(); width * height * 3] }
     }
 
     /// Wraps an interleaved RGB buffer of `width · height · 3` values.
-    pub fn from_vec(width: usize, height: usize, data: Vec<f32>) -> Result<Self, ImageError> {
+    pub fn from_vec(width: usize, height: usize, data: Vec<T>) -> Result<Self, ImageError> {
         check_len(width, height, data.len())?;
         Ok(Self { width, height, data })
     }
@@ -57,87 +67,35 @@ impl HdrImage {
     }
 
     /// Interleaved RGB values.
-    pub fn data(&self) -> &[f32] {
+    pub fn data(&self) -> &[T] {
         &self.data
     }
 
     /// Mutable interleaved RGB values.
-    pub fn data_mut(&mut self) -> &mut [f32] {
+    pub fn data_mut(&mut self) -> &mut [T] {
         &mut self.data
     }
 
+    /// Consumes the image and returns its values.
+    pub fn into_vec(self) -> Vec<T> {
+        self.data
+    }
+
     /// The RGB value at column `x`, row `y`.
-    pub fn pixel(&self, x: usize, y: usize) -> [f32; 3] {
+    pub fn pixel(&self, x: usize, y: usize) -> [T; 3] {
         let i = (y * self.width + x) * 3;
         [self.data[i], self.data[i + 1], self.data[i + 2]]
     }
 
     /// Sets the RGB value at column `x`, row `y`.
-    pub fn set_pixel(&mut self, x: usize, y: usize, rgb: [f32; 3]) {
+    pub fn set_pixel(&mut self, x: usize, y: usize, rgb: [T; 3]) {
         let i = (y * self.width + x) * 3;
         self.data[i..i + 3].copy_from_slice(&rgb);
     }
 
-    /// Mean over all pixels and channels.
+    /// Mean over all pixels and channels (in DN for both kinds).
     pub fn mean(&self) -> f64 {
-        mean_of(self.data.iter().map(|&v| f64::from(v)), self.data.len())
-    }
-}
-
-/// An 8-bit RGB frame, as the camera delivers it after image formation.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Rgb8Image {
-    width: usize,
-    height: usize,
-    data: Vec<u8>,
-}
-
-impl Rgb8Image {
-    /// A black frame.
-    pub fn zeros(width: usize, height: usize) -> Self {
-        Self { width, height, data: vec![0; width * height * 3] }
-    }
-
-    /// Wraps an interleaved RGB buffer of `width · height · 3` bytes.
-    pub fn from_vec(width: usize, height: usize, data: Vec<u8>) -> Result<Self, ImageError> {
-        check_len(width, height, data.len())?;
-        Ok(Self { width, height, data })
-    }
-
-    /// Width in pixels.
-    pub fn width(&self) -> usize {
-        self.width
-    }
-
-    /// Height in pixels.
-    pub fn height(&self) -> usize {
-        self.height
-    }
-
-    /// Interleaved RGB bytes.
-    pub fn data(&self) -> &[u8] {
-        &self.data
-    }
-
-    /// Mutable interleaved RGB bytes.
-    pub fn data_mut(&mut self) -> &mut [u8] {
-        &mut self.data
-    }
-
-    /// Consumes the frame and returns its bytes.
-    pub fn into_vec(self) -> Vec<u8> {
-        self.data
-    }
-
-    /// The RGB value at column `x`, row `y`.
-    pub fn pixel(&self, x: usize, y: usize) -> [u8; 3] {
-        let i = (y * self.width + x) * 3;
-        [self.data[i], self.data[i + 1], self.data[i + 2]]
-    }
-
-    /// Mean over all pixels and channels, in DN (0–255).
-    pub fn mean(&self) -> f64 {
-        mean_of(self.data.iter().map(|&v| f64::from(v)), self.data.len())
+        mean_of(self.data.iter().map(|&v| v.into()), self.data.len())
     }
 }
 
