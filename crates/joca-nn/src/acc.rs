@@ -24,6 +24,7 @@
 //! `exp(log Emin + σ(o₁)·(log Emax − log Emin))` (a sigmoid in log space), gain
 //! `Gmin + σ(o₂)·(Gmax − Gmin)` dB (already logarithmic).
 
+use joca_camera::AccRanges;
 use joca_core::Rgb8Image;
 use tch::nn;
 use tch::{Device, Kind, Tensor};
@@ -35,7 +36,7 @@ pub const HISTOGRAM_TILES: i64 = 59;
 /// Bins per histogram.
 pub const BINS: i64 = 256;
 
-/// Bounds of the ACC outputs, in the units the network sees: `ln(seconds)` and dB.
+/// The ACC ranges ([`AccRanges`]) in the units the network sees: `ln(seconds)` and dB.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AccBounds {
     /// `ln` of the shortest and longest exposure, seconds.
@@ -45,9 +46,10 @@ pub struct AccBounds {
 }
 
 impl AccBounds {
-    /// Bounds from exposure (s) and gain (dB) ranges.
-    pub fn new(exposure_s: (f64, f64), gain_db: (f64, f64)) -> Self {
-        Self { log_exposure: (exposure_s.0.ln(), exposure_s.1.ln()), gain_db }
+    /// The network's view of `ranges`.
+    pub fn new(ranges: AccRanges) -> Self {
+        let (e, g) = (ranges.exposure_s, ranges.gain_db);
+        Self { log_exposure: (e.min.ln(), e.max.ln()), gain_db: (g.min, g.max) }
     }
 
     /// `(E, G)` as the `[0, 1]²` values the network is conditioned on.
@@ -224,7 +226,7 @@ mod tests {
         let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         tch::manual_seed(1);
         let vs = nn::VarStore::new(Device::Cpu);
-        let bounds = AccBounds::new((0.1e-3, 50e-3), (1.0, 30.0));
+        let bounds = AccBounds::new(AccRanges::PAPER);
         let net = NeuralAe::new(&vs.root(), 32, bounds);
         let features = Tensor::randn([1, 32, 12, 16], (Kind::Float, Device::Cpu));
         let hist = histograms(&Rgb8Image::zeros(16, 12));

@@ -127,10 +127,7 @@ impl JointModel {
         ranges: AccRanges,
         formation: ImageFormation,
     ) -> Self {
-        let bounds = AccBounds::new(
-            (ranges.exposure_s.min, ranges.exposure_s.max),
-            (ranges.gain_db.min, ranges.gain_db.max),
-        );
+        let bounds = AccBounds::new(ranges);
         let det = DetectorModel::new(engine, detector, AdamConfig::DETECTOR);
         let acc_vs = VarStore::new(engine.device());
         let acc = NeuralAe::new(&acc_vs.root(), 2 * detector.width, bounds);

@@ -1,13 +1,15 @@
 //! The joint step's equations against their closed forms and the camera crate.
 
 use super::*;
+use joca_camera::Bounds;
 use tch::Kind;
 
 /// l_GA against its closed form: with the ranges 1–100 ms (log) and 0–40 dB, a prediction of
 /// 10 ms and 10 dB sits at 1/2 and 1/4 of them; a target of 1 ms and 30 dB at 0 and 3/4.
 #[test]
 fn ga_supervision_loss_is_the_mean_l1_distance_in_normalised_units() {
-    let bounds = AccBounds::new((1e-3, 0.1), (0.0, 40.0));
+    let ranges = AccRanges { exposure_s: Bounds::new(1e-3, 0.1), gain_db: Bounds::new(0.0, 40.0) };
+    let bounds = AccBounds::new(ranges);
     let e_pred = Tensor::from_slice(&[0.01f32]);
     let g_pred = Tensor::from_slice(&[10.0f32]);
     let l = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(1e-3, 30.0), &bounds)
