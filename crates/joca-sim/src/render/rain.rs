@@ -16,11 +16,12 @@
 //! down, ℓ = f_px·v·T/z pixels, for a standing camera; away from the focus of expansion, and
 //! growing as the drop nears, for a driving one (the camera's pose at each instant is the ego's,
 //! turning included; wind is not modelled). The time-averaged image is the average of the disc's
-//! images at [`samples`](fn@streak) instants evenly spread over the shutter, each a square of side
-//! max(d, 1) carrying the disc's area (π/4)·d² (so the streak's light is exact however it is
-//! sampled); each pixel is blended toward the drop's radiance by its share of that area: a few
-//! per cent for a 2 mm drop over a 10 ms shutter (≈ D/(v·T) whatever the depth), more for short
-//! shutters. While the drop is nearer than [`NEAREST_M`] / 2 it draws nothing.
+//! images at instants evenly spread over the shutter, about one per disc width of path, each a
+//! square of side max(d, 1) carrying the disc's area (π/4)·d² (so the streak's light is exact
+//! however it is sampled). A pixel's shares of the shutter add up (light adds over time) and
+//! blend it toward the drop's radiance once: a few per cent for a 2 mm drop over a 10 ms shutter
+//! (≈ D/(v·T) whatever the depth), more for short shutters. While the drop is nearer than
+//! [`NEAREST_M`] / 2 it draws nothing.
 //! A drop refracts a wide cone of the scene above and behind the camera (Garg and Nayar, 2004);
 //! its radiance is taken as the sky's at 30° elevation. Streaks are drawn for drops from
 //! [`NEAREST_M`] to [`FARTHEST_M`] of at least [`SMALLEST_MM`], where the scene lies behind
