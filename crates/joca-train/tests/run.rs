@@ -258,8 +258,20 @@ fn a_nan_loss_mid_run_stops_cleanly_and_leaves_the_last_checkpoint_intact() {
         _ => ControlFlow::Continue(()),
     };
     assert!(run(&cfg, &run_dir, false, &mut stop).is_err());
-    // Divergence injected into the saved detector: the next step's loss is NaN.
     let ckpt = run_dir.join("checkpoint");
+    // (First, a checkpoint written by a newer joca is refused, named, and left as it was.)
+    let state_path = ckpt.join("state.json");
+    let original = std::fs::read_to_string(&state_path).unwrap();
+    assert!(original.starts_with("{\"format_version\":1,"), "{original}");
+    std::fs::write(
+        &state_path,
+        original.replacen("\"format_version\":1", "\"format_version\":99", 1),
+    )
+    .unwrap();
+    let e = run(&cfg, &run_dir, true, &mut go).unwrap_err().to_string();
+    assert!(e.contains("state.json") && e.contains("format_version 99 is newer"), "{e}");
+    std::fs::write(&state_path, &original).unwrap();
+    // Divergence injected into the saved detector: the next step's loss is NaN.
     poison_first_tensor(&ckpt.join("detector.safetensors"));
     let before = snapshot(&ckpt);
     let e = run(&cfg, &run_dir, true, &mut go).unwrap_err();

@@ -16,8 +16,15 @@ use std::path::Path;
 /// How many of training's best designs the validation re-scores.
 const TOP_DESIGNS: usize = 3;
 
+/// The newest layout of `state.json` this joca reads and writes. Files without the field (0)
+/// were written before it existed, in the same layout; a newer one is refused, named.
+pub const STATE_FORMAT_VERSION: u32 = 1;
+
 #[derive(Debug, Serialize, Deserialize)]
 pub(super) struct RunState {
+    /// Layout version ([`STATE_FORMAT_VERSION`] when written; 0 in older checkpoints).
+    #[serde(default)]
+    pub(super) format_version: u32,
     pub(super) config: RunConfig,
     pub(super) generation: usize,
     pub(super) candidate: usize,
@@ -58,6 +65,7 @@ impl RunState {
         // Perturbations in normalised units: ±5 % of each range.
         let perturbation = perturbation::ga(config, &cx.streams)?;
         let state = RunState {
+            format_version: STATE_FORMAT_VERSION,
             config: config.clone(),
             generation: 0,
             candidate: 0,
@@ -70,7 +78,20 @@ impl RunState {
         };
         match ckpt.existing() {
             Some(dir) if resume => {
-                let saved: RunState = read_json(&dir.join("state.json"))?;
+                let path = dir.join("state.json");
+                let mut saved: RunState = read_json(&path)?;
+                if saved.format_version > STATE_FORMAT_VERSION {
+                    return Err(TrainError::Corrupt {
+                        path: path.display().to_string(),
+                        reason: format!(
+                            "its format_version {} is newer than this joca reads \
+                             ({STATE_FORMAT_VERSION}); resume it with the joca that wrote it",
+                            saved.format_version
+                        ),
+                    });
+                }
+                // An older checkpoint is the same layout; it is written back as the current.
+                saved.format_version = STATE_FORMAT_VERSION;
                 check_resume(&saved.config, config, run_dir)?;
                 model.load(&dir)?;
                 Ok(saved)
