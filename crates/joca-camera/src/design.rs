@@ -95,16 +95,14 @@ impl CameraDesign {
     pub fn pinhole(&self, input: &DetectorInput) -> PinholeCamera {
         let s = self.sensor();
         let (width_px, height_px) = self.resolution(input);
-        PinholeCamera {
-            width_px,
-            height_px,
-            fx_px: self.focal_length_mm * width_px as f64 / s.width_mm,
-            fy_px: self.focal_length_mm * height_px as f64 / s.height_mm,
-            cx_px: width_px as f64 / 2.0,
-            cy_px: height_px as f64 / 2.0,
-            mount_m: [self.x_m, 0.0, self.z_m],
-            lens: None,
-        }
+        PinholeCamera::centred(
+            (width_px, height_px),
+            (
+                self.focal_length_mm * width_px as f64 / s.width_mm,
+                self.focal_length_mm * height_px as f64 / s.height_mm,
+            ),
+            [self.x_m, 0.0, self.z_m],
+        )
     }
 }
 

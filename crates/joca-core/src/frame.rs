@@ -37,6 +37,25 @@ pub struct PinholeCamera {
 }
 
 impl PinholeCamera {
+    /// An ideal pinhole of `width_px × height_px` with focal lengths `(fx_px, fy_px)` and the
+    /// principal point at the image centre, mounted at `mount_m`.
+    pub fn centred(
+        (width_px, height_px): (usize, usize),
+        (fx_px, fy_px): (f64, f64),
+        mount_m: [f64; 3],
+    ) -> Self {
+        Self {
+            width_px,
+            height_px,
+            fx_px,
+            fy_px,
+            cx_px: width_px as f64 / 2.0,
+            cy_px: height_px as f64 / 2.0,
+            mount_m,
+            lens: None,
+        }
+    }
+
     /// Horizontal field of view, radians.
     pub fn hfov_rad(&self) -> f64 {
         2.0 * (self.width_px as f64 / (2.0 * self.fx_px)).atan()

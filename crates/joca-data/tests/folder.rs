@@ -48,16 +48,7 @@ fn write_sequence(dir: &Path, n: usize, exposure: bool) {
 }
 
 fn camera(w: usize, h: usize) -> PinholeCamera {
-    PinholeCamera {
-        width_px: w,
-        height_px: h,
-        fx_px: 50.0,
-        fy_px: 50.0,
-        cx_px: w as f64 / 2.0,
-        cy_px: h as f64 / 2.0,
-        mount_m: [0.43, 0.0, 1.65],
-        lens: None,
-    }
+    PinholeCamera::centred((w, h), (50.0, 50.0), [0.43, 0.0, 1.65])
 }
 
 #[test]

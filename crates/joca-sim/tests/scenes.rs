@@ -10,16 +10,7 @@ use joca_sim::objects::{Material, Motion, Object, Part};
 use joca_sim::{City, CityConfig, EgoTrajectory, Episode, ShutterGrid, SimConfig, Simulator};
 
 fn camera(width: usize, height: usize, focal_px: f64, mount: [f64; 3]) -> PinholeCamera {
-    PinholeCamera {
-        width_px: width,
-        height_px: height,
-        fx_px: focal_px,
-        fy_px: focal_px,
-        cx_px: width as f64 / 2.0,
-        cy_px: height as f64 / 2.0,
-        mount_m: mount,
-        lens: None,
-    }
+    PinholeCamera::centred((width, height), (focal_px, focal_px), mount)
 }
 
 /// An empty map holding only `objects`, with a scripted ego vehicle in episode 0.

@@ -197,16 +197,8 @@ mod tests {
 
     /// A view through an 8 mm lens whose pixels are `pitch_um` wide on the sensor.
     fn camera(w: usize, h: usize, pitch_um: f64, lens: Option<Lens>) -> PinholeCamera {
-        PinholeCamera {
-            width_px: w,
-            height_px: h,
-            fx_px: 8.0 / (pitch_um * 1e-3),
-            fy_px: 8.0 / (pitch_um * 1e-3),
-            cx_px: w as f64 / 2.0,
-            cy_px: h as f64 / 2.0,
-            mount_m: [0.0, 0.0, 1.5],
-            lens,
-        }
+        let f = 8.0 / (pitch_um * 1e-3);
+        PinholeCamera { lens, ..PinholeCamera::centred((w, h), (f, f), [0.0, 0.0, 1.5]) }
     }
 
     fn flat(w: usize, h: usize, depth_m: f32, value: f32) -> Target {

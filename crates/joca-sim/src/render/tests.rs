@@ -7,16 +7,7 @@ use rand::Rng;
 fn camera(rng: &mut impl Rng) -> PinholeCamera {
     let (w, h) = (rng.random_range(40..200), rng.random_range(30..150));
     let f = rng.random_range(20.0..400.0);
-    PinholeCamera {
-        width_px: w,
-        height_px: h,
-        fx_px: f,
-        fy_px: f,
-        cx_px: w as f64 / 2.0,
-        cy_px: h as f64 / 2.0,
-        mount_m: [1.5, 0.0, 1.4],
-        lens: None,
-    }
+    PinholeCamera::centred((w, h), (f, f), [1.5, 0.0, 1.4])
 }
 
 /// The default town of map seed 5, for views of a whole city.

@@ -236,16 +236,7 @@ fn bench_render(repeats: usize) -> Result<()> {
 /// The bench's camera: an IMX172 (6.2 × 4.65 mm) behind 3.6 mm at the nuScenes-like mount, an
 /// ideal pinhole at `w × h` px.
 fn imx172_behind_3_6_mm(w: usize, h: usize) -> PinholeCamera {
-    PinholeCamera {
-        width_px: w,
-        height_px: h,
-        fx_px: 3.6 * w as f64 / 6.2,
-        fy_px: 3.6 * h as f64 / 4.65,
-        cx_px: w as f64 / 2.0,
-        cy_px: h as f64 / 2.0,
-        mount_m: [0.43, 0.0, 1.65],
-        lens: None,
-    }
+    PinholeCamera::centred((w, h), (3.6 * w as f64 / 6.2, 3.6 * h as f64 / 4.65), [0.43, 0.0, 1.65])
 }
 
 /// Episode 1's frames at `times` with one exposure.

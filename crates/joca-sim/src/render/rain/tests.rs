@@ -3,16 +3,7 @@ use super::*;
 use joca_core::SeedStreams;
 
 fn camera(w: usize, h: usize, f_px: f64) -> PinholeCamera {
-    PinholeCamera {
-        width_px: w,
-        height_px: h,
-        fx_px: f_px,
-        fy_px: f_px,
-        cx_px: w as f64 / 2.0,
-        cy_px: h as f64 / 2.0,
-        mount_m: [0.0, 0.0, 1.5],
-        lens: None,
-    }
+    PinholeCamera::centred((w, h), (f_px, f_px), [0.0, 0.0, 1.5])
 }
 
 #[test]
