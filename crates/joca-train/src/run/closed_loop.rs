@@ -16,7 +16,6 @@ use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use crate::control::{ExposureControl, SensorLimits, test_control};
 use joca_camera::{CameraDesign, Capture, DynamicSettings, ImageFormation};
-use joca_core::units::linear_from_db;
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{BandScores, TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
@@ -204,7 +203,7 @@ pub(super) fn test(
                 ),
                 _ => (Light::Recorded, None),
             };
-            sums.entry(light).or_default().add(s.settings, s.mean_dn);
+            sums.entry(light).or_default().add(s.settings.into(), s.mean_dn);
             by_light.entry(light).or_default().update(
                 &s.frame.boxes,
                 &s.frame.ignore,
@@ -272,11 +271,10 @@ struct LightSums {
 }
 
 impl LightSums {
-    fn add(&mut self, settings: DynamicSettings, mean_dn: f64) {
-        let exposure_ms = settings.exposure_s * 1e3;
-        self.exposure_ms += exposure_ms;
+    fn add(&mut self, settings: Settings, mean_dn: f64) {
+        self.exposure_ms += settings.exposure_ms;
         self.gain_db += settings.gain_db;
-        self.exposure_gain_ms += exposure_ms * linear_from_db(settings.gain_db);
+        self.exposure_gain_ms += settings.exposure_gain_ms();
         self.mean_dn += mean_dn;
         self.frames += 1.0;
     }
