@@ -27,6 +27,26 @@ joca_core::named_enum! {
     }
 }
 
+joca_core::named_enum! {
+    /// Who sets a thin lens's aperture while the camera runs.
+    #[derive(Default)]
+    pub enum ApertureControl("aperture control") {
+        /// The design's f-number for every frame (the paper's: the aperture is hardware).
+        #[default]
+        Fixed = "fixed",
+        /// The exposure controller sets the iris every frame, from the design's f-number (the
+        /// lens wide open) to the calibration's f/16 (beyond the paper: its future work).
+        Dynamic = "dynamic",
+    }
+}
+
+impl ApertureControl {
+    /// Whether every frame keeps the design's f-number.
+    pub fn is_fixed(&self) -> bool {
+        *self == Self::Fixed
+    }
+}
+
 /// One camera hardware design.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CameraDesign {

@@ -43,7 +43,7 @@ pub use average_ae::{AverageAe, MID_GREY_DN, MIN_MEAN_DN};
 pub use capture::Capture;
 pub use catalogue::{Sensor, Shutter, sensor_by_name};
 pub use compensation::{compensate_for_pixel_size, limit_exposure};
-pub use design::{CameraDesign, DesignSpace, LensModel};
+pub use design::{ApertureControl, CameraDesign, DesignSpace, LensModel};
 pub use error::CameraError;
 pub use formation::{
     Calibration, FormationParams, ImageFormation, NoiseGain, TILE_ROWS, WHITE_LEVEL,
@@ -51,4 +51,4 @@ pub use formation::{
 pub use genome::{GeneSpec, GenomeCodec, SensorEncoding};
 pub use input::{DetectorInput, Resampler};
 pub use noise_calibration::{ChannelFit, calibrate_noise};
-pub use settings::{AccRanges, Bounds, DynamicSettings};
+pub use settings::{AccRanges, Bounds, DynamicSettings, Iris};

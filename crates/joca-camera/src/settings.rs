@@ -138,9 +138,65 @@ impl Default for AccRanges {
     }
 }
 
+/// The iris of a lens whose aperture the controller sets frame by frame: from the lens's widest
+/// f-number (the design's) to its narrowest. The controller works in the iris's unit position
+/// `u ∈ [0, 1]`, even steps of log f-number (so of stops of light): `N = N_w·(N_n/N_w)^u`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Iris {
+    /// f-number fully open (u = 0).
+    pub widest: f64,
+    /// f-number fully stopped down (u = 1); never below `widest`.
+    pub narrowest: f64,
+}
+
+impl Iris {
+    /// Where a sequence starts and an untrained NeuralAE puts the iris: halfway, in stops,
+    /// between wide open and stopped down. (At an end, u = 0.99 through the sigmoid, the task
+    /// gradient reaching the iris is 25× weaker than here; a quick run started there moved the
+    /// iris little in 1,350 steps.)
+    pub const START_UNIT: f64 = 0.5;
+
+    /// An iris from `widest` to `narrowest` (a lens already at or past `narrowest` cannot stop
+    /// down: both ends are `widest`).
+    pub fn new(widest: f64, narrowest: f64) -> Self {
+        Self { widest, narrowest: narrowest.max(widest) }
+    }
+
+    /// The f-number at unit position `unit` (clamped into [0, 1]).
+    pub fn f_number(&self, unit: f64) -> f64 {
+        self.widest * (self.narrowest / self.widest).powf(unit.clamp(0.0, 1.0))
+    }
+
+    /// The unit position of `f_number` (clamped into [0, 1]; 0 where the iris cannot move).
+    pub fn unit(&self, f_number: f64) -> f64 {
+        let (a, b) = self.log_range();
+        if b > a { ((f_number.ln() - a) / (b - a)).clamp(0.0, 1.0) } else { 0.0 }
+    }
+
+    /// `(ln N_w, ln N_n)`.
+    pub fn log_range(&self) -> (f64, f64) {
+        (self.widest.ln(), self.narrowest.ln())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_iris_moves_in_even_stops() {
+        let iris = Iris::new(2.0, 16.0);
+        assert_eq!(iris.f_number(0.0), 2.0);
+        assert!((iris.f_number(1.0) - 16.0).abs() < 1e-12);
+        // f/2 to f/16 is 6 stops (64× the light): a third of the way is f/4, two stops.
+        assert!((iris.f_number(1.0 / 3.0) - 4.0).abs() < 1e-12);
+        assert!((iris.unit(5.6) - (5.6f64 / 2.0).ln() / 8f64.ln()).abs() < 1e-12);
+        assert_eq!((iris.f_number(-1.0), iris.unit(32.0)), (2.0, 1.0));
+        // A lens at f/16 already cannot stop down.
+        let fixed = Iris::new(16.0, 16.0);
+        assert_eq!((fixed.f_number(0.7), fixed.unit(16.0)), (16.0, 0.0));
+        assert_eq!(Iris::new(22.0, 16.0).narrowest, 22.0);
+    }
 
     #[test]
     fn normalised_units_round_trip() {

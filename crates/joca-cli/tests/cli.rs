@@ -459,6 +459,15 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
             "f_number = { min = 2.0, max = 16.0 }",
             "run.f_number = { min = 2, max = 16 } is invalid: 16 to 16 with lens = \"pinhole\"",
         ),
+        ("aperture = \"iris\"", "unknown variant `iris`, expected `fixed` or `dynamic`"),
+        (
+            "aperture = \"dynamic\"",
+            "run.aperture = \"dynamic\" is invalid: \"fixed\" unless lens = \"thin\"",
+        ),
+        (
+            "lens = \"thin\"\naperture = \"dynamic\"\nmethod = \"tacos-average\"",
+            "run.aperture = \"dynamic\" is invalid: \"fixed\" unless lens = \"thin\" and the method's",
+        ),
     ];
     for (line, message) in cases {
         std::fs::write(&cfg, format!("[run]\n{line}\n")).unwrap();

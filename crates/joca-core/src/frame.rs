@@ -56,6 +56,20 @@ impl PinholeCamera {
         }
     }
 
+    /// The same camera with its lens's iris at `f_number` (focus unchanged); `None` keeps the
+    /// lens as it is. Refused for a pinhole, which has no iris.
+    pub fn stopped_to(&self, f_number: Option<f64>) -> Result<Self, SourceError> {
+        match (f_number, self.lens) {
+            (None, _) => Ok(*self),
+            (Some(f_number), Some(lens)) => {
+                Ok(Self { lens: Some(Lens { f_number, ..lens }), ..*self })
+            }
+            (Some(n), None) => Err(SourceError::OutOfRange {
+                reason: format!("f/{n} asked of a pinhole camera, which has no iris"),
+            }),
+        }
+    }
+
     /// Horizontal field of view, radians.
     pub fn hfov_rad(&self) -> f64 {
         2.0 * (self.width_px as f64 / (2.0 * self.fx_px)).atan()
@@ -80,6 +94,23 @@ pub struct FrameRequest {
     pub exposure_s: f64,
     /// Multiplies all motion during the shutter only ("motion blur ×N" scenario); 1 = physical.
     pub motion_scale: f64,
+}
+
+/// One frame of an instant: its shutter, and the lens's f-number where the iris moves from frame
+/// to frame (`None`: the camera's lens as it is).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shot {
+    /// Shutter interval, seconds.
+    pub exposure_s: f64,
+    /// The iris's f-number for this frame (`None`: the lens's own).
+    pub f_number: Option<f64>,
+}
+
+impl Shot {
+    /// A shot at `exposure_s` through the lens as it is.
+    pub fn exposure(exposure_s: f64) -> Self {
+        Self { exposure_s, f_number: None }
+    }
 }
 
 /// A rendered or loaded frame before image formation.
@@ -133,9 +164,25 @@ pub trait FrameSource: Send + Sync {
         request: &FrameRequest,
         exposures_s: &[f64],
     ) -> Result<Vec<Frame>, SourceError> {
-        exposures_s
+        let shots: Vec<Shot> = exposures_s.iter().map(|&e| Shot::exposure(e)).collect();
+        self.render_shots(camera, request, &shots)
+    }
+
+    /// The frames of one instant for several shots, each with its own shutter and iris, in that
+    /// order (what [`Self::render_exposures`] does where the iris moves too). The default renders
+    /// each on its own with [`PinholeCamera::stopped_to`].
+    fn render_shots(
+        &self,
+        camera: &PinholeCamera,
+        request: &FrameRequest,
+        shots: &[Shot],
+    ) -> Result<Vec<Frame>, SourceError> {
+        shots
             .iter()
-            .map(|&exposure_s| self.render(camera, &FrameRequest { exposure_s, ..*request }))
+            .map(|shot| {
+                let request = FrameRequest { exposure_s: shot.exposure_s, ..*request };
+                self.render(&camera.stopped_to(shot.f_number)?, &request)
+            })
             .collect()
     }
 

@@ -35,6 +35,6 @@ pub mod units;
 pub mod weather;
 
 pub use boxes::{Annotation, BBox, Class, Detection, TRAINING_MIN_BOX_PX, training_targets};
-pub use frame::{Frame, FrameRequest, FrameSource, PinholeCamera, SourceError};
+pub use frame::{Frame, FrameRequest, FrameSource, PinholeCamera, Shot, SourceError};
 pub use image::{HdrImage, ImageError, Rgb8Image, RgbImage};
 pub use rng::SeedStreams;

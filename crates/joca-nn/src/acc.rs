@@ -15,6 +15,11 @@
 //! head            g + s → Linear 2 → sigmoid → (log E, G dB) within the ACC ranges
 //! ```
 //!
+//! With a moving iris (`[run] aperture = "dynamic"`, beyond the paper: its future work) the head
+//! has a third output, the iris's unit position `u = σ(o₃)` (`joca_camera::Iris`: fully open at
+//! 0, stopped down at 1, even stops between), and the previous-settings embedding reads `u` too
+//! (Linear 3→32).
+//!
 //! Sizes: the paper keeps NeuralAE's original layer widths with a ResNet-50 detector (a 784-d
 //! semantic vector, 816 with the previous-settings embedding). Our detector's stride-4 map has
 //! `2·width` = 32 channels, so the compression keeps k = 16 per CFM (6k = 96-d pooled vector,
@@ -43,13 +48,36 @@ pub struct AccBounds {
     pub log_exposure: (f64, f64),
     /// Gain range, dB.
     pub gain_db: (f64, f64),
+    /// Whether NeuralAE also sets the iris (a third output, its unit position).
+    pub iris: bool,
 }
 
 impl AccBounds {
     /// The network's view of `ranges`.
     pub fn new(ranges: AccRanges) -> Self {
         let (e, g) = (ranges.exposure_s, ranges.gain_db);
-        Self { log_exposure: (e.min.ln(), e.max.ln()), gain_db: (g.min, g.max) }
+        Self { log_exposure: (e.min.ln(), e.max.ln()), gain_db: (g.min, g.max), iris: false }
+    }
+
+    /// The same, with NeuralAE setting the iris too.
+    pub fn with_iris(self) -> Self {
+        Self { iris: true, ..self }
+    }
+
+    /// The previous frame's settings as the network reads them: [`Self::unit`], then the iris's
+    /// unit position where NeuralAE sets it ([`joca_camera::Iris::START_UNIT`] where none was
+    /// set).
+    pub fn previous(&self, exposure_s: f64, gain_db: f64, iris: Option<f64>) -> Vec<f32> {
+        let mut v = self.unit(exposure_s, gain_db).to_vec();
+        if self.iris {
+            v.push(iris.unwrap_or(joca_camera::Iris::START_UNIT) as f32);
+        }
+        v
+    }
+
+    /// Settings NeuralAE reads and sets: exposure and gain, and the iris if it sets it.
+    fn outputs(&self) -> i64 {
+        if self.iris { 3 } else { 2 }
     }
 
     /// `(E, G)` as the `[0, 1]²` values the network is conditioned on.
@@ -108,19 +136,25 @@ pub struct AccOutput {
     pub exposure_s: Tensor,
     /// Gain, dB `[1]` (differentiable).
     pub gain_db: Tensor,
+    /// The iris's unit position `[1]` (differentiable), where NeuralAE sets it.
+    pub iris: Option<Tensor>,
 }
 
 /// The output layer, initialised so that an untrained NeuralAE predicts the calibration settings
-/// (E0 = 5 ms, G0 = 10 dB): small weights, and biases at the logits of those settings. A random
-/// start would put the first predictions anywhere in the ranges, often at an extreme where the
-/// task gradient is weak.
+/// (E0 = 5 ms, G0 = 10 dB, and the iris at [`joca_camera::Iris::START_UNIT`]): small
+/// weights, and biases at the logits of those settings. A random start would put the first
+/// predictions anywhere in the ranges, often at an extreme where the task gradient is weak.
 fn start_at_calibration(vs: &nn::Path<'_>, bounds: AccBounds) -> nn::Linear {
     let logit = |u: f64| (u / (1.0 - u)).ln();
-    let unit = bounds.unit(5e-3, 10.0).map(|u| f64::from(u).clamp(0.01, 0.99));
+    let unit: Vec<f32> = bounds
+        .previous(5e-3, 10.0, Some(joca_camera::Iris::START_UNIT))
+        .into_iter()
+        .map(|u| logit(f64::from(u).clamp(0.01, 0.99)) as f32)
+        .collect();
     let mut layer = nn::linear(
         vs / "out",
         256,
-        2,
+        bounds.outputs(),
         nn::LinearConfig {
             ws_init: nn::Init::Randn { mean: 0.0, stdev: 1e-3 },
             ..Default::default()
@@ -128,7 +162,7 @@ fn start_at_calibration(vs: &nn::Path<'_>, bounds: AccBounds) -> nn::Linear {
     );
     if let Some(bias) = layer.bs.as_mut() {
         let _guard = tch::no_grad_guard();
-        bias.copy_(&Tensor::from_slice(&[logit(unit[0]) as f32, logit(unit[1]) as f32]));
+        bias.copy_(&Tensor::from_slice(&unit));
     }
     layer
 }
@@ -153,7 +187,7 @@ impl NeuralAe {
             compress: nn::conv2d(vs / "compress", feature_channels, 3 * cfm, 1, Default::default()),
             cfm,
             prev: [
-                nn::linear(vs / "prev1", 2, 32, Default::default()),
+                nn::linear(vs / "prev1", bounds.outputs(), 32, Default::default()),
                 nn::linear(vs / "prev2", 32, 32, Default::default()),
             ],
             semantic: [
@@ -166,12 +200,13 @@ impl NeuralAe {
     }
 
     /// Predicts the next frame's settings from the last frame's histograms (`[59·256]`), the
-    /// detector's stride-4 features of that frame (detached here) and the last settings.
+    /// detector's stride-4 features of that frame (detached here) and the last settings
+    /// ([`AccBounds::previous`]).
     pub fn forward(
         &self,
         histograms: &[f32],
         features: &Tensor,
-        previous: [f32; 2],
+        previous: &[f32],
         device: Device,
     ) -> AccOutput {
         let h = Tensor::from_slice(histograms).to_device(device).view([1, HISTOGRAM_TILES, BINS]);
@@ -182,18 +217,19 @@ impl NeuralAe {
         let parts = f.split(self.cfm, 1);
         let avg = |t: &Tensor| t.mean_dim(&[2i64, 3][..], false, Kind::Float);
         let max = |t: &Tensor| t.amax(&[2i64, 3][..], false);
-        let prev = Tensor::from_slice(&previous).to_device(device).view([1, 2]);
+        let prev = Tensor::from_slice(previous).to_device(device).view([1, self.bounds.outputs()]);
         let e = prev.apply(&self.prev[0]).relu().apply(&self.prev[1]); // [1, 32]
         // [1, 6k + 32]
         let pooled = Tensor::cat(&[avg(&parts[0]), max(&parts[1]), max(&parts[2]), avg(&f), e], 1);
         let s = pooled.apply(&self.semantic[0]).relu().apply(&self.semantic[1]); // [1, 256]
 
-        let o = (g + s).apply(&self.out).sigmoid(); // [1, 2]
+        let o = (g + s).apply(&self.out).sigmoid(); // [1, 2] (or [1, 3] with the iris)
         let (a, b) = self.bounds.log_exposure;
         let (c, d) = self.bounds.gain_db;
         AccOutput {
             exposure_s: (o.select(1, 0) * (b - a) + a).exp(),
             gain_db: o.select(1, 1) * (d - c) + c,
+            iris: self.bounds.iris.then(|| o.select(1, 2)),
         }
     }
 }
@@ -230,7 +266,7 @@ mod tests {
         let net = NeuralAe::new(&vs.root(), 32, bounds);
         let features = Tensor::randn([1, 32, 12, 16], (Kind::Float, Device::Cpu));
         let hist = histograms(&Rgb8Image::zeros(16, 12));
-        let out = net.forward(&hist, &features, [0.5, 0.5], Device::Cpu);
+        let out = net.forward(&hist, &features, &[0.5, 0.5], Device::Cpu);
         let e = out.exposure_s.double_value(&[0]);
         let g = out.gain_db.double_value(&[0]);
         assert!((0.1e-3..=50e-3).contains(&e) && (1.0..=30.0).contains(&g), "{e} {g}");
@@ -244,5 +280,27 @@ mod tests {
         assert_eq!(bounds.unit(50e-3, 1.0), [1.0, 0.0]);
         // Untrained, it predicts the calibration settings.
         assert!((e / 5e-3 - 1.0).abs() < 0.1 && (g - 10.0).abs() < 1.0, "{e} {g}");
+        assert!(out.iris.is_none());
+    }
+
+    #[test]
+    fn with_the_iris_a_third_output_starts_halfway_and_learns() {
+        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        tch::manual_seed(2);
+        let vs = nn::VarStore::new(Device::Cpu);
+        let bounds = AccBounds::new(AccRanges::PAPER).with_iris();
+        let net = NeuralAe::new(&vs.root(), 32, bounds);
+        let features = Tensor::randn([1, 32, 12, 16], (Kind::Float, Device::Cpu));
+        let previous = bounds.previous(5e-3, 10.0, None);
+        assert_eq!(previous.len(), 3);
+        let out =
+            net.forward(&histograms(&Rgb8Image::zeros(16, 12)), &features, &previous, Device::Cpu);
+        let iris = out.iris.expect("a third output");
+        let u = iris.double_value(&[0]);
+        assert!((u - 0.5).abs() < 0.01, "untrained iris at {u}");
+        iris.sum(Kind::Float).backward();
+        let out_grad =
+            vs.variables()["out.weight"].grad().abs().sum(Kind::Double).double_value(&[]);
+        assert!(out_grad > 0.0);
     }
 }

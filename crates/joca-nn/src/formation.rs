@@ -26,8 +26,12 @@ pub struct Scene<'a> {
     pub height: usize,
     /// The sensor's pixel pitch, µm.
     pub pixel_pitch_um: f64,
-    /// The lens's light relative to the calibration aperture, (N0/N)² (1 at f/16).
+    /// The lens's light relative to the calibration aperture, (N0/N)² (1 at f/16), at the
+    /// frame's f-number.
     pub light_factor: f64,
+    /// The iris the frame's f-number was set in, where NeuralAE sets it (so the joint step can
+    /// differentiate the light by the iris's position); `None` otherwise.
+    pub iris: Option<joca_camera::Iris>,
 }
 
 /// `[1, 3, H, W]` frame in DN (0–255, integer-valued in the forward pass) of `scene` under

@@ -12,6 +12,11 @@
 //! ```
 //!
 //! where `(Ẽ*, G̃*)` is the best perturbation the caller's GA found (given every i steps).
+//!
+//! With a moving iris NeuralAE also predicts the iris's unit position `u`; the light it lets
+//! through, `(N0/N(u))²`, multiplies Eq. 2's signal as exposure does, so the task loss reaches
+//! `u` through the frame's brightness and noise (its defocus, like the exposure's blur, only
+//! through the perturbation search), and `l_GA` averages `|ũ* − u|` in as a third term.
 
 mod equations;
 
@@ -23,7 +28,7 @@ use crate::detector::{
 use crate::formation::{ClipGradient, Scene, form, to_detector_input};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
 use equations::{eq4, ga_supervision_loss, limit_exposure, tensor_to_rgb8};
-use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
+use joca_camera::{AccRanges, DynamicSettings, ImageFormation, Iris};
 use joca_core::{Annotation, Detection, Rgb8Image};
 use std::path::Path;
 use tch::nn::VarStore;
@@ -46,6 +51,8 @@ pub struct Prediction {
     settings: DynamicSettings,
     exposure_s: Tensor,
     gain_db: Tensor,
+    /// The iris's unit position, as a number and as the network's output.
+    iris: Option<(f64, Tensor)>,
 }
 
 impl Prediction {
@@ -53,6 +60,21 @@ impl Prediction {
     pub fn settings(&self) -> DynamicSettings {
         self.settings
     }
+
+    /// The iris's predicted unit position (`joca_camera::Iris`), where NeuralAE sets it.
+    pub fn iris(&self) -> Option<f64> {
+        self.iris.as_ref().map(|(u, _)| *u)
+    }
+}
+
+/// The best perturbation of a search, the target of `l_GA`: settings for the calibration pitch,
+/// and the iris's unit position where NeuralAE sets it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GaTarget {
+    /// Exposure and gain.
+    pub settings: DynamicSettings,
+    /// The iris's unit position.
+    pub iris: Option<f64>,
 }
 
 /// How a step's exposure and gain are set.
@@ -97,6 +119,16 @@ pub struct StepTimings {
     pub decode_ms: f64,
 }
 
+/// `1` in value, with the gradient of the light a lens iris at unit position `u` lets through
+/// relative to its value here: `exp(ln L(u) − ln L(u)|detached)`, `L(u) = (N0/N(u))²`, so
+/// `∂/∂u = ∂ ln L/∂u = −2·(ln N_n − ln N_w)`. Multiplying the exposure by it forms the very frame
+/// of the scene's light factor while the task loss reaches `u`.
+fn iris_light_gradient(u: &Tensor, iris: Iris) -> Tensor {
+    let (a, b) = iris.log_range();
+    let log_light = (u * (b - a) + a) * -2.0;
+    (&log_light - log_light.detach()).exp()
+}
+
 /// Detector + NeuralAE + their optimisers.
 #[derive(Debug)]
 pub struct JointModel {
@@ -121,13 +153,16 @@ pub struct JointModel {
 impl JointModel {
     /// Fresh networks (initialised from libtorch's seeded generator); NeuralAE predicts within
     /// `ranges`.
+    /// With `iris`, NeuralAE also sets the lens's iris (a third output).
     pub fn new(
         engine: &Engine,
         detector: DetectorConfig,
         ranges: AccRanges,
         formation: ImageFormation,
+        iris: bool,
     ) -> Self {
         let bounds = AccBounds::new(ranges);
+        let bounds = if iris { bounds.with_iris() } else { bounds };
         let det = DetectorModel::new(engine, detector, AdamConfig::DETECTOR);
         let acc_vs = VarStore::new(engine.device());
         let acc = NeuralAe::new(&acc_vs.root(), 2 * detector.width, bounds);
@@ -202,33 +237,38 @@ impl JointModel {
     }
 
     /// NeuralAE's prediction for the next frame from the previous frame and the settings
-    /// NeuralAE predicted for it. Returns `None` at the start of a sequence (no features yet).
+    /// NeuralAE predicted for it (and the iris's unit position, where it sets the iris). Returns
+    /// `None` at the start of a sequence (no features yet).
     pub fn predict(
         &self,
         previous_frame: &Rgb8Image,
         previous: DynamicSettings,
+        previous_iris: Option<f64>,
     ) -> Option<Prediction> {
         let features = self.features.as_ref()?;
         let out = self.acc.forward(
             &histograms(previous_frame),
             features,
-            self.bounds.unit(previous.exposure_s, previous.gain_db),
+            &self.bounds.previous(previous.exposure_s, previous.gain_db, previous_iris),
             self.device,
         );
         let settings =
             DynamicSettings::new(out.exposure_s.double_value(&[0]), out.gain_db.double_value(&[0]));
-        Some(Prediction { settings, exposure_s: out.exposure_s, gain_db: out.gain_db })
+        let iris = out.iris.map(|u| (u.double_value(&[0]), u));
+        Some(Prediction { settings, exposure_s: out.exposure_s, gain_db: out.gain_db, iris })
     }
 
     /// One training step on a rendered frame (see the module documentation). `ga_target` is the
-    /// best perturbed setting (for the calibration pitch) when the GA loss applies this step.
+    /// best perturbation (for the calibration pitch) when the GA loss applies this step. The
+    /// scene's `light_factor` is that of the frame's f-number; with a predicted iris,
+    /// `scene.iris` is the lens's iris it moves in.
     pub fn step(
         &mut self,
         scene: &Scene<'_>,
         truth: &[Annotation],
         ignore: &[Annotation],
         exposure: Exposure,
-        ga_target: Option<DynamicSettings>,
+        ga_target: Option<GaTarget>,
         weights: DfGradWeights,
     ) -> Result<StepReport, NnError> {
         let (e_t, g_t, pred) = match &exposure {
@@ -240,7 +280,7 @@ impl JointModel {
                     self.formation.calibration().pixel_pitch_um,
                 );
                 let (e, g) = limit_exposure(&e, &g, self.max_exposure_s, self.max_gain_db);
-                (e, g, Some((&p.exposure_s, &p.gain_db)))
+                (e, g, Some(p))
             }
             Exposure::Fixed(applied) => (
                 Tensor::from_slice(&[applied.exposure_s as f32]).to_device(self.device),
@@ -248,13 +288,20 @@ impl JointModel {
                 None,
             ),
         };
+        // The iris's light enters Eq. 2 as exposure does: the frame is formed with the scene's
+        // light factor (its f-number's), and the predicted iris's gradient rides on the exposure.
+        let iris = pred.and_then(|p| p.iris.as_ref()).zip(scene.iris);
+        let e_form = match iris {
+            Some(((_, u), lens)) => &e_t * iris_light_gradient(u, lens),
+            None => e_t.shallow_clone(),
+        };
         let mut timings = StepTimings::default();
         let mut clock = std::time::Instant::now();
         let mut lap = |slot: &mut f64| {
             *slot = clock.elapsed().as_secs_f64() * 1e3;
             clock = std::time::Instant::now();
         };
-        let frame_dn = form(scene, &e_t, &g_t, &self.formation, self.clip, self.device);
+        let frame_dn = form(scene, &e_form, &g_t, &self.formation, self.clip, self.device);
         lap(&mut timings.formation_ms);
         let out = self.det.net.forward(&to_detector_input(&frame_dn));
         let s = out.heatmap.size();
@@ -269,8 +316,9 @@ impl JointModel {
         // they become ∇ (w_task·l_task + w_ga·l_GA).
         let mut ga_loss = None;
         let mut objective = loss.total.shallow_clone();
-        if let (Some((e_pred, g_pred)), Some(target)) = (pred, ga_target) {
-            let l_ga = ga_supervision_loss(e_pred, g_pred, target, &self.bounds);
+        if let (Some(p), Some(target)) = (pred, ga_target) {
+            let iris = p.iris.as_ref().map(|(_, u)| u);
+            let l_ga = ga_supervision_loss(&p.exposure_s, &p.gain_db, iris, target, &self.bounds);
             let v = l_ga.double_value(&[]);
             if !v.is_finite() {
                 return Err(NnError::NonFinite { what: "GA supervision", value: v });

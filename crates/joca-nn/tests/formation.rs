@@ -33,6 +33,7 @@ fn same_noise_sample_gives_the_same_frame() {
         height: h,
         pixel_pitch_um: 2.4,
         light_factor: 1.0,
+        iris: None,
     };
     let frame = form(&scene, &e, &g, &formation, ClipGradient::Clamp, Device::Cpu);
     let ours: Vec<f32> =
@@ -71,6 +72,7 @@ fn a_saturated_frame_passes_gradient_only_straight_through() {
         height: h,
         pixel_pitch_um: 3.75,
         light_factor: 1.0,
+        iris: None,
     };
     let grad = |clip| {
         // Four times the calibration exposure: 800 DN before clipping.
@@ -110,6 +112,7 @@ fn the_lens_light_factor_forms_the_same_frame_on_both_paths() {
         height: h,
         pixel_pitch_um: 3.75,
         light_factor: formation.light_factor(),
+        iris: None,
     };
     let e = Tensor::from_slice(&[0.3e-3f32]);
     let g = Tensor::from_slice(&[6.0f32]);

@@ -1,7 +1,7 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
 use crate::{Light, Method, Scenario, Settings, Source, TestController};
-use joca_camera::{DetectorInput, LensModel};
+use joca_camera::{ApertureControl, DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
 use joca_core::weather::Weather;
 use joca_metrics::{BandScores, TaskScores};
@@ -13,8 +13,9 @@ use std::collections::BTreeMap;
 /// added since has a default, so they are read by the same reader (no `input` there means the
 /// older `render_scale` protocol, see [`RunResults::input_note`]). Version 2 adds the lens, the
 /// weather and the design's f-number; a file that uses none of them is written as version 1,
-/// which a reader of version 1 reads correctly ([`RunResults::layout_version`]).
-pub const RESULTS_FORMAT_VERSION: u32 = 2;
+/// which a reader of version 1 reads correctly ([`RunResults::layout_version`]). Version 3 adds
+/// the controller-set aperture (`aperture`, `f_number_by_illumination`).
+pub const RESULTS_FORMAT_VERSION: u32 = 3;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -43,6 +44,10 @@ pub struct RunResults {
     /// Mean exposure (ms) and gain (dB) by illumination during the test, each written `[ms, dB]`.
     #[serde(with = "crate::settings::as_pairs")]
     pub settings_by_illumination: BTreeMap<Light, Settings>,
+    /// Geometric mean of the f-number by illumination during the test, where the controller set
+    /// the iris (`aperture = "dynamic"`); absent otherwise.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub f_number_by_illumination: BTreeMap<Light, f64>,
     /// Mean of exposure (ms) × linear gain (10^(G/20)) over the test frames, by illumination:
     /// the total amplification the controller applies to the light it sees.
     #[serde(default)]
@@ -94,6 +99,9 @@ pub struct RunResults {
     /// The weather of training and test (absent: clear air).
     #[serde(default, skip_serializing_if = "is_clear")]
     pub weather: Weather,
+    /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
+    #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
+    pub aperture: ApertureControl,
     /// The best designs of training, re-scored on the validation town; the tested design is the
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -143,9 +151,13 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 2 where it uses a field of version 2
-    /// (a thin lens, weather, a design's f-number), else 1.
+    /// The lowest layout version that holds this record: 3 where the controller set the
+    /// aperture, 2 where it uses a field of version 2 (a thin lens, weather, a design's
+    /// f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if !self.aperture.is_fixed() {
+            return 3;
+        }
         let v2 = self.lens != LensModel::Pinhole
             || self.weather != Weather::Clear
             || self.design.f_number.is_some()

@@ -95,7 +95,7 @@ mod tests {
             frame: k,
             time_s: 0.1 * k as f64,
             ambient,
-            settings: Settings { exposure_ms, gain_db },
+            settings: Settings { exposure_ms, gain_db, f_number: None },
             boxes: Vec::new(),
             detections: Vec::new(),
             image: None,

@@ -210,12 +210,22 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
         assert!(e.contains("results.json") && e.contains("format_version 7 is newer"), "{e}");
-        assert!(e.contains("0 to 2"), "{e}");
+        assert!(e.contains("0 to 3"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
         std::fs::write(&path, value.to_string()).unwrap();
         let r = RunData::load(dir.path()).unwrap().results;
         assert_eq!((r.format_version, r.weather.to_string()), (2, "fog:300".to_owned()));
+        // Layout 3 (the iris set by NeuralAE) is read.
+        value["format_version"] = 3.into();
+        value["lens"] = "thin".into();
+        value["aperture"] = "dynamic".into();
+        value["f_number_by_illumination"] = serde_json::json!({ "day": 8.0, "night": 1.4 });
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.aperture.to_string()), (3, "dynamic".to_owned()));
+        assert_eq!(r.f_number_by_illumination.len(), 2);
+        assert_eq!(r.layout_version(), 3);
     }
 }

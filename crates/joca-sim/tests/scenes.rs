@@ -3,7 +3,7 @@
 //! vehicle) so that the expected values can be computed independently.
 #![allow(clippy::unwrap_used)]
 
-use joca_core::{Class, FrameRequest, FrameSource, PinholeCamera};
+use joca_core::{Class, FrameRequest, FrameSource, PinholeCamera, Shot};
 use joca_sim::geometry::{Pose2, V3};
 use joca_sim::lighting::{Illumination, RADIANCE_SCALE_DN, SKY, SUN};
 use joca_sim::objects::{Material, Motion, Object, Part};
@@ -495,6 +495,29 @@ fn fog_and_defocus_keep_the_ground_truth_and_repeat_exactly() {
     assert_eq!(blurred, sim.render(&open, &request).unwrap());
     assert!(spread(&blurred) < spread(&clear));
     assert_ne!(blurred.hdr, clear.hdr);
+
+    // A moving iris: each shot of an instant is the frame that lens, stopped to the shot's
+    // f-number (focus kept), renders alone; `None` is the lens as it is. A pinhole has no iris.
+    let shots = [
+        Shot { exposure_s: 10e-3, f_number: Some(8.0) },
+        Shot::exposure(10e-3),
+        Shot { exposure_s: 10e-3, f_number: Some(2.0) },
+    ];
+    // (One shutter for all three: shots of different shutters share the longest one's grid,
+    // which a lone render of a shorter one does not, as the shared-grid test above shows.)
+    let frames = sim.render_shots(&open, &request, &shots).unwrap();
+    for (frame, shot) in frames.iter().zip(&shots) {
+        let alone = sim
+            .render(
+                &open.stopped_to(shot.f_number).unwrap(),
+                &FrameRequest { exposure_s: shot.exposure_s, ..request },
+            )
+            .unwrap();
+        assert_eq!(frame, &alone, "{shot:?}");
+    }
+    assert_eq!(frames[1], blurred);
+    assert!(spread(&frames[0]) > spread(&blurred), "stopping down sharpens the street");
+    assert!(sim.render_shots(&cam, &request, &shots).is_err());
 }
 
 /// The default blurs the shutter-integrated frame by the depths of its middle instant; the

@@ -10,8 +10,8 @@
 //! equal). AverageAE works on the sensor's own settings.
 
 use joca_camera::{
-    AccRanges, AverageAe, Calibration, DynamicSettings, MID_GREY_DN, compensate_for_pixel_size,
-    limit_exposure,
+    AccRanges, AverageAe, Calibration, DynamicSettings, Iris, MID_GREY_DN,
+    compensate_for_pixel_size, limit_exposure,
 };
 use joca_core::Rgb8Image;
 use joca_nn::joint::{Exposure, JointModel, Prediction};
@@ -44,6 +44,12 @@ pub trait ExposureControl {
     /// The settings of the next frame, from the sequence's last 8-bit frame. NeuralAE also
     /// reads `model`'s detector features of that frame.
     fn next(&mut self, model: &JointModel, last: &Rgb8Image) -> Decision;
+
+    /// The f-number of the frame last set (by [`Self::start`] or [`Self::next`]) where the
+    /// controller moves the iris; `None`: the lens's own.
+    fn f_number(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// The sensor a controller drives: its pixel pitch and the longest exposure and highest gain it
@@ -56,6 +62,9 @@ pub struct SensorLimits {
     pub max_exposure_s: f64,
     /// The ACC range's maximum gain, dB.
     pub max_gain_db: f64,
+    /// The lens's iris where the controller sets the aperture too (`[run] aperture =
+    /// "dynamic"`).
+    pub iris: Option<Iris>,
 }
 
 impl SensorLimits {
@@ -66,7 +75,13 @@ impl SensorLimits {
             pixel_pitch_um,
             max_exposure_s: ranges.exposure_s.max.min(frame_interval_s),
             max_gain_db: ranges.gain_db.max,
+            iris: None,
         }
+    }
+
+    /// The same sensor behind a lens whose iris the controller sets.
+    pub fn with_iris(self, iris: Option<Iris>) -> Self {
+        Self { iris, ..self }
     }
 }
 
@@ -92,13 +107,21 @@ pub struct NeuralControl {
     predicted: DynamicSettings,
     /// The settings the sensor last used.
     applied: DynamicSettings,
+    /// The iris's last unit position, where NeuralAE sets it (a sequence starts at
+    /// [`Iris::START_UNIT`]).
+    iris: Option<f64>,
 }
 
 impl NeuralControl {
     /// NeuralAE driving `sensor`.
     pub fn new(sensor: SensorLimits) -> Self {
         let start = calibration_settings();
-        Self { sensor, predicted: start, applied: start }
+        Self {
+            sensor,
+            predicted: start,
+            applied: start,
+            iris: sensor.iris.map(|_| Iris::START_UNIT),
+        }
     }
 }
 
@@ -109,15 +132,22 @@ impl ExposureControl for NeuralControl {
     }
 
     fn next(&mut self, model: &JointModel, last: &Rgb8Image) -> Decision {
-        match model.predict(last, self.predicted) {
+        match model.predict(last, self.predicted, self.iris) {
             Some(p) => {
                 self.predicted = p.settings();
                 self.applied = for_sensor(self.predicted, &self.sensor);
+                if self.sensor.iris.is_some() {
+                    self.iris = p.iris();
+                }
                 Decision { applied: self.applied, prediction: Some(p) }
             }
             // No features of a previous frame yet: keep the settings.
             None => Decision { applied: self.applied, prediction: None },
         }
+    }
+
+    fn f_number(&self) -> Option<f64> {
+        self.sensor.iris.zip(self.iris).map(|(iris, u)| iris.f_number(u))
     }
 }
 

@@ -4,7 +4,7 @@
 mod common;
 
 use common::{poison_first_tensor, snapshot};
-use joca_camera::LensModel;
+use joca_camera::{ApertureControl, LensModel};
 use joca_camera::{DetectorInput, Resampler};
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_sim::Weather;
@@ -47,6 +47,7 @@ fn tiny(method: Method) -> RunConfig {
         hardware_mutation: Default::default(),
         lens: Default::default(),
         f_number: Default::default(),
+        aperture: Default::default(),
         weather: Default::default(),
         train_maps: 2,
         max_speed_mps: 15.0,
@@ -221,6 +222,32 @@ fn every_method_runs() {
         .collect();
     assert_eq!(apertures.len(), cfg.population);
     assert!(apertures.iter().all(|n| (1.4..=8.0).contains(n)), "{apertures:?}");
+    // The aperture set frame by frame: NeuralAE's iris moves between the lens's f/2 and f/16,
+    // every training step and test light records its f-number, and the layout says so.
+    let mut cfg = tiny(Method::Joca);
+    cfg.generations = 1;
+    cfg.lens = LensModel::Thin;
+    cfg.f_number = FNumberRange { min: 2.0, max: 2.0 };
+    cfg.aperture = ApertureControl::Dynamic;
+    let r = run(&cfg, &dir.path().join("iris"), false, &mut go).unwrap();
+    assert_eq!((r.aperture, r.format_version), (ApertureControl::Dynamic, 3));
+    assert_eq!(
+        r.f_number_by_illumination.keys().collect::<Vec<_>>(),
+        r.settings_by_illumination.keys().collect::<Vec<_>>()
+    );
+    assert!(r.f_number_by_illumination.values().all(|n| (2.0..=16.0).contains(n)));
+    let events = std::fs::read_to_string(dir.path().join("iris/events.jsonl")).unwrap();
+    let stops: Vec<f64> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v.get("step").is_some() && v.get("loss").is_some())
+        .map(|v| v["f_number"].as_f64().expect("every step records its f-number"))
+        .collect();
+    assert!(!stops.is_empty() && stops.iter().all(|n| (2.0..=16.0).contains(n)), "{stops:?}");
+    // The same run again: the same numbers.
+    let again = run(&cfg, &dir.path().join("iris2"), false, &mut go).unwrap();
+    assert_eq!(again.test, r.test);
+    assert_eq!(again.f_number_by_illumination, r.f_number_by_illumination);
     // The frozen detector needs weights to freeze.
     let e = run(&tiny(Method::FrozenDetector), &dir.path().join("f"), false, &mut go)
         .unwrap_err()

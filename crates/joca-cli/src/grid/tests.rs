@@ -29,6 +29,8 @@ fn every_built_in_experiment_resolves_with_every_preset() {
     assert!(lenses.iter().all(|(l, _)| *l == joca_camera::LensModel::Thin));
     assert!(lenses.iter().any(|(_, f)| f.min == 1.4 && f.max == 16.0));
     assert!(lenses.iter().any(|(_, f)| f.is_calibration()));
+    let dynamic = aperture.cells.iter().filter(|c| !c.config.aperture.is_fixed()).count();
+    assert_eq!((aperture.cells.len(), dynamic), (6, 2));
     let fog = resolve("fog", "quick", None, 1).unwrap();
     let foggy = fog.cells.iter().filter(|c| c.config.weather.to_string() == "fog:300").count();
     assert_eq!((fog.cells.len(), foggy), (4, 2));

@@ -2,8 +2,8 @@
 //! exposure cap (twins of `joca_camera`'s), DF-Grad's l_GA (Eq. 5), and the formed frame back to
 //! 8 bits.
 
+use super::GaTarget;
 use crate::acc::AccBounds;
-use joca_camera::DynamicSettings;
 use joca_core::Rgb8Image;
 use tch::{Kind, Tensor};
 
@@ -15,19 +15,26 @@ pub(super) fn unit_tensor(value: &Tensor, range: (f64, f64)) -> Tensor {
 /// `(E_pred, G_pred)` and the best perturbation `(Ẽ*, G̃*)` the GA found, each in normalised units
 /// (log exposure and gain in dB, each range mapped to [0, 1]), averaged over the two:
 /// `l_GA = (|Ẽ* − E_pred| + |G̃* − G_pred|) / 2`. NeuralAE's loss is `w_task·l_task + w_ga·l_GA`.
+/// Where NeuralAE sets the iris too (`iris_pred`, a unit position already), `|ũ* − u|` joins
+/// the mean as a third term.
 pub(super) fn ga_supervision_loss(
     e_pred: &Tensor,
     g_pred_db: &Tensor,
-    target: DynamicSettings,
+    iris_pred: Option<&Tensor>,
+    target: GaTarget,
     bounds: &AccBounds,
 ) -> Tensor {
-    let (e_star, g_star_db) = (target.exposure_s, target.gain_db);
+    let (e_star, g_star_db) = (target.settings.exposure_s, target.settings.gain_db);
     let e_unit = unit_tensor(&e_pred.log(), bounds.log_exposure);
     let g_unit = unit_tensor(g_pred_db, bounds.gain_db);
     let e_star_unit =
         (e_star.ln() - bounds.log_exposure.0) / (bounds.log_exposure.1 - bounds.log_exposure.0);
     let g_star_unit = (g_star_db - bounds.gain_db.0) / (bounds.gain_db.1 - bounds.gain_db.0);
-    ((e_unit - e_star_unit).abs() + (g_unit - g_star_unit).abs()).mean(Kind::Float) / 2.0
+    let pair = (e_unit - e_star_unit).abs() + (g_unit - g_star_unit).abs();
+    match (iris_pred, target.iris) {
+        (Some(u), Some(u_star)) => (pair + (u - u_star).abs()).mean(Kind::Float) / 3.0,
+        _ => pair.mean(Kind::Float) / 2.0,
+    }
 }
 
 /// Eq. 4 on tensors (linear gain inside, dB outside), as `joca_camera::compensate_for_pixel_size`.

@@ -12,12 +12,37 @@ fn ga_supervision_loss_is_the_mean_l1_distance_in_normalised_units() {
     let bounds = AccBounds::new(ranges);
     let e_pred = Tensor::from_slice(&[0.01f32]);
     let g_pred = Tensor::from_slice(&[10.0f32]);
-    let l = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(1e-3, 30.0), &bounds)
+    let target = |e, g, iris| GaTarget { settings: DynamicSettings::new(e, g), iris };
+    let l = ga_supervision_loss(&e_pred, &g_pred, None, target(1e-3, 30.0, None), &bounds)
         .double_value(&[]);
     assert!((l - (0.5 + 0.5) / 2.0).abs() < 1e-6, "{l}");
-    let zero = ga_supervision_loss(&e_pred, &g_pred, DynamicSettings::new(0.01, 10.0), &bounds)
+    let zero = ga_supervision_loss(&e_pred, &g_pred, None, target(0.01, 10.0, None), &bounds)
         .double_value(&[]);
     assert!(zero.abs() < 1e-6, "{zero}");
+    // With the iris a third term: a prediction at 0.2 of it against a target at 0.8.
+    let u = Tensor::from_slice(&[0.2f32]);
+    let bounds = bounds.with_iris();
+    let l = ga_supervision_loss(&e_pred, &g_pred, Some(&u), target(1e-3, 30.0, Some(0.8)), &bounds)
+        .double_value(&[]);
+    assert!((l - (0.5 + 0.5 + 0.6) / 3.0).abs() < 1e-6, "{l}");
+}
+
+/// The iris's light factor: 1 in value, and the derivative of `ln (N0/N(u))²` by `u`, which for
+/// an iris from f/2 to f/16 (3 doublings of N) is −2·ln 8: a full stop-down costs 64× the light.
+#[test]
+fn the_iris_light_gradient_is_one_with_the_derivative_of_the_log_light() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let iris = Iris::new(2.0, 16.0);
+    let u = Tensor::from_slice(&[0.37f32]).set_requires_grad(true);
+    let factor = iris_light_gradient(&u, iris);
+    assert_eq!(factor.double_value(&[0]), 1.0);
+    factor.sum(Kind::Float).backward();
+    let du = u.grad().double_value(&[0]);
+    assert!((du + 2.0 * 8f64.ln()).abs() < 1e-5, "{du}");
+    // And the value it stands for: (N0/N)² at u against the lens's own light factor.
+    let n = iris.f_number(0.37);
+    let lens = joca_core::optics::Lens { focal_length_mm: 6.0, f_number: n, focus_m: 5.0 };
+    assert!((lens.light_factor() - (16.0 / n).powi(2)).abs() < 1e-9);
 }
 
 /// The tensor form of Eq. 4 (needed for gradients) agrees with the one the loop renders

@@ -33,6 +33,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         test_bands: Vec::new(),
         test_by_illumination: Default::default(),
         settings_by_illumination: Default::default(),
+        f_number_by_illumination: Default::default(),
         exposure_gain_by_illumination: Default::default(),
         mean_dn_by_illumination: Default::default(),
         best_fitness: 0.0,
@@ -47,6 +48,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         test_controller: None,
         lens: Default::default(),
         weather: Default::default(),
+        aperture: Default::default(),
         perturbation_ties: None,
     }
 }

@@ -15,7 +15,9 @@ pub use grid::ShutterGrid;
 
 pub use truth::{REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, reference_camera};
 
-use joca_core::{Class, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, SourceError};
+use joca_core::{
+    Class, Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, Shot, SourceError,
+};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -236,19 +238,30 @@ impl Simulator {
         exposures_s: &[f64],
         grid: &ShutterGrid,
     ) -> Result<Vec<Frame>, SourceError> {
-        self.render_instant(camera, request, exposures_s, Some(grid))
+        let shots: Vec<Shot> = exposures_s.iter().map(|&e| Shot::exposure(e)).collect();
+        self.render_instant(camera, request, &shots, Some(grid))
     }
 
-    /// The frames of `request`'s instant for `exposures_s`: on `grid`, or on the grid of the
-    /// longest shutter.
+    /// The frames of `request`'s instant for `shots`: on `grid`, or on the grid of the longest
+    /// shutter. A shot's f-number changes only its defocus (the light is image formation's).
     fn render_instant(
         &self,
         camera: &PinholeCamera,
         request: &FrameRequest,
-        exposures_s: &[f64],
+        shots: &[Shot],
         grid: Option<&ShutterGrid>,
     ) -> Result<Vec<Frame>, SourceError> {
-        let shutters = self.check(request, exposures_s)?;
+        let exposures_s: Vec<f64> = shots.iter().map(|s| s.exposure_s).collect();
+        let shutters = self.check(request, &exposures_s)?;
+        if self.config.defocus_per_subframe && shots.iter().any(|s| s.f_number.is_some()) {
+            return Err(SourceError::OutOfRange {
+                reason: "defocus_per_subframe blurs the shared sub-frames through one lens: \
+                         shots cannot set their own f-number"
+                    .into(),
+            });
+        }
+        let cameras =
+            shots.iter().map(|s| camera.stopped_to(s.f_number)).collect::<Result<Vec<_>, _>>()?;
         if let Some(g) = grid {
             let longest = shutters.iter().any(|&s| s > g.span_s * (1.0 + 1e-9));
             if longest || g.centre_s != request.time_s {
@@ -288,7 +301,7 @@ impl Simulator {
                     self.rain_streaks(&episode, camera, at, &mut colours, &mid);
                 }
                 if !self.config.defocus_per_subframe {
-                    for colour in &mut colours {
+                    for (colour, camera) in colours.iter_mut().zip(&cameras) {
                         render::lens::defocus_colour(colour, &mid.inv_depth, w, h, camera);
                     }
                 }
@@ -363,15 +376,15 @@ impl FrameSource for Simulator {
             .ok_or_else(|| SourceError::OutOfRange { reason: "no frame for the exposure".into() })
     }
 
-    /// One grid for all the exposures, over the longest shutter: the renders of the instant are
-    /// shared (see [`ShutterGrid`]).
-    fn render_exposures(
+    /// One grid for all the shots, over the longest shutter: the renders of the instant are
+    /// shared (see [`ShutterGrid`]); each shot's f-number sets its own defocus.
+    fn render_shots(
         &self,
         camera: &PinholeCamera,
         request: &FrameRequest,
-        exposures_s: &[f64],
+        shots: &[Shot],
     ) -> Result<Vec<Frame>, SourceError> {
-        self.render_instant(camera, request, exposures_s, None)
+        self.render_instant(camera, request, shots, None)
     }
 
     fn frame_interval_s(&self) -> f64 {

@@ -4,19 +4,21 @@
 //! NeuralAE through the differentiable formation). The candidate's fitness scores its k frames
 //! together.
 
+use super::RunConfig;
 use super::perturbation::{self, Probe};
 use super::{Context, RealSources, simulator};
 use crate::TrainError;
 use crate::control::{Decision, SensorLimits, controller};
-use joca_camera::CameraDesign;
+use joca_camera::{ApertureControl, CameraDesign, Iris};
+use joca_core::optics::CALIBRATION_F_NUMBER;
 use joca_core::{
-    Frame, FrameRequest, FrameSource, SourceError, TRAINING_MIN_BOX_PX, training_targets,
+    Frame, FrameRequest, FrameSource, Shot, SourceError, TRAINING_MIN_BOX_PX, training_targets,
 };
 use joca_evolve::Ga;
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::formation::Scene;
 use joca_nn::joint::{DfGradWeights, JointModel, Prediction};
-use joca_record::{Event, LossRecord, StepRecord};
+use joca_record::{Event, LossRecord, Settings, StepRecord};
 use joca_sim::{Illumination, Simulator, train_map_seed};
 use rand::Rng;
 use std::sync::Arc;
@@ -68,6 +70,13 @@ fn stretches(cx: &mut Context, scenes: u64) -> Vec<Stretch> {
         .collect()
 }
 
+/// The iris NeuralAE moves for `design` where the run sets the aperture frame by frame: from
+/// the design's f-number (the lens wide open) to the calibration's f/16.
+pub(super) fn iris(config: &RunConfig, design: &CameraDesign) -> Option<Iris> {
+    (config.aperture == ApertureControl::Dynamic)
+        .then(|| Iris::new(design.f_number, CALIBRATION_F_NUMBER))
+}
+
 /// Where a stretch's frames come from.
 fn source<'a>(real: &'a Option<Arc<RealSources>>, s: &'a Stretch) -> &'a dyn FrameSource {
     match (real, &s.town) {
@@ -99,7 +108,8 @@ pub(super) fn train(
     // controller's whole range stays the camera's at every f-number).
     let pitch = design.sensor().pixel_pitch_um;
     let sim = source(&real, &stretches[0]);
-    let sensor = SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s());
+    let sensor =
+        SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s()).with_iris(iris(&c, design));
     model.set_max_exposure(sensor.max_exposure_s);
     let mut control = controller(c.method.neural(), sensor, cx.ranges);
     let weights = DfGradWeights { task: c.task_weight, ga: 1.0 };
@@ -117,6 +127,9 @@ pub(super) fn train(
             None => Decision { applied: first, prediction: None },
         };
         let predicted = decision.prediction.as_ref().map(Prediction::settings);
+        let predicted_iris = decision.prediction.as_ref().and_then(Prediction::iris);
+        // The frame's f-number where NeuralAE sets the iris (`None`: the design's).
+        let f_number = control.f_number();
         cx.watch.lap(|t| &mut t.acc_predict_ms);
         let stretch =
             stretches.iter().rev().find(|s| s.first_step <= step).unwrap_or(&stretches[0]);
@@ -130,13 +143,20 @@ pub(super) fn train(
         // 2. Perturbation mode: the same instant with perturbed settings (each with its own
         // blur), rendered with the applied frame from one grid of sub-frames, scored by AP50.
         let members = match (predicted, c.method.perturbations()) {
-            (Some(predicted), true) => perturbation::members(cx, perturbation, predicted, &sensor),
+            (Some(predicted), true) => {
+                perturbation::members(cx, perturbation, predicted, predicted_iris, &sensor)
+            }
             _ => Vec::new(),
         };
-        let exposures: Vec<f64> = std::iter::once(decision.applied.exposure_s)
-            .chain(members.iter().map(|m| m.applied.exposure_s))
-            .collect();
-        let mut frames = sim.render_exposures(&camera, &request, &exposures)?.into_iter();
+        let shots: Vec<Shot> =
+            std::iter::once(Shot { exposure_s: decision.applied.exposure_s, f_number })
+                .chain(
+                    members
+                        .iter()
+                        .map(|m| Shot { exposure_s: m.applied.exposure_s, f_number: m.f_number }),
+                )
+                .collect();
+        let mut frames = sim.render_shots(&camera, &request, &shots)?.into_iter();
         let frame = frames.next().ok_or_else(|| SourceError::OutOfRange {
             reason: "the frame source returned no frame".into(),
         })?;
@@ -157,13 +177,18 @@ pub(super) fn train(
         let noise_seed: u64 = cx.streams.indexed("noise", common).random();
         let normals = formation.input_normals(camera.width_px, camera.height_px, noise_seed);
         cx.watch.lap(|t| &mut t.noise_ms);
+        let light_factor = match f_number {
+            Some(n) => formation.with_f_number(n)?.light_factor(),
+            None => formation.light_factor(),
+        };
         let scene = Scene {
             i0: frame.hdr.data(),
             normals: &normals,
             width: camera.width_px,
             height: camera.height_px,
             pixel_pitch_um: pitch,
-            light_factor: formation.light_factor(),
+            light_factor,
+            iris: sensor.iris,
         };
         let exposure = decision.into_exposure();
         // The detector learns objects of at least TRAINING_MIN_BOX_PX; the fitness counts every
@@ -184,7 +209,7 @@ pub(super) fn train(
                     offset: l.offset,
                 },
                 ga_loss: report.ga_loss,
-                settings: report.applied.into(),
+                settings: Settings::from(report.applied).at(f_number),
                 illumination: Some(super::light_of(stretch.illumination)),
             }))?;
         }

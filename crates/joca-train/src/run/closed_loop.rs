@@ -49,7 +49,8 @@ struct Driver {
 struct Step {
     frame: Frame,
     detections: Vec<Detection>,
-    settings: DynamicSettings,
+    /// Exposure and gain, and the f-number where the controller sets the iris.
+    settings: Settings,
     /// Mean of the formed 8-bit frame, DN.
     mean_dn: f64,
 }
@@ -65,7 +66,8 @@ impl Driver {
         // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
         // controller's whole range stays the camera's at every f-number).
         let pixel_pitch_um = design.sensor().pixel_pitch_um;
-        let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s);
+        let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s)
+            .with_iris(super::candidate::iris(&cx.config, design));
         model.set_max_exposure(sensor.max_exposure_s);
         let mut control =
             test_control(cx.test_controller, cx.config.method.neural(), sensor, cx.ranges);
@@ -95,9 +97,15 @@ impl Driver {
             exposure_s: self.applied.exposure_s,
             motion_scale: cx.config.scenario.motion_scale(),
         };
-        let Capture { frame, image } = self.formation.capture(
+        // Where the controller sets the iris, the frame is seen and formed at its f-number.
+        let f_number = self.control.f_number();
+        let formation = match f_number {
+            Some(n) => self.formation.with_f_number(n)?,
+            None => self.formation,
+        };
+        let Capture { frame, image } = formation.capture(
             sim,
-            camera,
+            &camera.stopped_to(f_number)?,
             &request,
             self.applied,
             self.pixel_pitch_um,
@@ -107,7 +115,7 @@ impl Driver {
         let data = image.data();
         let mean_dn = data.iter().map(|&v| f64::from(v)).sum::<f64>() / data.len().max(1) as f64;
         self.previous = Some(image);
-        Ok(Step { frame, detections, settings: self.applied, mean_dn })
+        Ok(Step { frame, detections, settings: Settings::from(self.applied).at(f_number), mean_dn })
     }
 }
 
@@ -203,7 +211,7 @@ pub(super) fn test(
                 ),
                 _ => (Light::Recorded, None),
             };
-            sums.entry(light).or_default().add(s.settings.into(), s.mean_dn);
+            sums.entry(light).or_default().add(s.settings, s.mean_dn);
             by_light.entry(light).or_default().update(
                 &s.frame.boxes,
                 &s.frame.ignore,
@@ -216,7 +224,7 @@ pub(super) fn test(
                 time_s,
                 illumination: light,
                 ambient,
-                settings: s.settings.into(),
+                settings: s.settings,
                 objects: s.frame.boxes.len(),
                 visible_180: s.frame.visible_180,
                 detections: s.detections.len(),
@@ -233,8 +241,19 @@ pub(super) fn test(
     let settings = sums
         .iter()
         .map(|(k, v)| {
-            (*k, Settings { exposure_ms: v.exposure_ms / v.frames, gain_db: v.gain_db / v.frames })
+            let settings = Settings {
+                exposure_ms: v.exposure_ms / v.frames,
+                gain_db: v.gain_db / v.frames,
+                f_number: None,
+            };
+            (*k, settings)
         })
+        .collect();
+    // The mean f-number by light, where the controller set the iris (geometric: in stops).
+    let f_number = sums
+        .iter()
+        .filter(|(_, v)| v.iris_frames > 0.0)
+        .map(|(k, v)| (*k, (v.log_f_number / v.iris_frames).exp()))
         .collect();
     let exposure_gain = mean(|v| v.exposure_gain_ms);
     let mean_dn = mean(|v| v.mean_dn);
@@ -254,6 +273,7 @@ pub(super) fn test(
         bands: metrics.bands(),
         by_light: by_light.iter().map(|(k, m)| (*k, m.compute())).collect(),
         settings,
+        f_number,
         exposure_gain,
         mean_dn,
     })
@@ -268,10 +288,17 @@ struct LightSums {
     exposure_gain_ms: f64,
     mean_dn: f64,
     frames: f64,
+    /// Sum of ln f-number over the frames whose iris the controller set, and their count.
+    log_f_number: f64,
+    iris_frames: f64,
 }
 
 impl LightSums {
     fn add(&mut self, settings: Settings, mean_dn: f64) {
+        if let Some(n) = settings.f_number {
+            self.log_f_number += n.ln();
+            self.iris_frames += 1.0;
+        }
         self.exposure_ms += settings.exposure_ms;
         self.gain_db += settings.gain_db;
         self.exposure_gain_ms += settings.exposure_gain_ms();
@@ -290,6 +317,8 @@ pub(super) struct Tested {
     pub(super) by_light: BTreeMap<Light, TaskScores>,
     /// Mean exposure and gain by illumination.
     pub(super) settings: SettingsByLight,
+    /// Geometric-mean f-number by illumination, where the controller set the iris (else empty).
+    pub(super) f_number: BTreeMap<Light, f64>,
     /// Mean exposure × linear gain (ms) by illumination.
     pub(super) exposure_gain: BTreeMap<Light, f64>,
     /// Mean 8-bit value of the formed frames by illumination, DN.
@@ -355,7 +384,7 @@ fn showcases(
                 frame: k,
                 time_s,
                 ambient: ambient(&sim, episode, time_s),
-                settings: s.settings.into(),
+                settings: s.settings,
                 boxes: s.frame.boxes,
                 detections: s.detections,
                 image,

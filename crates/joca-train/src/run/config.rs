@@ -6,7 +6,7 @@ use super::method::{DesignSpec, FixedCamera};
 pub use super::reference::{MAX_REFERENCE_RANGE_M, ReferenceConfig};
 pub use super::source::{RealConfig, Source};
 use crate::TrainError;
-use joca_camera::{CameraDesign, CameraError, DetectorInput, LensModel};
+use joca_camera::{ApertureControl, CameraDesign, CameraError, DetectorInput, LensModel};
 use joca_core::optics::F_NUMBER_RANGE;
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
@@ -135,6 +135,11 @@ pub struct RunConfig {
     /// Fixed cameras and panel designs keep their own (f/16 unless stated).
     #[serde(default, skip_serializing_if = "FNumberRange::is_calibration")]
     pub f_number: FNumberRange,
+    /// Who sets the aperture frame by frame: `fixed` (default: the design's f-number) or
+    /// `dynamic` (NeuralAE also sets the iris, from the design's f-number to f/16, trained by
+    /// the same DF-Grad; needs `lens = "thin"` and a NeuralAE method).
+    #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
+    pub aperture: ApertureControl,
     /// The air of every training and test episode: `clear` (default), `fog:V` (Koschmieder
     /// fog of visibility V metres, 10 to 100000) or `rain:R` (R mm/h, 0.1 to 200: Marshall–Palmer
     /// drops' extinction and streaks); the reference objects are unchanged, so a fogged-out
@@ -327,6 +332,16 @@ impl RunConfig {
                 "lens",
                 "\"thin\"".into(),
                 "\"pinhole\" with a recording (recorded frames have no depth to defocus by)",
+            );
+        }
+        if self.aperture == ApertureControl::Dynamic
+            && (self.lens != LensModel::Thin || !self.method.neural())
+        {
+            return bad(
+                "aperture",
+                "\"dynamic\"".into(),
+                "\"fixed\" unless lens = \"thin\" and the method's controller is NeuralAE (a \
+                 pinhole has no iris; AverageAE sets exposure and gain only)",
             );
         }
         if self.lens == LensModel::Pinhole && !f.is_calibration() {

@@ -148,6 +148,7 @@ pub(super) fn test_design(
         test_bands: tested.bands,
         test_by_illumination: tested.by_light,
         settings_by_illumination: tested.settings,
+        f_number_by_illumination: tested.f_number,
         exposure_gain_by_illumination: tested.exposure_gain,
         mean_dn_by_illumination: tested.mean_dn,
         best_fitness: state.best.as_ref().map_or(0.0, |b| b.1),
@@ -167,6 +168,7 @@ pub(super) fn test_design(
         perturbation_ties: (state.ties.searches > 0).then_some(state.ties),
         lens: config.lens,
         weather: config.weather,
+        aperture: config.aperture,
         validation,
     };
     results.format_version = results.layout_version();

@@ -241,7 +241,8 @@ fn setup(
     // them the noise of its native grid carried through the configured resize.
     let formation =
         ImageFormation::new(cal)?.with_noise_scale(n)?.with_resampler(config.input.resampler);
-    let mut model = JointModel::new(&engine, config.detector, ranges, formation);
+    let iris = config.aperture == joca_camera::ApertureControl::Dynamic;
+    let mut model = JointModel::new(&engine, config.detector, ranges, formation, iris);
     if let Some(weights) = &config.detector_weights {
         model.load_detector(weights)?;
     }

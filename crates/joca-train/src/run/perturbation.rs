@@ -5,17 +5,19 @@
 //! (the paper's) or by the detector's task loss (`perturbation_score`). The best member's
 //! settings become the target of the GA loss l_GA. Each search counts whether members tied for
 //! the best score (then the tie-break or the GA's order chose), for `results.json`.
+//! Where NeuralAE sets the iris too, each member also offsets the iris's unit position (a third
+//! gene) and is rendered and formed at its own f-number (its own defocus and light).
 
 use super::config::{PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak};
 use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
-use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
+use joca_camera::{AccRanges, ApertureControl, CameraError, DynamicSettings, ImageFormation};
 use joca_core::{Frame, Rgb8Image, SeedStreams, TRAINING_MIN_BOX_PX, training_targets};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
 use joca_nn::detector::{Precision, PrecisionExt, TrainFrame};
-use joca_nn::joint::JointModel;
+use joca_nn::joint::{GaTarget, JointModel};
 use joca_record::SearchTies;
 use rand::Rng;
 use rayon::prelude::*;
@@ -43,8 +45,9 @@ pub(super) fn ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainE
         PerturbationMutation::Paper => 0.0,
         PerturbationMutation::Additive => 0.1,
     };
+    let genes = if config.aperture == ApertureControl::Dynamic { 3 } else { 2 };
     let ga_config =
-        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); 2], (0.9, 1.1))
+        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); genes], (0.9, 1.1))
             .and_then(|c| c.with_shift(shift))
             .map_err(ga_err)?;
     Ok(Ga::new(ga_config, &mut streams.stream("perturbation-init")))
@@ -62,19 +65,31 @@ pub(super) struct Probe {
 }
 
 /// One member of a perturbation search: its settings for the calibration pitch (what l_GA
-/// compares NeuralAE's prediction with) and as applied to the sensor (Eq. 4, capped).
+/// compares NeuralAE's prediction with) and as applied to the sensor (Eq. 4, capped); where
+/// NeuralAE sets the iris, its unit position and f-number.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Member {
     pub(super) perturbed: DynamicSettings,
     pub(super) applied: DynamicSettings,
+    pub(super) iris: Option<f64>,
+    pub(super) f_number: Option<f64>,
+}
+
+impl Member {
+    /// What l_GA pulls NeuralAE's prediction towards if this member wins.
+    fn target(&self) -> GaTarget {
+        GaTarget { settings: self.perturbed, iris: self.iris }
+    }
 }
 
 /// The members of one search around `predicted` (NeuralAE's settings for the calibration
-/// pitch): the GA's population, or the ablation's four fixed perturbations.
+/// pitch, and its iris position where it sets the iris): the GA's population, or the ablation's
+/// four fixed perturbations (which leave the iris where NeuralAE put it).
 pub(super) fn members(
     cx: &Context,
     ga: &Ga,
     predicted: DynamicSettings,
+    iris: Option<f64>,
     sensor: &SensorLimits,
 ) -> Vec<Member> {
     let offsets: Vec<Vec<f64>> = if cx.config.method == Method::FixedPerturbation {
@@ -87,7 +102,10 @@ pub(super) fn members(
         .iter()
         .map(|p| {
             let perturbed = perturb(steps, &cx.ranges, predicted, [p[0], p[1]]);
-            Member { perturbed, applied: for_sensor(perturbed, sensor) }
+            // The iris's unit position is already even steps of log f-number: offset directly.
+            let iris = iris.map(|u| (u + p.get(2).copied().unwrap_or(0.0)).clamp(0.0, 1.0));
+            let f_number = sensor.iris.zip(iris).map(|(lens, u)| lens.f_number(u));
+            Member { perturbed, applied: for_sensor(perturbed, sensor), iris, f_number }
         })
         .collect()
 }
@@ -188,8 +206,8 @@ fn best_member(fitness: &[f64]) -> usize {
 /// one batch, and each is scored by AP50 (ties by fewer clipped pixels, unless switched off) or
 /// by its task loss (`perturbation_score`).
 /// Unless the perturbations are fixed, tells the GA their fitness. Returns the best member's
-/// settings (equal fitness goes to the first member), for the calibration pitch; `None` without
-/// members.
+/// settings (equal fitness goes to the first member), for the calibration pitch, and iris;
+/// `None` without members.
 pub(super) fn search(
     cx: &mut Context,
     model: &JointModel,
@@ -197,7 +215,7 @@ pub(super) fn search(
     probe: &Probe,
     members: &[Member],
     frames: &[Frame],
-) -> Result<Option<DynamicSettings>, TrainError> {
+) -> Result<Option<GaTarget>, TrainError> {
     // Every member of a step on the same noise sample: they differ by their settings only. The
     // sample is drawn once, the members are formed in parallel (each frame as `form` with that
     // stream would make it).
@@ -210,9 +228,13 @@ pub(super) fn search(
                 .par_iter()
                 .zip(frames.par_iter())
                 .map(|(m, frame)| {
-                    formation.form_with_normals(&frame.hdr, m.applied, pitch, &normals)
+                    let formation = match m.f_number {
+                        Some(n) => formation.with_f_number(n)?,
+                        None => *formation,
+                    };
+                    Ok(formation.form_with_normals(&frame.hdr, m.applied, pitch, &normals))
                 })
-                .collect()
+                .collect::<Result<_, CameraError>>()?
         }
         None => Vec::new(),
     };
@@ -235,7 +257,7 @@ pub(super) fn search(
         ga.tell(&fitness, &mut cx.streams.indexed("perturbation-ga", probe.global_step), |_| {})
             .map_err(ga_err)?;
     }
-    Ok(members.get(best).map(|m| m.perturbed))
+    Ok(members.get(best).map(Member::target))
 }
 
 #[cfg(test)]

@@ -27,3 +27,34 @@ fn detector_weights_are_a_path_or_none() {
     assert!(text.contains("detector_weights = \"w/d.safetensors\""), "{text}");
     assert_eq!(toml::from_str::<RunConfig>(&text).unwrap(), some);
 }
+
+#[test]
+fn a_dynamic_aperture_needs_a_thin_lens_and_neural_ae() {
+    use joca_camera::{ApertureControl, LensModel};
+    let mut config = with_weights(None);
+    config.aperture = ApertureControl::Dynamic;
+    // The quick preset's pinhole has no iris.
+    let e = config.validate().unwrap_err().to_string();
+    assert!(e.contains("aperture") && e.contains("\"dynamic\"") && e.contains("thin"), "{e}");
+    config.lens = LensModel::Thin;
+    config.validate().unwrap();
+    // AverageAE sets exposure and gain only.
+    config.method = crate::Method::TacosAverage;
+    let e = config.validate().unwrap_err().to_string();
+    assert!(e.contains("aperture") && e.contains("NeuralAE"), "{e}");
+    // Written back, the fixed default leaves the field out.
+    assert!(!toml::to_string(&with_weights(None)).unwrap().contains("aperture"));
+    let text = "aperture = \"dynamic\"";
+    let mut table: toml::Table =
+        toml::from_str(&toml::to_string(&with_weights(None)).unwrap()).unwrap();
+    table.extend(toml::from_str::<toml::Table>(text).unwrap());
+    let read: RunConfig = table.try_into().unwrap();
+    assert_eq!(read.aperture, ApertureControl::Dynamic);
+    let bad: Result<RunConfig, _> = toml::from_str(
+        &toml::to_string(&with_weights(None))
+            .unwrap()
+            .replace("seed = 0", "seed = 0\naperture = \"iris\""),
+    );
+    let e = bad.unwrap_err().to_string();
+    assert!(e.contains("iris") && e.contains("fixed") && e.contains("dynamic"), "{e}");
+}
