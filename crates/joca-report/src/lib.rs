@@ -198,6 +198,16 @@ pub fn settings_markdown(r: &RunResults) -> String {
         let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} | {cell} | {relative} | {mean} |");
     }
     md.push('\n');
+    if !r.f_number_by_illumination.is_empty() {
+        let stops: Vec<String> =
+            r.f_number_by_illumination.iter().map(|(l, n)| format!("{l} f/{n:.1}")).collect();
+        let _ = writeln!(
+            md,
+            "NeuralAE also set the iris (geometric-mean f-number: {}); exposure × gain above \
+                leaves out the iris's light, (16/N)² of the calibration aperture's.\n",
+            stops.join(", ")
+        );
+    }
     md
 }
 

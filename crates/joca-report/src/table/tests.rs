@@ -130,3 +130,21 @@ fn html_spans_groups_and_csv_keeps_full_precision() {
                1.35,1.3,5.19,IMX178,7.3728,4.9152,2.4,true,0.303,0.5,0.358,10,,,,\n";
     assert!(c.contains(row), "{c}");
 }
+
+#[test]
+fn the_settings_section_names_the_iris_only_where_neural_ae_set_it() {
+    use joca_record::{Light, Settings};
+    let mut r = results(0.2, 0.3, true);
+    let at = |exposure_ms, gain_db| Settings { exposure_ms, gain_db, f_number: None };
+    r.settings_by_illumination =
+        [(Light::Day, at(12.0, 9.1)), (Light::Night, at(29.1, 13.4))].into();
+    let fixed = crate::settings_markdown(&r);
+    assert!(fixed.contains("| day | 12.00 | 9.1 |") && !fixed.contains("iris"), "{fixed}");
+    r.f_number_by_illumination = [(Light::Day, 7.08), (Light::Night, 3.93)].into();
+    let md = crate::settings_markdown(&r);
+    assert!(md.starts_with(&fixed), "{md}");
+    assert!(
+        md.contains("NeuralAE also set the iris (geometric-mean f-number: day f/7.1, night f/3.9)"),
+        "{md}"
+    );
+}
