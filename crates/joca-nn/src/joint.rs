@@ -27,8 +27,8 @@ use crate::detector::{
 };
 use crate::formation::{ClipGradient, Scene, form, to_detector_input};
 use crate::{Adam, AdamConfig, Engine, NnError, load_weights, save_weights};
-use equations::{eq4, ga_supervision_loss, limit_exposure, tensor_to_rgb8};
-use joca_camera::{AccRanges, DynamicSettings, ImageFormation, Iris};
+use equations::{eq4, ga_supervision_loss, iris_light_gradient, limit_exposure, tensor_to_rgb8};
+use joca_camera::{AccRanges, DynamicSettings, ImageFormation};
 use joca_core::{Annotation, Detection, Rgb8Image};
 use std::path::Path;
 use tch::nn::VarStore;
@@ -117,16 +117,6 @@ pub struct StepTimings {
     pub update_ms: f64,
     /// Decoding the detections.
     pub decode_ms: f64,
-}
-
-/// `1` in value, with the gradient of the light a lens iris at unit position `u` lets through
-/// relative to its value here: `exp(ln L(u) − ln L(u)|detached)`, `L(u) = (N0/N(u))²`, so
-/// `∂/∂u = ∂ ln L/∂u = −2·(ln N_n − ln N_w)`. Multiplying the exposure by it forms the very frame
-/// of the scene's light factor while the task loss reaches `u`.
-fn iris_light_gradient(u: &Tensor, iris: Iris) -> Tensor {
-    let (a, b) = iris.log_range();
-    let log_light = (u * (b - a) + a) * -2.0;
-    (&log_light - log_light.detach()).exp()
 }
 
 /// Detector + NeuralAE + their optimisers.

@@ -17,6 +17,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod by_light;
 mod events;
 mod method;
 mod results;
@@ -28,6 +29,7 @@ mod vocabulary;
 pub use joca_core::{Annotation, BBox, Class, Detection};
 pub use joca_metrics::{BandScores, TaskScores};
 
+pub use by_light::{ByLight, LightResults};
 pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
 pub use method::{Method, Scenario};
 pub use results::{DesignSummary, RESULTS_FORMAT_VERSION, RunResults, SearchTies, Validated};

@@ -1,12 +1,11 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
-use crate::{Light, Method, Scenario, Settings, Source, TestController};
+use crate::{ByLight, Method, Scenario, Source, TestController};
 use joca_camera::{ApertureControl, DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
 use joca_core::weather::Weather;
 use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 
 /// The newest layout version of `results.json` this joca reads and writes; readers refuse a
 /// newer one. Files without the field are version 0 (written before it existed): every field
@@ -37,24 +36,12 @@ pub struct RunResults {
     /// Test scores per distance band (simulator; empty for recordings without depth).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub test_bands: Vec<BandScores>,
-    /// Test scores by illumination (`day`, `night`, `tunnel`, `cycle`; `recorded` for
-    /// recordings): the same frames as `test`, split by the episode's light. Empty in older runs.
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub test_by_illumination: BTreeMap<Light, TaskScores>,
-    /// Mean exposure (ms) and gain (dB) by illumination during the test, each written `[ms, dB]`.
-    #[serde(with = "crate::settings::as_pairs")]
-    pub settings_by_illumination: BTreeMap<Light, Settings>,
-    /// Geometric mean of the f-number by illumination during the test, where the controller set
-    /// the iris (`aperture = "dynamic"`); absent otherwise.
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub f_number_by_illumination: BTreeMap<Light, f64>,
-    /// Mean of exposure (ms) × linear gain (10^(G/20)) over the test frames, by illumination:
-    /// the total amplification the controller applies to the light it sees.
-    #[serde(default)]
-    pub exposure_gain_by_illumination: BTreeMap<Light, f64>,
-    /// Mean 8-bit value of the formed test frames by illumination, DN.
-    #[serde(default)]
-    pub mean_dn_by_illumination: BTreeMap<Light, f64>,
+    /// What the test measured under each light (`day`, `night`, `tunnel`, `cycle`; `recorded`
+    /// for recordings): scores over the same frames as `test` split by the episode's light, mean
+    /// settings (`[ms, dB]`), f-number (where the controller set the iris), exposure × gain and
+    /// frame level — written as one map per quantity ([`ByLight`]). Older runs lack some.
+    #[serde(flatten)]
+    pub by_illumination: ByLight,
     /// Best hardware fitness seen in training.
     #[serde(default)]
     pub best_fitness: f64,

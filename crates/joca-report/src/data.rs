@@ -160,6 +160,7 @@ fn parse_events(bytes: &[u8]) -> (Vec<GenerationFitness>, Vec<StepLog>, Vec<usiz
 #[cfg(test)]
 mod tests {
     use super::*;
+    use joca_record::Light;
 
     #[test]
     fn events_keep_the_last_record_of_a_repeated_step() {
@@ -222,10 +223,13 @@ mod tests {
         value["lens"] = "thin".into();
         value["aperture"] = "dynamic".into();
         value["f_number_by_illumination"] = serde_json::json!({ "day": 8.0, "night": 1.4 });
+        value["settings_by_illumination"] =
+            serde_json::json!({ "day": [5.0, 3.0], "night": [40.0, 20.0] });
         std::fs::write(&path, value.to_string()).unwrap();
         let r = RunData::load(dir.path()).unwrap().results;
         assert_eq!((r.format_version, r.aperture.to_string()), (3, "dynamic".to_owned()));
-        assert_eq!(r.f_number_by_illumination.len(), 2);
+        let stops: Vec<_> = r.by_illumination.f_numbers().collect();
+        assert_eq!(stops, [(Light::Day, 8.0), (Light::Night, 1.4)]);
         assert_eq!(r.layout_version(), 3);
     }
 }

@@ -182,25 +182,24 @@ pub fn settings_markdown(r: &RunResults) -> String {
             G (dB) | mean E × gain (ms) | relative to night | mean frame (DN) |\n\
             |---|---|---|---|---|---|\n",
     );
-    let night = r.exposure_gain_by_illumination.get(&joca_record::Light::Night).copied();
-    for (light, s) in &r.settings_by_illumination {
+    let by = &r.by_illumination;
+    let night = by.light(joca_record::Light::Night).and_then(|l| l.exposure_gain_ms);
+    for (light, s) in by.settings() {
         let (e, g) = (s.exposure_ms, s.gain_db);
-        let eg = r.exposure_gain_by_illumination.get(light);
+        let record = by.light(light);
+        let eg = record.and_then(|l| l.exposure_gain_ms);
         let cell = eg.map_or_else(|| "-".to_owned(), |v| format!("{v:.1}"));
         let relative = match (eg, night) {
             (Some(v), Some(n)) if n > 0.0 => format!("{:.3}", v / n),
             _ => "-".to_owned(),
         };
-        let mean = r
-            .mean_dn_by_illumination
-            .get(light)
-            .map_or_else(|| "-".to_owned(), |v| format!("{v:.0}"));
+        let mean =
+            record.and_then(|l| l.mean_dn).map_or_else(|| "-".to_owned(), |v| format!("{v:.0}"));
         let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} | {cell} | {relative} | {mean} |");
     }
     md.push('\n');
-    if !r.f_number_by_illumination.is_empty() {
-        let stops: Vec<String> =
-            r.f_number_by_illumination.iter().map(|(l, n)| format!("{l} f/{n:.1}")).collect();
+    let stops: Vec<String> = by.f_numbers().map(|(l, n)| format!("{l} f/{n:.1}")).collect();
+    if !stops.is_empty() {
         let _ = writeln!(
             md,
             "NeuralAE also set the iris (geometric-mean f-number: {}); exposure × gain above \

@@ -148,7 +148,7 @@ impl Comparison<'_> {
 
 /// The mAP of `light` in a row's per-illumination test scores.
 pub fn light_map(r: &Row, light: Light) -> Option<f64> {
-    r.results.test_by_illumination.get(&light).map(|s| s.map)
+    r.results.by_illumination.light(light)?.scores.as_ref().map(|s| s.map)
 }
 
 #[cfg(test)]

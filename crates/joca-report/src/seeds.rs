@@ -88,7 +88,7 @@ fn light_table(rows: &[Row]) -> Vec<Vec<String>> {
     header.extend(LIGHTS.iter().map(|l| format!("Δ mAP {l}")));
     let mut table = vec![header];
     for c in comparisons(rows) {
-        if c.pairs.iter().all(|(a, _)| a.results.test_by_illumination.is_empty()) {
+        if c.pairs.iter().all(|(a, _)| a.results.by_illumination.scores().next().is_none()) {
             continue;
         }
         let mut row = vec![c.group.clone(), format!("{} − {}", c.ours, c.other)];
@@ -345,7 +345,7 @@ mod tests {
             results.seed = seed;
             let mut n = results.test;
             n.map = night;
-            results.test_by_illumination.insert(joca_record::Light::Night, n);
+            results.by_illumination.entry(joca_record::Light::Night).or_default().scores = Some(n);
             Row {
                 group: "Calibrated".into(),
                 label: label.into(),

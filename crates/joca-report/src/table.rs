@@ -221,6 +221,8 @@ impl Table {
         for r in &self.rows {
             let d = &r.results.design;
             let t = &r.results.test;
+            let light = |l: Light| r.results.by_illumination.light(l);
+            let exposure_ms = |l: Light| light(l)?.settings.map(|s| s.exposure_ms);
             let _ = writeln!(
                 c,
                 "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
@@ -242,10 +244,10 @@ impl Table {
                 t.ap50,
                 t.tp_ratio,
                 t.frames,
-                opt(r.results.settings_by_illumination.get(&Light::Day).map(|s| s.exposure_ms)),
-                opt(r.results.settings_by_illumination.get(&Light::Night).map(|s| s.exposure_ms)),
-                opt(r.results.exposure_gain_by_illumination.get(&Light::Day).copied()),
-                opt(r.results.exposure_gain_by_illumination.get(&Light::Night).copied()),
+                opt(exposure_ms(Light::Day)),
+                opt(exposure_ms(Light::Night)),
+                opt(light(Light::Day).and_then(|l| l.exposure_gain_ms)),
+                opt(light(Light::Night).and_then(|l| l.exposure_gain_ms)),
             );
         }
         c

@@ -231,11 +231,9 @@ fn every_method_runs() {
     cfg.aperture = ApertureControl::Dynamic;
     let r = run(&cfg, &dir.path().join("iris"), false, &mut go).unwrap();
     assert_eq!((r.aperture, r.format_version), (ApertureControl::Dynamic, 3));
-    assert_eq!(
-        r.f_number_by_illumination.keys().collect::<Vec<_>>(),
-        r.settings_by_illumination.keys().collect::<Vec<_>>()
-    );
-    assert!(r.f_number_by_illumination.values().all(|n| (2.0..=16.0).contains(n)));
+    let stops: Vec<_> = r.by_illumination.f_numbers().collect();
+    assert_eq!(stops.len(), r.by_illumination.settings().count());
+    assert!(stops.iter().all(|(_, n)| (2.0..=16.0).contains(n)), "{stops:?}");
     let events = std::fs::read_to_string(dir.path().join("iris/events.jsonl")).unwrap();
     let stops: Vec<f64> = events
         .lines()
@@ -247,7 +245,7 @@ fn every_method_runs() {
     // The same run again: the same numbers.
     let again = run(&cfg, &dir.path().join("iris2"), false, &mut go).unwrap();
     assert_eq!(again.test, r.test);
-    assert_eq!(again.f_number_by_illumination, r.f_number_by_illumination);
+    assert_eq!(again.by_illumination, r.by_illumination);
     // The frozen detector needs weights to freeze.
     let e = run(&tiny(Method::FrozenDetector), &dir.path().join("f"), false, &mut go)
         .unwrap_err()
@@ -486,10 +484,10 @@ fn the_test_gives_every_illumination_its_share_of_episodes() {
         .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["illumination"].to_string())
         .collect();
     assert_eq!(lights, ["\"day\"", "\"night\"", "\"tunnel\"", "\"cycle\""]);
-    assert_eq!(r.settings_by_illumination.len(), 4);
+    assert_eq!(r.by_illumination.settings().count(), 4);
     // The same frames scored per light: one frame each.
-    assert_eq!(r.test_by_illumination.len(), 4);
-    assert!(r.test_by_illumination.values().all(|s| s.frames == 1));
+    assert_eq!(r.by_illumination.scores().count(), 4);
+    assert!(r.by_illumination.scores().all(|(_, s)| s.frames == 1));
 }
 
 /// Common random numbers: every candidate of a generation drives the same scenes, its k steps in

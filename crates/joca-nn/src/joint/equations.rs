@@ -4,6 +4,7 @@
 
 use super::GaTarget;
 use crate::acc::AccBounds;
+use joca_camera::Iris;
 use joca_core::Rgb8Image;
 use tch::{Kind, Tensor};
 
@@ -35,6 +36,16 @@ pub(super) fn ga_supervision_loss(
         (Some(u), Some(u_star)) => (pair + (u - u_star).abs()).mean(Kind::Float) / 3.0,
         _ => pair.mean(Kind::Float) / 2.0,
     }
+}
+
+/// `1` in value, with the gradient of the light a lens iris at unit position `u` lets through
+/// relative to its value here: `exp(ln L(u) − ln L(u)|detached)`, `L(u) = (N0/N(u))²`, so
+/// `∂/∂u = ∂ ln L/∂u = −2·(ln N_n − ln N_w)`. Multiplying the exposure by it forms the very frame
+/// of the scene's light factor while the task loss reaches `u`.
+pub(super) fn iris_light_gradient(u: &Tensor, iris: Iris) -> Tensor {
+    let (a, b) = iris.log_range();
+    let log_light = (u * (b - a) + a) * -2.0;
+    (&log_light - log_light.detach()).exp()
 }
 
 /// Eq. 4 on tensors (linear gain inside, dB outside), as `joca_camera::compensate_for_pixel_size`.

@@ -1,7 +1,7 @@
 //! The joint step's equations against their closed forms and the camera crate.
 
 use super::*;
-use joca_camera::Bounds;
+use joca_camera::{Bounds, Iris};
 use tch::Kind;
 
 /// l_GA against its closed form: with the ranges 1–100 ms (log) and 0–40 dB, a prediction of

@@ -31,11 +31,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
             class_objects: [0; 3],
         },
         test_bands: Vec::new(),
-        test_by_illumination: Default::default(),
-        settings_by_illumination: Default::default(),
-        f_number_by_illumination: Default::default(),
-        exposure_gain_by_illumination: Default::default(),
-        mean_dn_by_illumination: Default::default(),
+        by_illumination: Default::default(),
         best_fitness: 0.0,
         validation: Vec::new(),
         input: None,
@@ -135,12 +131,18 @@ fn html_spans_groups_and_csv_keeps_full_precision() {
 fn the_settings_section_names_the_iris_only_where_neural_ae_set_it() {
     use joca_record::{Light, Settings};
     let mut r = results(0.2, 0.3, true);
-    let at = |exposure_ms, gain_db| Settings { exposure_ms, gain_db, f_number: None };
-    r.settings_by_illumination =
-        [(Light::Day, at(12.0, 9.1)), (Light::Night, at(29.1, 13.4))].into();
+    let set = |r: &mut RunResults, stops: [Option<f64>; 2]| {
+        for (light, (e, g), f_number) in
+            [(Light::Day, (12.0, 9.1), stops[0]), (Light::Night, (29.1, 13.4), stops[1])]
+        {
+            r.by_illumination.entry(light).or_default().settings =
+                Some(Settings { exposure_ms: e, gain_db: g, f_number });
+        }
+    };
+    set(&mut r, [None, None]);
     let fixed = crate::settings_markdown(&r);
     assert!(fixed.contains("| day | 12.00 | 9.1 |") && !fixed.contains("iris"), "{fixed}");
-    r.f_number_by_illumination = [(Light::Day, 7.08), (Light::Night, 3.93)].into();
+    set(&mut r, [Some(7.08), Some(3.93)]);
     let md = crate::settings_markdown(&r);
     assert!(md.starts_with(&fixed), "{md}");
     assert!(

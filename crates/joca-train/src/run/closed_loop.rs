@@ -11,7 +11,7 @@
 //!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
 //! - `<sequence>/NNN.png` — those frames.
 
-use super::{Context, SettingsByLight, light_of, simulator};
+use super::{Context, light_of, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use crate::control::{ExposureControl, SensorLimits, test_control};
@@ -19,7 +19,7 @@ use joca_camera::{CameraDesign, Capture, DynamicSettings, ImageFormation};
 use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{BandScores, TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
-use joca_record::{Light, Settings, TraceRecord};
+use joca_record::{ByLight, Light, LightResults, Settings, TraceRecord};
 pub use joca_record::{Showcase, ShowcaseFrame};
 use joca_sim::{Illumination, Simulator, TUNNEL_PHASE_S, test_map_seed};
 use std::collections::BTreeMap;
@@ -169,7 +169,7 @@ pub(super) fn test(
     let mut metrics = TaskMetrics::default();
     // The same frames scored per illumination (the tunnel exit and the day–night cycle are
     // where the paper claims a controller's gain).
-    let mut by_light: BTreeMap<Light, TaskMetrics> = BTreeMap::new();
+    let mut metrics_by_light: BTreeMap<Light, TaskMetrics> = BTreeMap::new();
     let mut sums: BTreeMap<Light, LightSums> = BTreeMap::new();
     let mut trace = String::new();
     let real = cx.real.clone();
@@ -212,7 +212,7 @@ pub(super) fn test(
                 _ => (Light::Recorded, None),
             };
             sums.entry(light).or_default().add(s.settings, s.mean_dn);
-            by_light.entry(light).or_default().update(
+            metrics_by_light.entry(light).or_default().update(
                 &s.frame.boxes,
                 &s.frame.ignore,
                 &s.detections,
@@ -235,28 +235,27 @@ pub(super) fn test(
             }
         }
     }
-    let mean = |f: fn(&LightSums) -> f64| -> BTreeMap<Light, f64> {
-        sums.iter().map(|(k, v)| (*k, f(v) / v.frames)).collect()
-    };
-    let settings = sums
-        .iter()
-        .map(|(k, v)| {
-            let settings = Settings {
-                exposure_ms: v.exposure_ms / v.frames,
-                gain_db: v.gain_db / v.frames,
-                f_number: None,
-            };
-            (*k, settings)
-        })
-        .collect();
-    // The mean f-number by light, where the controller set the iris (geometric: in stops).
-    let f_number = sums
-        .iter()
-        .filter(|(_, v)| v.iris_frames > 0.0)
-        .map(|(k, v)| (*k, (v.log_f_number / v.iris_frames).exp()))
-        .collect();
-    let exposure_gain = mean(|v| v.exposure_gain_ms);
-    let mean_dn = mean(|v| v.mean_dn);
+    let by_light = ByLight(
+        sums.iter()
+            .map(|(light, v)| {
+                // The f-number's mean is geometric (in stops), where the controller set the iris.
+                let f_number =
+                    (v.iris_frames > 0.0).then(|| (v.log_f_number / v.iris_frames).exp());
+                let settings = Settings {
+                    exposure_ms: v.exposure_ms / v.frames,
+                    gain_db: v.gain_db / v.frames,
+                    f_number,
+                };
+                let record = LightResults {
+                    scores: metrics_by_light.get(light).map(TaskMetrics::compute),
+                    settings: Some(settings),
+                    exposure_gain_ms: Some(v.exposure_gain_ms / v.frames),
+                    mean_dn: Some(v.mean_dn / v.frames),
+                };
+                (*light, record)
+            })
+            .collect(),
+    );
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
         write_atomic(&dir.join("trace.jsonl"), &trace)?;
@@ -268,15 +267,7 @@ pub(super) fn test(
             &serde_json::to_string(&showcases).unwrap_or_default(),
         )?;
     }
-    Ok(Tested {
-        scores: metrics.compute(),
-        bands: metrics.bands(),
-        by_light: by_light.iter().map(|(k, m)| (*k, m.compute())).collect(),
-        settings,
-        f_number,
-        exposure_gain,
-        mean_dn,
-    })
+    Ok(Tested { scores: metrics.compute(), bands: metrics.bands(), by_light })
 }
 
 /// Sums over the test frames of one illumination, for their means.
@@ -313,16 +304,8 @@ pub(super) struct Tested {
     pub(super) scores: TaskScores,
     /// Scores per distance band.
     pub(super) bands: Vec<BandScores>,
-    /// Scores by illumination.
-    pub(super) by_light: BTreeMap<Light, TaskScores>,
-    /// Mean exposure and gain by illumination.
-    pub(super) settings: SettingsByLight,
-    /// Geometric-mean f-number by illumination, where the controller set the iris (else empty).
-    pub(super) f_number: BTreeMap<Light, f64>,
-    /// Mean exposure × linear gain (ms) by illumination.
-    pub(super) exposure_gain: BTreeMap<Light, f64>,
-    /// Mean 8-bit value of the formed frames by illumination, DN.
-    pub(super) mean_dn: BTreeMap<Light, f64>,
+    /// Scores, settings and frame levels by illumination.
+    pub(super) by_light: ByLight,
 }
 
 /// The showcase sequences: a tunnel transition (every frame saved), a day and a night drive

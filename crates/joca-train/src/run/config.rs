@@ -13,6 +13,8 @@ use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
 use joca_sim::Weather;
 use serde::{Deserialize, Deserializer, Serialize};
+
+pub use search::{PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak};
 use std::path::PathBuf;
 
 /// The highest ego top speed, m/s (144 km/h).
@@ -186,21 +188,6 @@ fn is_pinhole(model: &LensModel) -> bool {
     *model == LensModel::Pinhole
 }
 
-joca_core::named_enum! {
-    /// The perturbation GA's mutation.
-    #[derive(Default)]
-    pub enum PerturbationMutation("perturbation mutation") {
-        /// The paper's: each gene × U(0.9, 1.1). Genes are offsets centred on zero, and neither
-        /// this, crossover nor clipping changes a sign: once every member pushes exposure the same
-        /// way, the GA loss pushes it that way in every light.
-        Paper = "paper",
-        /// The paper's, then a normal shift of 10 % of each gene's range, so both directions stay
-        /// reachable.
-        #[default]
-        Additive = "additive",
-    }
-}
-
 /// The default scoring precision: bfloat16 where the CPU has it natively (float32 elsewhere,
 /// by [`Precision::on_this_cpu`]).
 fn bf16_where_native() -> Precision {
@@ -209,50 +196,6 @@ fn bf16_where_native() -> Precision {
 
 fn paper_acc_lr() -> f64 {
     joca_nn::AdamConfig::ACC.lr
-}
-
-joca_core::named_enum! {
-    /// How the perturbation search ranks members of equal AP50.
-    #[derive(Default)]
-    pub enum TieBreak("tie-break") {
-        /// The share of clipped pixels (at 0 or 255) breaks ties, fewer first: a member's fitness
-        /// is AP50 + 0.001 · (1 − clipped share). A single frame's AP50 often ties (0 for every
-        /// member of a saturated day frame or a black night one); the task cannot tell the members
-        /// apart there, and the one that keeps more of the scene within the sensor's range wins.
-        #[default]
-        Clipping = "clipping",
-        /// AP50 alone; ties go to the GA's first member (the paper says nothing of ties).
-        None = "none",
-    }
-}
-
-joca_core::named_enum! {
-    /// What scores a member of the perturbation search.
-    #[derive(Default)]
-    pub enum PerturbationScore("perturbation score") {
-        /// The paper's: the perturbed frame's AP50 (ties ranked by `perturbation_tie_break`). One
-        /// frame's AP50 takes few values, so members often tie.
-        #[default]
-        Ap50 = "ap50",
-        /// The detector's task loss on the perturbed frame (the training loss, normalised by the
-        /// frame's objects), lower better: continuous in the frame, so members rarely tie.
-        Loss = "loss",
-    }
-}
-
-joca_core::named_enum! {
-    /// How a perturbation offsets NeuralAE's exposure (the gain, in dB, is offset by a share of its
-    /// range either way: dB are already relative).
-    #[derive(Default)]
-    pub enum PerturbationSteps("perturbation step") {
-        /// The paper's: `E + p·(E_max − E_min)`, a share of the range in linear units (±5 % of
-        /// 0.1–50 ms is ±2.5 ms, whatever E is).
-        #[default]
-        Linear = "linear",
-        /// `E · (E_max/E_min)^p`, a share of the log-exposure range (±5 % is ×0.73–×1.36): the same
-        /// relative reach at 1 ms and at 50 ms.
-        Relative = "relative",
-    }
 }
 
 impl RunConfig {
@@ -405,6 +348,8 @@ fn empty_is_none<'de, D: Deserializer<'de>>(d: D) -> Result<Option<PathBuf>, D::
     let text = Option::<String>::deserialize(d)?;
     Ok(text.filter(|t| !t.is_empty()).map(PathBuf::from))
 }
+
+mod search;
 
 #[cfg(test)]
 mod tests;

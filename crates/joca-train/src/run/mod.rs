@@ -55,7 +55,7 @@ use rand::Rng;
 use results::summary;
 pub use results::{DesignSummary, RunResults, SearchTies};
 use state::RunState;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -210,9 +210,6 @@ pub fn run(
     )?;
     Ok(results)
 }
-
-/// Mean exposure (ms) and gain (dB) per light.
-type SettingsByLight = BTreeMap<Light, joca_record::Settings>;
 
 /// The records' name for the light of frames under `illumination` (`None`: a recording's).
 pub(crate) fn light_of(illumination: Option<Illumination>) -> Light {

@@ -1,0 +1,60 @@
+//! The perturbation search's options in `[run]`: its mutation, score, tie-break and steps.
+
+joca_core::named_enum! {
+    /// The perturbation GA's mutation.
+    #[derive(Default)]
+    pub enum PerturbationMutation("perturbation mutation") {
+        /// The paper's: each gene × U(0.9, 1.1). Genes are offsets centred on zero, and neither
+        /// this, crossover nor clipping changes a sign: once every member pushes exposure the same
+        /// way, the GA loss pushes it that way in every light.
+        Paper = "paper",
+        /// The paper's, then a normal shift of 10 % of each gene's range, so both directions stay
+        /// reachable.
+        #[default]
+        Additive = "additive",
+    }
+}
+
+joca_core::named_enum! {
+    /// How the perturbation search ranks members of equal AP50.
+    #[derive(Default)]
+    pub enum TieBreak("tie-break") {
+        /// The share of clipped pixels (at 0 or 255) breaks ties, fewer first: a member's fitness
+        /// is AP50 + 0.001 · (1 − clipped share). A single frame's AP50 often ties (0 for every
+        /// member of a saturated day frame or a black night one); the task cannot tell the members
+        /// apart there, and the one that keeps more of the scene within the sensor's range wins.
+        #[default]
+        Clipping = "clipping",
+        /// AP50 alone; ties go to the GA's first member (the paper says nothing of ties).
+        None = "none",
+    }
+}
+
+joca_core::named_enum! {
+    /// What scores a member of the perturbation search.
+    #[derive(Default)]
+    pub enum PerturbationScore("perturbation score") {
+        /// The paper's: the perturbed frame's AP50 (ties ranked by `perturbation_tie_break`). One
+        /// frame's AP50 takes few values, so members often tie.
+        #[default]
+        Ap50 = "ap50",
+        /// The detector's task loss on the perturbed frame (the training loss, normalised by the
+        /// frame's objects), lower better: continuous in the frame, so members rarely tie.
+        Loss = "loss",
+    }
+}
+
+joca_core::named_enum! {
+    /// How a perturbation offsets NeuralAE's exposure (the gain, in dB, is offset by a share of its
+    /// range either way: dB are already relative).
+    #[derive(Default)]
+    pub enum PerturbationSteps("perturbation step") {
+        /// The paper's: `E + p·(E_max − E_min)`, a share of the range in linear units (±5 % of
+        /// 0.1–50 ms is ±2.5 ms, whatever E is).
+        #[default]
+        Linear = "linear",
+        /// `E · (E_max/E_min)^p`, a share of the log-exposure range (±5 % is ×0.73–×1.36): the same
+        /// relative reach at 1 ms and at 50 ms.
+        Relative = "relative",
+    }
+}
