@@ -92,10 +92,6 @@ struct State {
 }
 
 /// Runs (or resumes) pre-training into `run_dir` and writes the final weights to `weights_out`.
-#[expect(
-    clippy::too_many_lines,
-    reason = "to be split into named steps with byte-identical weights (issue 42)"
-)]
 pub fn pretrain(
     config: &PretrainConfig,
     run_dir: &Path,
@@ -120,21 +116,7 @@ pub fn pretrain(
         .map_err(|e| TrainError::io(&log_path, e))?;
 
     let codec = GenomeCodec::new(DesignSpace::synthetic(), SensorEncoding::QuantisedContinuous)?;
-    let world = World {
-        config,
-        streams: &streams,
-        // Each design's frames carry its native grid's noise (`DesignRun::formation`).
-        formation: ImageFormation::new(Calibration::DEFAULT)?
-            .with_resampler(config.input.resampler),
-        ae: AverageAe::new(AccRanges::PAPER),
-        sim_config: SimConfig {
-            max_speed_mps: config.data.max_speed_mps,
-            city: CityConfig::default()
-                .with_walker_density(config.data.walker_density as f32)
-                .with_sign_density(config.data.sign_density as f32),
-            ..SimConfig::default()
-        },
-    };
+    let world = world(config, &streams)?;
     let mut step = start;
     let mut last_eval = None;
     let b = config.batch;
@@ -144,38 +126,9 @@ pub fn pretrain(
     // pipelined), in gradient steps, and waiting for frames: where pre-training's time goes,
     // logged with the loss.
     let (mut simulate_s, mut train_s, mut wait_s) = (0.0_f64, 0.0_f64, 0.0_f64);
-    let mut frames = FrameStream::new(&world, &codec);
+    let frames = FrameStream::new(&world, &codec);
     std::thread::scope(|scope| -> Result<(), TrainError> {
-        // The frames do not depend on the detector, so with `pipeline` they are made in a
-        // thread of their own, up to `FRAMES_AHEAD` batches ahead, while the detector trains.
-        let mut next: Box<dyn FnMut(usize) -> Result<Batch, TrainError> + '_> =
-            if config.experimental.pipeline {
-                let (tx, rx) =
-                    std::sync::mpsc::sync_channel::<Result<Batch, TrainError>>(FRAMES_AHEAD);
-                let (first, pool) = (start, frame_pool(config)?);
-                scope.spawn(move || {
-                    pool.install(|| {
-                        for step in (first..config.steps).step_by(b) {
-                            let made = frames.make(step);
-                            let failed = made.is_err();
-                            // The trainer hung up (it stopped or failed): nothing more is needed.
-                            if tx.send(made).is_err() || failed {
-                                break;
-                            }
-                        }
-                    });
-                });
-                Box::new(move |step| {
-                    let made = rx.recv().map_err(|_| TrainError::Thread {
-                        what: "frame thread".into(),
-                        reason: "it stopped without a frame or an error".into(),
-                    })??;
-                    debug_assert_eq!(made.step, step, "frames arrive in step order");
-                    Ok(made)
-                })
-            } else {
-                Box::new(move |step| frames.make(step))
-            };
+        let mut next = batches(scope, config, start, frames)?;
         while step < config.steps {
             let block = Block::containing(config, step);
             let mut replays: Vec<Repeats<Shot>> =
@@ -217,7 +170,7 @@ pub fn pretrain(
                         "frame_px": about.frame_px,
                         "simulate_s": simulate_s, "train_s": train_s, "wait_s": wait_s,
                     });
-                    writeln!(log, "{line}").map_err(|e| TrainError::io(&log_path, e))?;
+                    log_line(&mut log, &log_path, &line)?;
                 }
                 if progress(&PretrainEvent::Step { step, of: config.steps, loss }).is_break() {
                     return Err(TrainError::Interrupted { step });
@@ -227,8 +180,7 @@ pub fn pretrain(
                     let report = engine.with_threads(config.threads, || {
                         evaluate_day_night(result, config, config.eval.episodes, &streams, step)
                     })?;
-                    writeln!(log, "{}", serde_json::json!({"eval": report}))
-                        .map_err(|e| TrainError::io(&log_path, e))?;
+                    log_line(&mut log, &log_path, &serde_json::json!({"eval": report}))?;
                     let _ = progress(&PretrainEvent::Eval(Box::new(report)));
                     last_eval = Some(report);
                 }
@@ -248,8 +200,7 @@ pub fn pretrain(
             let r = engine.with_threads(config.threads, || {
                 evaluate_day_night(result, config, final_episodes, &streams, step)
             })?;
-            writeln!(log, "{}", serde_json::json!({"eval": r}))
-                .map_err(|e| TrainError::io(&log_path, e))?;
+            log_line(&mut log, &log_path, &serde_json::json!({"eval": r}))?;
             let _ = progress(&PretrainEvent::Eval(Box::new(r)));
             r
         }
@@ -261,6 +212,77 @@ pub fn pretrain(
         &serde_json::to_string_pretty(&report).unwrap_or_default(),
     )?;
     Ok(report)
+}
+
+/// What every design's frames are made with: the configuration, the seed's streams, the
+/// formation (each design's frames carry its native grid's noise, `DesignRun::formation`),
+/// AverageAE and the training towns' simulator settings.
+fn world<'a>(
+    config: &'a PretrainConfig,
+    streams: &'a SeedStreams,
+) -> Result<World<'a>, TrainError> {
+    Ok(World {
+        config,
+        streams,
+        formation: ImageFormation::new(Calibration::DEFAULT)?
+            .with_resampler(config.input.resampler),
+        ae: AverageAe::new(AccRanges::PAPER),
+        sim_config: SimConfig {
+            max_speed_mps: config.data.max_speed_mps,
+            city: CityConfig::default()
+                .with_walker_density(config.data.walker_density as f32)
+                .with_sign_density(config.data.sign_density as f32),
+            ..SimConfig::default()
+        },
+    })
+}
+
+/// The batch of a step (steps asked in order).
+type NextBatch<'a> = Box<dyn FnMut(usize) -> Result<Batch, TrainError> + 'a>;
+
+/// The training loop's batches from `start` on. The frames do not depend on the detector, so
+/// with `pipeline` they are made in a thread of their own (in `scope`), up to `FRAMES_AHEAD`
+/// batches ahead, while the detector trains; otherwise each when it is asked for.
+fn batches<'scope, 'env>(
+    scope: &'scope std::thread::Scope<'scope, 'env>,
+    config: &'env PretrainConfig,
+    start: usize,
+    mut frames: FrameStream<'env>,
+) -> Result<NextBatch<'scope>, TrainError> {
+    if !config.experimental.pipeline {
+        return Ok(Box::new(move |step| frames.make(step)));
+    }
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Batch, TrainError>>(FRAMES_AHEAD);
+    let pool = frame_pool(config)?;
+    scope.spawn(move || {
+        pool.install(|| {
+            for step in (start..config.steps).step_by(config.batch) {
+                let made = frames.make(step);
+                let failed = made.is_err();
+                // The trainer hung up (it stopped or failed): nothing more is needed.
+                if tx.send(made).is_err() || failed {
+                    break;
+                }
+            }
+        });
+    });
+    Ok(Box::new(move |step| {
+        let made = rx.recv().map_err(|_| TrainError::Thread {
+            what: "frame thread".into(),
+            reason: "it stopped without a frame or an error".into(),
+        })??;
+        debug_assert_eq!(made.step, step, "frames arrive in step order");
+        Ok(made)
+    }))
+}
+
+/// Appends one JSON line to the run's event log.
+fn log_line(
+    log: &mut std::fs::File,
+    path: &Path,
+    line: &serde_json::Value,
+) -> Result<(), TrainError> {
+    writeln!(log, "{line}").map_err(|e| TrainError::io(path, e))
 }
 
 /// Scores the detector weights in `weights` (architecture read from the file) exactly as a
