@@ -7,6 +7,7 @@
 //! across the road ends close the view at the map's edge; the ego vehicle stays two blocks
 //! inside it.
 
+mod actors;
 mod ground;
 mod place;
 
