@@ -5,6 +5,8 @@
 # Skips finished cells, resumes partial ones, and counts cells already running (also ones started
 # by an earlier `joca experiment`). Then writes the experiment's report.
 cd /work/main
+# As `joca experiment --jobs 2` does: libtorch's OpenMP threads wait without spinning.
+export OMP_WAIT_POLICY=PASSIVE
 bin=target/panelbin/joca
 dir=runs/pert-panel
 designs="flir basler cmv2000-10mm mt9v032-6mm python500-7mm imx287-10mm"
