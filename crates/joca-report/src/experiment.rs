@@ -130,6 +130,14 @@ impl Manifest {
     }
 }
 
+/// The controls section's title and note.
+const CONTROLS: &str = "How the controllers set the camera";
+const CONTROLS_NOTE: &str = "Closed-loop test, mean over each variant's cells ± 95 % t interval \
+    (the spread between designs and seeds): exposure E and gain G by day and by night, day's \
+    exposure × linear gain relative to night's, day's mean frame level, and the share of the \
+    training's perturbation searches whose best score was shared by two or more members (then the \
+    tie-break or the GA's order chose).";
+
 /// Writes `report.md`, `report.html`, `results.csv` and `figures/` into the experiment
 /// directory from its finished cells, and returns the Markdown.
 pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
@@ -167,7 +175,19 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
         let _ = write!(meta, " Not finished: {}.", pending.join(", "));
     }
     let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
-    let (seeds_md, seeds_html) = crate::seeds::seeds_sections(&table.rows);
+    let (mut seeds_md, mut seeds_html) = crate::seeds::seeds_sections(&table.rows);
+    let controls = crate::controls::controls_table(&table.rows);
+    if !controls.is_empty() {
+        let _ = write!(seeds_md, "## {CONTROLS}\n\n{CONTROLS_NOTE}\n\n");
+        seeds_md.push_str(&crate::seeds::markdown_table(&controls));
+        seeds_md.push('\n');
+        let _ = write!(
+            seeds_html,
+            "<h2>{CONTROLS}</h2>\n<p class=\"meta\">{}</p>\n",
+            escape(CONTROLS_NOTE)
+        );
+        seeds_html.push_str(&crate::seeds::html_table(&controls));
+    }
     md.push_str(&seeds_md);
     if !seeds_md.is_empty() {
         md.push_str("## Every cell\n\n");

@@ -17,6 +17,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod controls;
 mod data;
 mod experiment;
 mod figures;

@@ -196,7 +196,7 @@ fn rests_on(rows: &[Row]) -> String {
     md
 }
 
-fn markdown_table(t: &[Vec<String>]) -> String {
+pub(crate) fn markdown_table(t: &[Vec<String>]) -> String {
     let mut md = String::new();
     for (i, row) in t.iter().enumerate() {
         let _ = writeln!(md, "| {} |", row.join(" | "));
@@ -207,7 +207,7 @@ fn markdown_table(t: &[Vec<String>]) -> String {
     md
 }
 
-fn html_table(t: &[Vec<String>]) -> String {
+pub(crate) fn html_table(t: &[Vec<String>]) -> String {
     let mut h = String::from("<table>\n");
     for (i, row) in t.iter().enumerate() {
         let tag = if i == 0 { "th" } else { "td" };
