@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Copies the perturbation panel's finished cells (compact records) into docs/results and writes
+# its report from them as they stand (`joca report` on a copy without checkpoints, so the running
+# cells are not touched). Usage: land.sh [JOCA_BINARY] (default target/release/joca).
+set -euo pipefail
+cd /work/main
+bin=${1:-target/release/joca}
+src=runs/pert-panel
+dest=docs/results/2026-11-27-panels/perturbation
+python3 docs/results/2026-11-27-detector-input/compact.py "$src" "$dest"
+tmp=$(mktemp -d)
+cp "$src/experiment.json" "$src/.joca-output" "$tmp/" 2>/dev/null || cp "$src/experiment.json" "$tmp/"
+mkdir -p "$tmp/cells"
+for d in "$src"/cells/*/; do
+  id=$(basename "$d")
+  [ -f "$d/results.json" ] || continue
+  mkdir -p "$tmp/cells/$id"
+  for f in "$d"/*; do [ "$(basename "$f")" = checkpoint ] || cp -r "$f" "$tmp/cells/$id/"; done
+  cp "$d"/.joca-output "$tmp/cells/$id/" 2>/dev/null || true
+done
+"$bin" report "$tmp" >/dev/null
+sed "s#$tmp#$src#g" "$tmp/report.md" > "$dest/report.md"
+cp "$tmp/results.csv" "$dest/results.csv"
+rm -rf "$tmp"
+echo "landed $(ls "$dest"/cells | wc -l) cells; report: $dest/report.md"
