@@ -1,14 +1,20 @@
 #!/usr/bin/env bash
 # After issue 39's standard grid (standard-order.sh) has finished: issue 40's perturbation panel
 # at `standard`, one seed per design, two one-thread cells at a time in paired order (order.sh),
-# then the controllers panel (its AverageAE cells come first: they do not depend on which
-# perturbation search becomes the default; stop it before its NeuralAE cells if the default
-# changes). Resumes finished and partial cells when run again.
+# then what decides its mechanism (perturbation-mechanism.toml: AP50 with relative steps, AP50
+# without the tie-break; calibrated, 12 cells), then the controllers panel (its AverageAE cells
+# come first: they do not depend on which perturbation search becomes the default; stop it before
+# its NeuralAE cells if the default changes). Resumes finished and partial cells when run again.
 cd /work/main
 while pgrep -f "standard-order.sh" >/dev/null || pgrep -f "gridbin/joca cell" >/dev/null; do sleep 30; done
 echo "$(date -u +%FT%TZ) start perturbation-panel"
 docs/results/2026-11-27-panels/order.sh
 echo "$(date -u +%FT%TZ) end perturbation-panel rc=$?"
+echo "$(date -u +%FT%TZ) start perturbation-mechanism"
+target/panelbin/joca experiment docs/results/2026-11-27-panels/perturbation-mechanism.toml \
+  --preset standard --seeds 1 --jobs 2 --config docs/results/2026-11-27-panels/threads1.toml \
+  --out runs/pert-mechanism
+echo "$(date -u +%FT%TZ) end perturbation-mechanism rc=$?"
 echo "$(date -u +%FT%TZ) start controllers panel"
 target/panelbin/joca experiment controllers --preset standard --seeds 1 --jobs 2 \
   --config docs/results/2026-11-27-panels/threads1.toml --out runs/ctrl-panel
