@@ -4,20 +4,13 @@
 //! apart), one row per scenario and variant.
 
 use crate::paired::variants;
-use crate::seeds::mean_interval;
+use crate::seeds::{interval_text, mean_interval};
 use crate::table::Row;
 use joca_record::Light;
 
 /// A mean over cells with its 95 % t interval, at `digits` decimals ("–" where no cell has it).
 fn cell(values: &[f64], digits: usize) -> String {
-    let (mean, half) = mean_interval(values);
-    if mean.is_nan() {
-        "–".to_owned()
-    } else if half.is_nan() {
-        format!("{mean:.digits$}")
-    } else {
-        format!("{mean:.digits$} ± {half:.digits$}")
-    }
+    interval_text(mean_interval(values), digits)
 }
 
 /// The share of all the cells' perturbation searches whose best score was shared ("–" where no
@@ -68,7 +61,8 @@ pub fn controls_table(rows: &[Row]) -> Vec<Vec<String>> {
                 Some(of(Light::Day)? / of(Light::Night)?)
             })
             .collect();
-        if exposure(Light::Day).is_empty() && exposure(Light::Night).is_empty() {
+        let (day, night) = (exposure(Light::Day), exposure(Light::Night));
+        if day.is_empty() && night.is_empty() {
             continue;
         }
         table.push(vec![
@@ -76,9 +70,9 @@ pub fn controls_table(rows: &[Row]) -> Vec<Vec<String>> {
             label,
             members.len().to_string(),
             tie_share(&members),
-            cell(&exposure(Light::Day), 1),
+            cell(&day, 1),
             cell(&gain(Light::Day), 1),
-            cell(&exposure(Light::Night), 1),
+            cell(&night, 1),
             cell(&gain(Light::Night), 1),
             cell(&ratio, 3),
             cell(&light(Light::Day, |r| r.mean_dn), 0),

@@ -178,15 +178,9 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     let (mut seeds_md, mut seeds_html) = crate::seeds::seeds_sections(&table.rows);
     let controls = crate::controls::controls_table(&table.rows);
     if !controls.is_empty() {
-        let _ = write!(seeds_md, "## {CONTROLS}\n\n{CONTROLS_NOTE}\n\n");
-        seeds_md.push_str(&crate::seeds::markdown_table(&controls));
+        let (md, html) = (&mut seeds_md, &mut seeds_html);
+        crate::seeds::titled_table(md, html, 2, CONTROLS, CONTROLS_NOTE, &controls);
         seeds_md.push('\n');
-        let _ = write!(
-            seeds_html,
-            "<h2>{CONTROLS}</h2>\n<p class=\"meta\">{}</p>\n",
-            escape(CONTROLS_NOTE)
-        );
-        seeds_html.push_str(&crate::seeds::html_table(&controls));
     }
     md.push_str(&seeds_md);
     if !seeds_md.is_empty() {

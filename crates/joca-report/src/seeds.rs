@@ -36,11 +36,21 @@ pub fn mean_interval(values: &[f64]) -> (f64, f64) {
     (mean, t_975(n - 1) * (var / n as f64).sqrt())
 }
 
-fn cell((mean, half): (f64, f64)) -> String {
+fn cell(interval: (f64, f64)) -> String {
+    interval_text(interval, 3)
+}
+
+/// A mean and its interval half-width as text at `digits` decimals: "–" without a mean, the mean
+/// alone without an interval.
+pub(crate) fn interval_text((mean, half): (f64, f64), digits: usize) -> String {
     if mean.is_nan() {
         return "–".to_owned();
     }
-    if half.is_nan() { format!("{mean:.3}") } else { format!("{mean:.3} ± {half:.3}") }
+    if half.is_nan() {
+        format!("{mean:.digits$}")
+    } else {
+        format!("{mean:.digits$} ± {half:.digits$}")
+    }
 }
 
 /// The two tables as header and rows: over seeds (and designs), and paired.
@@ -196,7 +206,7 @@ fn rests_on(rows: &[Row]) -> String {
     md
 }
 
-pub(crate) fn markdown_table(t: &[Vec<String>]) -> String {
+fn markdown_table(t: &[Vec<String>]) -> String {
     let mut md = String::new();
     for (i, row) in t.iter().enumerate() {
         let _ = writeln!(md, "| {} |", row.join(" | "));
@@ -207,7 +217,7 @@ pub(crate) fn markdown_table(t: &[Vec<String>]) -> String {
     md
 }
 
-pub(crate) fn html_table(t: &[Vec<String>]) -> String {
+fn html_table(t: &[Vec<String>]) -> String {
     let mut h = String::from("<table>\n");
     for (i, row) in t.iter().enumerate() {
         let tag = if i == 0 { "th" } else { "td" };
@@ -227,10 +237,23 @@ const EXPLAIN: &str = "Mean ± 95 % interval, Student's t (statrs' quantile) ove
     same design; over seeds, or in a panel per design the mean over its seeds and the t interval \
     over designs. An interval that excludes 0 is a difference these cells resolve.";
 
-/// A titled table in Markdown and HTML.
+/// A titled table in Markdown and HTML, a level-3 heading after a blank line.
 fn section(md: &mut String, html: &mut String, title: &str, note: &str, table: &[Vec<String>]) {
-    md.push_str(&format!("\n### {title}\n\n"));
-    html.push_str(&format!("<h3>{}</h3>\n", escape(title)));
+    md.push('\n');
+    titled_table(md, html, 3, title, note, table);
+}
+
+/// A table under a heading of `level` (Markdown `#`s, HTML `<hN>`) with an optional note.
+pub(crate) fn titled_table(
+    md: &mut String,
+    html: &mut String,
+    level: usize,
+    title: &str,
+    note: &str,
+    table: &[Vec<String>],
+) {
+    md.push_str(&format!("{} {title}\n\n", "#".repeat(level)));
+    html.push_str(&format!("<h{level}>{}</h{level}>\n", escape(title)));
     if !note.is_empty() {
         md.push_str(&format!("{note}\n\n"));
         html.push_str(&format!("<p class=\"meta\">{}</p>\n", escape(note)));
