@@ -5,7 +5,7 @@
 //! airlight: `L = L0·t + A·(1 − t)`, with β = ln(20)/V for a meteorological visibility V (the
 //! distance at which a black object's contrast falls to 5 %). The airlight A is the horizon
 //! sky's radiance of the moment; what hits nothing (sky, ground past the far plane) is pure
-//! airlight. Lamps' and head lights' glow in fog (forward scattering) is not modelled.
+//! airlight. The glow of lamps and head lights in fog is [`super::glow`]'s.
 //!
 //! **Lens.** Each pixel spreads as a Gaussian of the standard deviation
 //! [`Lens::blur_sigma_mm`] gives for its depth, in pixels of the view (the blur is optical, so it
@@ -34,7 +34,12 @@ const BEHIND: f32 = 1.02;
 /// Applies Koschmieder's law with visibility `visibility_m` to `target` seen through `camera`,
 /// with airlight `airlight` (calibrated DN per channel).
 pub fn fog(target: &mut Target, camera: &PinholeCamera, visibility_m: f64, airlight: [f32; 3]) {
-    attenuate(target, camera, 20f64.ln() / visibility_m, airlight);
+    attenuate(target, camera, fog_extinction(visibility_m), airlight);
+}
+
+/// Fog's extinction coefficient for a meteorological visibility, 1/m (ln 20 / V).
+pub fn fog_extinction(visibility_m: f64) -> f64 {
+    20f64.ln() / visibility_m
 }
 
 /// Koschmieder's law with extinction coefficient `beta_per_m` (fog's ln 20 / V, or rain's).

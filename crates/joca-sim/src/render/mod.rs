@@ -21,6 +21,7 @@
 //! per object, how many pixels its camera-facing faces cover before the depth test; ground truth
 //! uses both (visible pixels over covered pixels is the visible fraction).
 
+pub mod glow;
 mod ground;
 pub mod lens;
 pub mod rain;
@@ -69,6 +70,9 @@ pub struct Target {
     pub inv_depth: Vec<f32>,
     /// Index + 1 of the visible object per pixel (0 = ground or sky).
     pub id: Vec<u32>,
+    /// Fog's light above the airlight times its optical depth, per pixel
+    /// ([`glow::light_depth`]); empty without fog.
+    pub light_depth: Vec<f32>,
     /// Per object index + 1: pixels covered by its camera-facing faces, before occlusion. Exact
     /// on id-only targets ([`render_ids`], the ground truth) for every object with a box that
     /// reaches the depth buffer (so for every object seen anywhere in the view). Renders skip
@@ -86,6 +90,7 @@ impl Target {
             colour: vec![0.0; width * height * 3],
             inv_depth: vec![0.0; width * height],
             id: vec![0; width * height],
+            light_depth: Vec::new(),
             coverage: vec![0; objects + 1],
         }
     }
@@ -98,6 +103,7 @@ impl Target {
             colour: Vec::new(),
             inv_depth: vec![0.0; width * height],
             id: vec![0; width * height],
+            light_depth: Vec::new(),
             coverage: vec![0; objects + 1],
         }
     }

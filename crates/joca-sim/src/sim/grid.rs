@@ -120,7 +120,7 @@ impl Simulator {
         grid: &ShutterGrid,
         weights: &[Vec<f32>],
         mid: &Target,
-    ) -> Vec<Vec<f32>> {
+    ) -> Integrated {
         let (w, h) = (camera.width_px, camera.height_px);
         let objects = self.city.objects.len();
         let middle = grid.cells / 2;
@@ -137,61 +137,85 @@ impl Simulator {
                 target
             })
             .collect();
-        let cell = |k: usize| -> &[f32] {
+        let target = |k: usize| -> &Target {
             if k == middle {
-                &mid.colour
+                mid
             } else {
                 let i = if k < middle { k - (middle - reach) } else { k - (middle - reach) - 1 };
-                &rendered[i].colour
+                &rendered[i]
             }
         };
-        // Over blocks of the image in parallel; within a block, rings in order.
-        const BLOCK: usize = 4096;
-        let mut out = vec![vec![0.0f32; w * h * 3]; weights.len()];
-        let mut blocks: Vec<Vec<&mut [f32]>> = Vec::new();
-        {
-            let mut iters: Vec<_> = out.iter_mut().map(|o| o.chunks_mut(BLOCK)).collect();
-            'blocks: loop {
-                let mut row = Vec::with_capacity(iters.len());
-                for it in &mut iters {
-                    match it.next() {
-                        Some(b) => row.push(b),
-                        None => break 'blocks,
+        let colours = sum_rings(&rings, (middle, reach), |k| &target(k).colour);
+        let light_depths = if mid.light_depth.is_empty() {
+            Vec::new()
+        } else {
+            sum_rings(&rings, (middle, reach), |k| &target(k).light_depth)
+        };
+        pool::give(rendered);
+        Integrated { colours, light_depths }
+    }
+}
+
+/// Shutter-integrated buffers, one per shutter.
+pub(super) struct Integrated {
+    /// Colour (RGB, calibrated DN).
+    pub(super) colours: Vec<Vec<f32>>,
+    /// Fog's light-weighted optical depth ([`Target::light_depth`]); empty without fog.
+    pub(super) light_depths: Vec<Vec<f32>>,
+}
+
+/// Each shutter's weighted sum of one buffer of the cells `middle ± reach`, `cell(k)` giving
+/// cell k's buffer (all of one length), summed ring by ring (see [`Simulator::integrate`]).
+fn sum_rings<'a>(
+    rings: &[RingWeights],
+    (middle, reach): (usize, usize),
+    cell: impl Fn(usize) -> &'a [f32] + Sync,
+) -> Vec<Vec<f32>> {
+    // Over blocks of the image in parallel; within a block, rings in order.
+    const BLOCK: usize = 4096;
+    let mut out = vec![vec![0.0f32; cell(middle).len()]; rings.len()];
+    let mut blocks: Vec<Vec<&mut [f32]>> = Vec::new();
+    {
+        let mut iters: Vec<_> = out.iter_mut().map(|o| o.chunks_mut(BLOCK)).collect();
+        'blocks: loop {
+            let mut row = Vec::with_capacity(iters.len());
+            for it in &mut iters {
+                match it.next() {
+                    Some(b) => row.push(b),
+                    None => break 'blocks,
+                }
+            }
+            blocks.push(row);
+        }
+    }
+    blocks.into_par_iter().enumerate().for_each(|(b, mut frames)| {
+        let start = b * BLOCK;
+        let len = frames.first().map_or(0, |f| f.len());
+        let at = |k: usize| &cell(k)[start..start + len];
+        let mut acc: Vec<f32> = at(middle).to_vec();
+        for k in 0..=reach {
+            if k > 0 {
+                let (lo, hi) = (at(middle - k), at(middle + k));
+                for ((a, &l), &u) in acc.iter_mut().zip(lo).zip(hi) {
+                    *a = (*a + l) + u;
+                }
+            }
+            for (frame, ring) in frames.iter_mut().zip(rings) {
+                if ring.full != k {
+                    continue;
+                }
+                if ring.edge == 0.0 {
+                    frame.iter_mut().zip(&acc).for_each(|(f, &a)| *f = ring.inner * a);
+                } else {
+                    let (lo, hi) = (at(middle - k - 1), at(middle + k + 1));
+                    for (((f, &a), &l), &u) in frame.iter_mut().zip(&acc).zip(lo).zip(hi) {
+                        *f = ring.inner * a + ring.edge * (l + u);
                     }
                 }
-                blocks.push(row);
             }
         }
-        blocks.into_par_iter().enumerate().for_each(|(b, mut frames)| {
-            let start = b * BLOCK;
-            let len = frames.first().map_or(0, |f| f.len());
-            let at = |k: usize| &cell(k)[start..start + len];
-            let mut acc: Vec<f32> = at(middle).to_vec();
-            for k in 0..=reach {
-                if k > 0 {
-                    let (lo, hi) = (at(middle - k), at(middle + k));
-                    for ((a, &l), &u) in acc.iter_mut().zip(lo).zip(hi) {
-                        *a = (*a + l) + u;
-                    }
-                }
-                for (frame, ring) in frames.iter_mut().zip(&rings) {
-                    if ring.full != k {
-                        continue;
-                    }
-                    if ring.edge == 0.0 {
-                        frame.iter_mut().zip(&acc).for_each(|(f, &a)| *f = ring.inner * a);
-                    } else {
-                        let (lo, hi) = (at(middle - k - 1), at(middle + k + 1));
-                        for (((f, &a), &l), &u) in frame.iter_mut().zip(&acc).zip(lo).zip(hi) {
-                            *f = ring.inner * a + ring.edge * (l + u);
-                        }
-                    }
-                }
-            }
-        });
-        pool::give(rendered);
-        out
-    }
+    });
+    out
 }
 
 /// How finely a shutter is sampled: from the image-space travel of the scene.

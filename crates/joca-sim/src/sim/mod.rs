@@ -99,8 +99,9 @@ pub struct SimConfig {
     pub weather: Weather,
     /// Blur each sub-frame by its own depths (exact) instead of the shutter-integrated frame by
     /// the depths of its middle instant (the default: one blur per frame rather than one per
-    /// sub-frame; within the test's tolerance of the exact one, see the simulator's tests).
-    pub defocus_per_subframe: bool,
+    /// sub-frame; within the test's tolerance of the exact one, see the simulator's tests). Holds
+    /// for the lens's defocus and for fog's glow.
+    pub optics_per_subframe: bool,
 }
 
 impl Default for SimConfig {
@@ -114,7 +115,7 @@ impl Default for SimConfig {
             illumination: None,
             visibility: VisibilityRules::default(),
             weather: Weather::Clear,
-            defocus_per_subframe: false,
+            optics_per_subframe: false,
         }
     }
 }
@@ -222,7 +223,7 @@ impl Simulator {
         render::render(&self.city, &view, target);
         // The air first, then the lens: fog acts along the ray, the blur on what reaches it.
         self.air(target, camera, &view);
-        if self.config.defocus_per_subframe {
+        if self.config.optics_per_subframe {
             render::lens::defocus(target, camera);
         }
     }
@@ -253,9 +254,9 @@ impl Simulator {
     ) -> Result<Vec<Frame>, SourceError> {
         let exposures_s: Vec<f64> = shots.iter().map(|s| s.exposure_s).collect();
         let shutters = self.check(request, &exposures_s)?;
-        if self.config.defocus_per_subframe && shots.iter().any(|s| s.f_number.is_some()) {
+        if self.config.optics_per_subframe && shots.iter().any(|s| s.f_number.is_some()) {
             return Err(SourceError::OutOfRange {
-                reason: "defocus_per_subframe blurs the shared sub-frames through one lens: \
+                reason: "optics_per_subframe blurs the shared sub-frames through one lens: \
                          shots cannot set their own f-number"
                     .into(),
             });
@@ -295,12 +296,15 @@ impl Simulator {
                     }
                 };
                 let weights: Vec<Vec<f32>> = shutters.iter().map(|&s| grid.weights(s)).collect();
-                let mut colours = self.integrate(&episode, camera, &grid, &weights, &mid);
+                let integrated = self.integrate(&episode, camera, &grid, &weights, &mid);
+                let mut colours = integrated.colours;
                 if let Weather::Rain { rate_mm_h } = self.config.weather {
                     let at = (request, rate_mm_h, shutters.as_slice());
                     self.rain_streaks(&episode, camera, at, &mut colours, &mid);
                 }
-                if !self.config.defocus_per_subframe {
+                if !self.config.optics_per_subframe {
+                    let at = (episode.as_ref(), camera, request.time_s);
+                    self.glow(at, &mut colours, &integrated.light_depths);
                     for (colour, camera) in colours.iter_mut().zip(&cameras) {
                         render::lens::defocus_colour(colour, &mid.inv_depth, w, h, camera);
                     }

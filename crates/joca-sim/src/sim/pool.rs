@@ -18,7 +18,11 @@ const MAX_POOLED_BYTES: usize = 256 << 20;
 static FREE: Mutex<Vec<Target>> = Mutex::new(Vec::new());
 
 fn bytes(t: &Target) -> usize {
-    4 * (t.colour.capacity() + t.inv_depth.capacity() + t.id.capacity() + t.coverage.capacity())
+    4 * (t.colour.capacity()
+        + t.inv_depth.capacity()
+        + t.id.capacity()
+        + t.light_depth.capacity()
+        + t.coverage.capacity())
 }
 
 /// A target for a `width × height` view of a scene of `objects` objects, with a colour buffer

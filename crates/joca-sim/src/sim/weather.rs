@@ -11,15 +11,46 @@ impl Simulator {
     /// The air between the camera and one instant's scene: fog's or rain's extinction and
     /// airlight along every ray.
     pub(super) fn air(&self, target: &mut Target, camera: &PinholeCamera, view: &View<'_>) {
+        // A pooled target may hold the last fog's buffer: only fog fills it.
+        if !matches!(self.config.weather, Weather::Fog { .. }) {
+            target.light_depth.clear();
+        }
         match self.config.weather {
             Weather::Clear => {}
             Weather::Fog { visibility_m } => {
-                render::lens::fog(target, camera, visibility_m, view.lighting.sky(0.0));
+                let airlight = view.lighting.sky(0.0);
+                render::lens::fog(target, camera, visibility_m, airlight);
+                let air = (render::lens::fog_extinction(visibility_m), airlight);
+                let size = (target.width, target.height);
+                let Target { colour, inv_depth, light_depth, .. } = target;
+                render::glow::light_depth(colour, inv_depth, size, camera, air, light_depth);
+                if self.config.optics_per_subframe {
+                    render::glow::fog_glow_integrated(colour, light_depth, size, camera, airlight);
+                }
             }
             Weather::Rain { rate_mm_h } => {
                 let beta = render::rain::extinction_per_m(rate_mm_h);
                 render::lens::attenuate(target, camera, beta, view.lighting.sky(0.0));
             }
+        }
+    }
+
+    /// Fog's glow on each shutter-integrated colour, by its light-weighted optical depths and
+    /// the middle instant's airlight (see [`render::glow`]; `optics_per_subframe` glows every
+    /// sub-frame instead).
+    pub(super) fn glow(
+        &self,
+        (episode, camera, time_s): (&Episode, &PinholeCamera, f64),
+        colours: &mut [Vec<f32>],
+        light_depths: &[Vec<f32>],
+    ) {
+        if !matches!(self.config.weather, Weather::Fog { .. }) {
+            return;
+        }
+        let airlight = self.view(episode, camera, time_s).lighting.sky(0.0);
+        let size = (camera.width_px, camera.height_px);
+        for (colour, depth) in colours.iter_mut().zip(light_depths) {
+            render::glow::fog_glow_integrated(colour, depth, size, camera, airlight);
         }
     }
 

@@ -247,36 +247,42 @@ fn frames_at(times: &[f64], exposure_s: f64) -> Vec<FrameRequest> {
         .collect()
 }
 
-/// The lens and the weather against the ideal pinhole in clear air: 320×240 by day on 2
-/// threads, the same frames, ratios of one run.
+/// The lens and the weather against the ideal pinhole in clear air by day: 320×240 on 2
+/// threads, the same frames, ratios of one run (the last two cases at night).
 fn bench_optics(times: &[f64], exposure_s: f64) -> Result<()> {
     let (w, h) = (320usize, 240usize);
     let pinhole = imx172_behind_3_6_mm(w, h);
     let requests = frames_at(times, exposure_s);
     let lens = |n: f64, focus_m: f64| Some(Lens { focal_length_mm: 3.6, f_number: n, focus_m });
+    let (day, night) = (Illumination::Day, Illumination::Night);
+    let fog100 = Weather::Fog { visibility_m: 100.0 };
     let cases = [
-        ("ideal pinhole, clear", None, Weather::Clear),
+        ("ideal pinhole, clear", None, Weather::Clear, day),
         (
             "f/16 at its hyperfocal distance",
             Some(Lens::at_hyperfocal(3.6, 16.0, 1.55)),
             Weather::Clear,
+            day,
         ),
-        ("f/1.4 focused at 5 m", lens(1.4, 5.0), Weather::Clear),
-        ("f/1.4 focused at 1 m", lens(1.4, 1.0), Weather::Clear),
-        ("f/1.4 focused at 0.3 m (all blurred)", lens(1.4, 0.3), Weather::Clear),
-        ("fog, visibility 100 m", None, Weather::Fog { visibility_m: 100.0 }),
-        ("rain, 25 mm/h", None, Weather::Rain { rate_mm_h: 25.0 }),
+        ("f/1.4 focused at 5 m", lens(1.4, 5.0), Weather::Clear, day),
+        ("f/1.4 focused at 1 m", lens(1.4, 1.0), Weather::Clear, day),
+        ("f/1.4 focused at 0.3 m (all blurred)", lens(1.4, 0.3), Weather::Clear, day),
+        ("fog, visibility 100 m", None, fog100, day),
+        ("rain, 25 mm/h", None, Weather::Rain { rate_mm_h: 25.0 }, day),
+        ("night: ideal pinhole, clear", None, Weather::Clear, night),
+        ("night: fog 100 m (glow)", None, fog100, night),
     ];
     println!(
-        "\nlens and weather, day {w}x{h}, 2 threads, the same {} frames, best of 3",
+        "\nlens and weather, {w}x{h}, 2 threads, the same {} frames (by day unless named), best \
+         of 3",
         times.len()
     );
-    println!("{:<34} {:>12} {:>12}", "case", "blurred ms", "vs pinhole");
+    println!("{:<36} {:>12} {:>12}", "case", "blurred ms", "vs pinhole");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
     let mut base = 0.0;
-    for (name, lens, weather) in cases {
+    for (name, lens, weather, illumination) in cases {
         let sim = Simulator::new(SimConfig {
-            illumination: Some(Illumination::Day),
+            illumination: Some(illumination),
             weather,
             ..SimConfig::default()
         });
@@ -290,7 +296,7 @@ fn bench_optics(times: &[f64], exposure_s: f64) -> Result<()> {
         if base == 0.0 {
             base = per_frame;
         }
-        println!("{:<34} {:>12.2} {:>11.2}x", name, per_frame * 1e3, per_frame / base);
+        println!("{:<36} {:>12.2} {:>11.2}x", name, per_frame * 1e3, per_frame / base);
     }
     Ok(())
 }
