@@ -132,12 +132,17 @@ fn table() -> &'static [[f32; GAUSSIANS]] {
     })
 }
 
-/// The weights at optical depth `depth`, linear between the table's depths.
-fn weights_at(table: &[[f32; GAUSSIANS]], depth: f32) -> [f32; GAUSSIANS] {
+/// Where optical depth `depth` falls on the table: the row below it and the share of the next.
+fn table_row(depth: f32) -> (u32, f32) {
     let u = (depth.max(0.0) / MAX_DEPTH as f32 * DEPTH_STEPS as f32).min(DEPTH_STEPS as f32);
     let j = (u as usize).min(DEPTH_STEPS - 1);
-    let f = u - j as f32;
-    std::array::from_fn(|k| table[j][k] * (1.0 - f) + table[j + 1][k] * f)
+    (j as u32, u - j as f32)
+}
+
+/// The weight of Gaussian `k` at a table position ([`table_row`]), linear between rows.
+fn weight(table: &[[f32; GAUSSIANS]], (j, f): (u32, f32), k: usize) -> f32 {
+    let j = j as usize;
+    table[j][k] * (1.0 - f) + table[j + 1][k] * f
 }
 
 /// Adds fog's glow to one instant's RGB view `colour` (interleaved, `width × height`, fogged:
@@ -207,23 +212,36 @@ pub fn fog_glow_integrated(
         return;
     }
     let table = table();
-    // Each pixel's excess over the airlight and its optical depth's weights.
+    // Each pixel's excess over the airlight and where its optical depth falls on the table.
     let mut excesses = vec![[0.0f32; 3]; n];
-    let mut weights = vec![[0.0f32; GAUSSIANS]; n];
-    excesses.par_iter_mut().zip(weights.par_iter_mut()).enumerate().for_each(|(p, (ex, wt))| {
-        let e = excess(&colour[p * 3..p * 3 + 3], airlight);
-        let light: f32 = e.iter().sum();
-        if light > 0.0 && light_depth[p] > 0.0 {
-            *ex = e;
-            *wt = weights_at(table, light_depth[p] / light);
-        }
-    });
-    if excesses.iter().all(|e| *e == [0.0; 3]) {
+    let mut rows = vec![(0u32, 0.0f32); n];
+    let lit = excesses
+        .par_chunks_mut(width)
+        .zip(rows.par_chunks_mut(width))
+        .enumerate()
+        .map(|(y, (ex, at))| {
+            let mut lit = false;
+            for (x, (ex, at)) in ex.iter_mut().zip(at).enumerate() {
+                let p = y * width + x;
+                let e = excess(&colour[p * 3..p * 3 + 3], airlight);
+                let light: f32 = e.iter().sum();
+                if light > 0.0 && light_depth[p] > 0.0 {
+                    (*ex, *at) = (e, table_row(light_depth[p] / light));
+                    lit = true;
+                }
+            }
+            lit
+        })
+        .reduce(|| false, |a, b| a || b);
+    if !lit {
         return;
     }
     let f_px = (camera.fx_px * camera.fy_px).sqrt();
     let sigmas_px = sigmas_rad().map(|sigma| sigma * f_px);
-    let source = |k: usize, p: usize| -> Rgb { excesses[p].map(|e| e * weights[p][k]) };
+    let source = |k: usize, p: usize| -> Rgb {
+        let w = weight(table, rows[p], k);
+        excesses[p].map(|e| e * w)
+    };
     let glow = blur::sum_of_gaussians(&source, &sigmas_px, (width, height));
     for (px, g) in colour.chunks_exact_mut(3).zip(&glow) {
         px.iter_mut().zip(g).for_each(|(v, g)| *v += g);
