@@ -121,8 +121,10 @@ impl Comparison<'_> {
 
     /// What the pairs are: "3 seeds" or "6 designs × 3 seeds" (seeds per design at most).
     pub fn describe(&self) -> String {
+        let count =
+            |n: usize, one: &str, many: &str| format!("{n} {}", if n == 1 { one } else { many });
         if !self.panel() {
-            return format!("{} seeds", self.pairs.len());
+            return count(self.pairs.len(), "seed", "seeds");
         }
         let designs = self.designs();
         let most = designs
@@ -131,7 +133,7 @@ impl Comparison<'_> {
             .max()
             .unwrap_or(0);
         let seeds = if most == 1 { "1 seed".to_owned() } else { format!("≤ {most} seeds") };
-        format!("{} designs × {seeds}", designs.len())
+        format!("{} × {seeds}", count(designs.len(), "design", "designs"))
     }
 
     /// On how many units ours scored the higher mAP, and of how many.

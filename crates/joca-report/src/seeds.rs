@@ -187,7 +187,12 @@ fn rests_on(rows: &[Row]) -> String {
     let (mut resolved, mut open) = (Vec::new(), Vec::new());
     for c in comparisons(rows) {
         let (m, h) = c.difference(|r| Some(r.results.test.map));
-        let what = format!("{} − {} ({}, {:+.3} ± {:.3})", c.ours, c.other, c.group, m, h);
+        let spread = if h.is_finite() {
+            format!(" ± {h:.3}")
+        } else {
+            ", one pair: no interval".to_owned()
+        };
+        let what = format!("{} − {} ({}, {m:+.3}{spread})", c.ours, c.other, c.group);
         if h.is_finite() && (m - h > 0.0 || m + h < 0.0) {
             resolved.push(what);
         } else {
@@ -410,5 +415,16 @@ mod tests {
         assert!(md.contains("## Over designs and seeds"), "{md}");
         assert!(md.contains("4 panel designs (a, b, c, d)"), "{md}");
         assert!(md.contains("Not resolved: Ours − AverageAE"), "{md}");
+        // A second scenario with one pair (design b): its difference, no interval, counted in
+        // the singular.
+        let mut more = rows.clone();
+        for i in [2, 7] {
+            more.push(Row { group: "Blur".into(), ..rows[i].clone() });
+        }
+        let (_, paired) = tables(&more);
+        assert_eq!(paired[2][2], "1 design × 1 seed");
+        let (md, _) = seeds_sections(&more);
+        assert!(md.contains("(Blur, -0.010, one pair: no interval)"), "{md}");
+        assert!(!md.contains("NaN"), "{md}");
     }
 }
