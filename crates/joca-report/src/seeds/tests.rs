@@ -1,0 +1,125 @@
+//! The seeds and panel tables against hand computations.
+
+use super::*;
+use joca_record::Method;
+
+#[test]
+fn the_t_interval_matches_a_hand_computation() {
+    // 0.1, 0.2, 0.3: mean 0.2, s = 0.1, half-width t(0.975, 2)·0.1/√3 = 4.303·0.057735.
+    let (m, h) = mean_interval(&[0.1, 0.2, 0.3]);
+    assert!((m - 0.2).abs() < 1e-12);
+    assert!((h - 4.302_653 * 0.1 / 3f64.sqrt()).abs() < 1e-7, "{h}");
+    assert!(mean_interval(&[0.5]).1.is_nan());
+    // Published quantiles (e.g. NIST/SEMATECH e-Handbook, Table of t, 1 − α/2 = 0.975).
+    for (df, t) in [(1, 12.706_2), (2, 4.302_7), (5, 2.570_6), (10, 2.228_1), (30, 2.042_3)] {
+        assert!((t_975(df) - t).abs() < 1e-4, "df {df}: {}", t_975(df));
+    }
+    assert!((t_975(100) - 1.984).abs() < 1e-3);
+    assert!(t_975(0).is_nan());
+}
+
+#[test]
+fn variants_are_summarised_over_seeds_and_ours_is_paired_by_seed() {
+    let row = |label: &str, method: Method, seed: u64, map: f64| {
+        let mut results = crate::table::tests::results(map, 0.3, true);
+        results.method = method;
+        results.seed = seed;
+        Row {
+            group: "Calibrated".into(),
+            label: label.into(),
+            cell: format!("{label}-s{seed}"),
+            design: String::new(),
+            results,
+        }
+    };
+    // Seeds listed out of order for the baseline: pairs are made by seed, not by position.
+    let rows = vec![
+        row("Ours", Method::Joca, 0, 0.30),
+        row("Ours", Method::Joca, 1, 0.34),
+        row("Ours", Method::Joca, 2, 0.32),
+        row("FLIR", Method::FixedNeural, 2, 0.31),
+        row("FLIR", Method::FixedNeural, 0, 0.25),
+        row("FLIR", Method::FixedNeural, 1, 0.33),
+    ];
+    let (summary, paired) = tables(&rows);
+    assert_eq!(summary.len(), 3);
+    let h = t_975(2) * 0.02 / 3f64.sqrt();
+    assert_eq!(summary[1][..3], ["Calibrated", "Ours", "3"]);
+    assert_eq!(summary[1][3], format!("0.320 ± {h:.3}"));
+    // Differences 0.05, 0.01, 0.01: mean 0.0233, s = 0.02309.
+    assert_eq!(paired.len(), 2);
+    assert_eq!(paired[1][1], "Ours − FLIR");
+    let (m, hw) = mean_interval(&[0.05, 0.01, 0.01]);
+    assert!((m - 0.07 / 3.0).abs() < 1e-12);
+    assert_eq!(paired[1][3], format!("{m:.3} ± {hw:.3}"));
+    assert_eq!(paired[1][5], "3 of 3 seeds");
+    assert_eq!(paired[1][2], "3 seeds");
+    let (md, html) = seeds_sections(&rows);
+    assert!(md.contains("## Over seeds") && md.contains("Student's t"));
+    assert!(html.contains("<th>Δ mAP</th>"));
+    // One seed per variant: no section.
+    assert_eq!(seeds_sections(&rows[..1]).0, "");
+}
+
+#[test]
+fn a_panel_pairs_on_design_and_seed_and_takes_the_interval_over_designs() {
+    let row = |label: &str, method: Method, design: &str, seed: u64, map: f64, night: f64| {
+        let mut results = crate::table::tests::results(map, 0.3, false);
+        results.method = method;
+        results.seed = seed;
+        let mut n = results.test;
+        n.map = night;
+        results.by_illumination.entry(joca_record::Light::Night).or_default().scores = Some(n);
+        Row {
+            group: "Calibrated".into(),
+            label: label.into(),
+            cell: format!("{label}-{design}-s{seed}"),
+            design: design.into(),
+            results,
+        }
+    };
+    let (o, a) = (Method::Joca, Method::TacosAverage);
+    // Design "a": ours − AverageAE 0.02 and 0.04 (mean 0.03); "b": −0.01 (one seed); "c":
+    // 0.05 and 0.03 (mean 0.04). A baseline cell on another design or seed has no pair.
+    let rows = vec![
+        row("Ours", o, "a", 0, 0.32, 0.10),
+        row("Ours", o, "a", 1, 0.34, 0.12),
+        row("Ours", o, "b", 0, 0.20, 0.05),
+        row("Ours", o, "c", 0, 0.45, 0.20),
+        row("Ours", o, "c", 1, 0.43, 0.20),
+        row("AverageAE", a, "a", 1, 0.30, 0.10),
+        row("AverageAE", a, "a", 0, 0.30, 0.09),
+        row("AverageAE", a, "b", 0, 0.21, 0.06),
+        row("AverageAE", a, "c", 0, 0.40, 0.15),
+        row("AverageAE", a, "c", 1, 0.40, 0.14),
+        row("AverageAE", a, "d", 0, 0.90, 0.90),
+    ];
+    let (_, paired) = tables(&rows);
+    let (m, h) = mean_interval(&[0.03, -0.01, 0.04]);
+    assert!((m - 0.02).abs() < 1e-12);
+    assert_eq!(paired[1][2], "3 designs × ≤ 2 seeds");
+    assert_eq!(paired[1][3], format!("{m:.3} ± {h:.3}"));
+    assert_eq!(paired[1][5], "2 of 3 designs");
+    // Night: a 0.015 (0.01, 0.02), b −0.01, c 0.055 (0.05, 0.06).
+    let lights = light_table(&rows);
+    let (m, h) = mean_interval(&[0.015, -0.01, 0.055]);
+    assert_eq!(lights[1][3], format!("{m:.3} ± {h:.3}"));
+    assert_eq!(lights[1][2], "–", "no day scores recorded: {:?}", lights[1]);
+    let designs = design_table(&rows);
+    assert_eq!(designs.len(), 1 + 7, "4 designs of AverageAE, 3 of ours");
+    let (md, _) = seeds_sections(&rows);
+    assert!(md.contains("## Over designs and seeds"), "{md}");
+    assert!(md.contains("4 panel designs (a, b, c, d)"), "{md}");
+    assert!(md.contains("Not resolved: Ours − AverageAE"), "{md}");
+    // A second scenario with one pair (design b): its difference, no interval, counted in
+    // the singular.
+    let mut more = rows.clone();
+    for i in [2, 7] {
+        more.push(Row { group: "Blur".into(), ..rows[i].clone() });
+    }
+    let (_, paired) = tables(&more);
+    assert_eq!(paired[2][2], "1 design × 1 seed");
+    let (md, _) = seeds_sections(&more);
+    assert!(md.contains("(Blur, -0.010, one pair: no interval)"), "{md}");
+    assert!(!md.contains("NaN"), "{md}");
+}
