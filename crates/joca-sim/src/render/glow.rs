@@ -29,6 +29,7 @@
 //! Rain's forward scattering is a diffraction peak of width λ/D ≤ 10⁻³ rad for drops of
 //! D ≥ 0.5 mm, narrower than a pixel: rain has no glow here.
 
+use super::lens::Rays;
 use joca_core::PinholeCamera;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -163,7 +164,8 @@ pub fn fog_glow(
 /// Each pixel's light above the airlight (summed over channels) times its optical depth β·r,
 /// into `out` (0 for the sky). Summed over a shutter's sub-frames and divided by the integrated
 /// frame's light above the airlight, it gives the light-weighted optical depth of what a pixel
-/// saw during the shutter (a lamp's when the lamp streaked across a distant facade).
+/// saw during the shutter (a lamp's when the lamp streaked across a distant facade). The
+/// simulator gets it from [`super::lens::fog`]'s own pass; this is the same for one view.
 pub fn light_depth(
     colour: &[f32],
     inv_depth: &[f32],
@@ -173,24 +175,30 @@ pub fn light_depth(
     out: &mut Vec<f32>,
 ) {
     let beta = beta_per_m as f32;
-    let (fx, fy) = (camera.fx_px as f32, camera.fy_px as f32);
-    let (cx, cy) = (camera.cx_px as f32, camera.cy_px as f32);
+    let rays = Rays::new(camera);
     out.clear();
     out.resize(width * height, 0.0);
     out.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
-        let b = (y as f32 + 0.5 - cy) / fy;
+        let b = rays.slope(y);
         for (x, d) in row.iter_mut().enumerate() {
             let p = y * width + x;
             let inv_z = inv_depth[p];
-            if inv_z <= 0.0 {
-                *d = 0.0;
-                continue;
-            }
-            let a = (x as f32 + 0.5 - cx) / fx;
-            let depth = beta * (1.0 + a * a + b * b).sqrt() / inv_z;
-            *d = excess(&colour[p * 3..p * 3 + 3], airlight).iter().sum::<f32>() * depth;
+            *d = if inv_z > 0.0 {
+                light_depth_of(
+                    &colour[p * 3..p * 3 + 3],
+                    airlight,
+                    beta * rays.length(x, b) / inv_z,
+                )
+            } else {
+                0.0
+            };
         }
     });
+}
+
+/// One pixel's light above the airlight, summed over channels, times its optical depth.
+pub(crate) fn light_depth_of(px: &[f32], airlight: [f32; 3], depth: f32) -> f32 {
+    excess(px, airlight).iter().sum::<f32>() * depth
 }
 
 /// A pixel's light above the airlight, per channel.
@@ -253,4 +261,5 @@ mod blur;
 mod tests;
 
 use blur::Rgb;
-pub use blur::gaussian_blur;
+#[cfg(test)]
+use blur::gaussian_blur;

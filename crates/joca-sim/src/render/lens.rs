@@ -32,9 +32,10 @@ pub const MAX_RADIUS_PX: usize = 24;
 const BEHIND: f32 = 1.02;
 
 /// Applies Koschmieder's law with visibility `visibility_m` to `target` seen through `camera`,
-/// with airlight `airlight` (calibrated DN per channel).
+/// with airlight `airlight` (calibrated DN per channel), and writes each pixel's light depth for
+/// fog's glow ([`super::glow::light_depth_of`]) into `target.light_depth` in the same pass.
 pub fn fog(target: &mut Target, camera: &PinholeCamera, visibility_m: f64, airlight: [f32; 3]) {
-    attenuate(target, camera, fog_extinction(visibility_m), airlight);
+    extinction(target, camera, (fog_extinction(visibility_m), airlight), true);
 }
 
 /// Fog's extinction coefficient for a meteorological visibility, 1/m (ln 20 / V).
@@ -42,29 +43,78 @@ pub fn fog_extinction(visibility_m: f64) -> f64 {
     20f64.ln() / visibility_m
 }
 
-/// Koschmieder's law with extinction coefficient `beta_per_m` (fog's ln 20 / V, or rain's).
+/// Koschmieder's law with extinction coefficient `beta_per_m` (rain's); empties
+/// `target.light_depth` (fog's alone).
 pub fn attenuate(target: &mut Target, camera: &PinholeCamera, beta_per_m: f64, airlight: [f32; 3]) {
+    extinction(target, camera, (beta_per_m, airlight), false);
+}
+
+/// Each pixel's view-ray length per metre of depth along the optical axis, √(1 + a² + b²).
+pub(crate) struct Rays {
+    fx: f32,
+    fy: f32,
+    cx: f32,
+    cy: f32,
+}
+
+impl Rays {
+    pub(crate) fn new(camera: &PinholeCamera) -> Self {
+        let (fx, fy) = (camera.fx_px as f32, camera.fy_px as f32);
+        Self { fx, fy, cx: camera.cx_px as f32, cy: camera.cy_px as f32 }
+    }
+
+    /// Row `y`'s vertical slope b.
+    pub(crate) fn slope(&self, y: usize) -> f32 {
+        (y as f32 + 0.5 - self.cy) / self.fy
+    }
+
+    /// The length at column `x` of a row of slope `b`.
+    pub(crate) fn length(&self, x: usize, b: f32) -> f32 {
+        let a = (x as f32 + 0.5 - self.cx) / self.fx;
+        (1.0 + a * a + b * b).sqrt()
+    }
+}
+
+/// Koschmieder's law with `(β, airlight)`; with `glow_sources`, each pixel's light depth into
+/// `target.light_depth` (else that buffer is emptied).
+fn extinction(
+    target: &mut Target,
+    camera: &PinholeCamera,
+    (beta_per_m, airlight): (f64, [f32; 3]),
+    glow_sources: bool,
+) {
     let beta = beta_per_m as f32;
-    let (w, fx, fy) = (target.width, camera.fx_px as f32, camera.fy_px as f32);
-    let (cx, cy) = (camera.cx_px as f32, camera.cy_px as f32);
-    target.colour.par_chunks_mut(w * 3).zip(target.inv_depth.par_chunks(w)).enumerate().for_each(
-        |(y, (colour, inv_depth))| {
-            let b = (y as f32 + 0.5 - cy) / fy;
-            for (x, (px, &inv_z)) in colour.chunks_exact_mut(3).zip(inv_depth).enumerate() {
-                let t = if inv_z > 0.0 {
-                    let a = (x as f32 + 0.5 - cx) / fx;
-                    // Distance along the ray: depth z times the ray's length per unit z.
-                    let r = (1.0 + a * a + b * b).sqrt() / inv_z;
-                    (-beta * r).exp()
+    let rays = Rays::new(camera);
+    let w = target.width;
+    let Target { colour, inv_depth, light_depth, .. } = target;
+    light_depth.clear();
+    if glow_sources {
+        light_depth.resize(inv_depth.len(), 0.0);
+    }
+    let row = |y: usize, colour: &mut [f32], inv_depth: &[f32], mut sources: Option<&mut [f32]>| {
+        let b = rays.slope(y);
+        for (x, (px, &inv_z)) in colour.chunks_exact_mut(3).zip(inv_depth).enumerate() {
+            // Distance along the ray: depth z times the ray's length per unit z.
+            let ray = if inv_z > 0.0 { rays.length(x, b) } else { 0.0 };
+            let t = if inv_z > 0.0 { (-beta * (ray / inv_z)).exp() } else { 0.0 };
+            for (v, a) in px.iter_mut().zip(airlight) {
+                *v = *v * t + a * (1.0 - t);
+            }
+            if let Some(s) = sources.as_deref_mut() {
+                s[x] = if inv_z > 0.0 {
+                    super::glow::light_depth_of(px, airlight, beta * ray / inv_z)
                 } else {
                     0.0
                 };
-                for (v, a) in px.iter_mut().zip(airlight) {
-                    *v = *v * t + a * (1.0 - t);
-                }
             }
-        },
-    );
+        }
+    };
+    let rows = colour.par_chunks_mut(w * 3).zip(inv_depth.par_chunks(w)).enumerate();
+    if glow_sources {
+        rows.zip(light_depth.par_chunks_mut(w)).for_each(|((y, (c, d)), s)| row(y, c, d, Some(s)));
+    } else {
+        rows.for_each(|(y, (c, d))| row(y, c, d, None));
+    }
 }
 
 /// A lens's blur in view pixels as a function of inverse depth: the circle of confusion is

@@ -11,20 +11,15 @@ impl Simulator {
     /// The air between the camera and one instant's scene: fog's or rain's extinction and
     /// airlight along every ray.
     pub(super) fn air(&self, target: &mut Target, camera: &PinholeCamera, view: &View<'_>) {
-        // A pooled target may hold the last fog's buffer: only fog fills it.
-        if !matches!(self.config.weather, Weather::Fog { .. }) {
-            target.light_depth.clear();
-        }
+        // A pooled target may hold the last fog's light depths: every arm sets or empties them.
         match self.config.weather {
-            Weather::Clear => {}
+            Weather::Clear => target.light_depth.clear(),
             Weather::Fog { visibility_m } => {
                 let airlight = view.lighting.sky(0.0);
                 render::lens::fog(target, camera, visibility_m, airlight);
-                let air = (render::lens::fog_extinction(visibility_m), airlight);
-                let size = (target.width, target.height);
-                let Target { colour, inv_depth, light_depth, .. } = target;
-                render::glow::light_depth(colour, inv_depth, size, camera, air, light_depth);
                 if self.config.optics_per_subframe {
+                    let size = (target.width, target.height);
+                    let Target { colour, light_depth, .. } = target;
                     render::glow::fog_glow_integrated(colour, light_depth, size, camera, airlight);
                 }
             }

@@ -180,8 +180,9 @@ fn slide(line: &mut [Rgb], r: usize, alpha: f64, pad: &mut Vec<[f64; 3]>) {
 }
 
 /// Blurs a `w × h` plane of one channel in place by a Gaussian of `sigma` pixels (the RGB blur
-/// on one channel).
-pub fn gaussian_blur(plane: &mut [f32], w: usize, h: usize, sigma: f64) {
+/// on one channel; for the tests).
+#[cfg(test)]
+pub(super) fn gaussian_blur(plane: &mut [f32], w: usize, h: usize, sigma: f64) {
     let mut rgb: Vec<Rgb> = plane.iter().map(|&v| [v, 0.0, 0.0]).collect();
     blur_rgb(&mut rgb, (w, h), sigma);
     plane.iter_mut().zip(&rgb).for_each(|(v, x)| *v = x[0]);
