@@ -146,7 +146,9 @@ impl Simulator {
             }
         };
         let colours = sum_rings(&rings, (middle, reach), |k| &target(k).colour);
-        let light_depths = if mid.light_depth.is_empty() {
+        // Fog's light depths, for the glow of the integrated frame (none without fog, and none
+        // needed when every sub-frame glowed on its own).
+        let light_depths = if mid.light_depth.is_empty() || self.config.optics_per_subframe {
             Vec::new()
         } else {
             sum_rings(&rings, (middle, reach), |k| &target(k).light_depth)
