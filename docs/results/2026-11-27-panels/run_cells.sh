@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Runs the named cells (folders holding a cell.toml, prepared by `joca experiment` or copied),
+# in the given order, at most two at a time, each `joca cell DIR` with its log in DIR/cell.log.
+# Skips finished cells, resumes partial ones, and counts cells already running (also ones an
+# earlier `joca experiment` started). Usage: run_cells.sh JOCA_BINARY CELL_DIR...
+cd /work/main
+export OMP_WAIT_POLICY=PASSIVE
+bin=${1:?joca binary}
+shift
+for cell in "$@"; do
+  [ -f "$cell/results.json" ] && continue
+  pgrep -f "joca cell $cell\$" >/dev/null && continue
+  while [ "$(pgrep -fc 'joca cell ')" -ge 2 ]; do sleep 20; done
+  echo "$(date -u +%FT%TZ) start $cell"
+  ( "$bin" cell "$cell" >> "$cell/cell.log" 2>&1 \
+      && echo "$(date -u +%FT%TZ) done  $cell" || echo "$(date -u +%FT%TZ) FAILED $cell" ) &
+  sleep 5
+done
+wait
