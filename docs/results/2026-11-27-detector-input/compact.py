@@ -15,7 +15,11 @@ def compact(src, dest):
         if (src / name).exists():
             shutil.copyfile(src / name, dest / name)
     gens = defaultdict(list)
-    for line in (src / "events.jsonl").read_text().splitlines():
+    # A cell restored from its compact record (restore.sh) has no events.jsonl: its
+    # sensors_by_generation.json came with it.
+    events = src / "events.jsonl"
+    lines = events.read_text().splitlines() if events.exists() else []
+    for line in lines:
         e = json.loads(line)
         if "candidate" in e and "design" in e:
             gens[e["generation"]].append(e["design"]["sensor"])

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# Copies the perturbation panel's finished cells (compact records) into docs/results and writes
-# its report from them as they stand (`joca report` on a copy without checkpoints, so the running
-# cells are not touched). Usage: land.sh [JOCA_BINARY] (default target/release/joca).
+# Copies an experiment's finished cells (compact records) into docs/results and writes its report
+# from them as they stand (`joca report` on a copy without checkpoints, so the running cells are
+# not touched). Usage: land.sh [JOCA_BINARY [RUN_DIR DEST_DIR]] (defaults target/release/joca,
+# the perturbation panel: runs/pert-panel into docs/results/2026-11-27-panels/perturbation).
 set -euo pipefail
 cd /work/main
 bin=${1:-target/release/joca}
-src=runs/pert-panel
-dest=docs/results/2026-11-27-panels/perturbation
+src=${2:-runs/pert-panel}
+dest=${3:-docs/results/2026-11-27-panels/perturbation}
 python3 docs/results/2026-11-27-detector-input/compact.py "$src" "$dest"
 tmp=$(mktemp -d)
 cp "$src/experiment.json" "$src/.joca-output" "$tmp/" 2>/dev/null || cp "$src/experiment.json" "$tmp/"

@@ -40,6 +40,7 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
         range(&frames),
         objects.join(", ")
     );
+    md.push_str(&machines(rows));
     let (mut resolved, mut open) = (Vec::new(), Vec::new());
     for c in comparisons(rows) {
         let (m, h) = c.difference(|r| Some(r.results.test.map));
@@ -48,7 +49,13 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
         } else {
             ", one pair: no interval".to_owned()
         };
-        let what = format!("{} − {} ({}, {m:+.3}{spread})", c.ours, c.other, c.group);
+        let across = c.pairs.iter().filter(|(a, b)| machine(a) != machine(b)).count();
+        let mixed = if across > 0 {
+            format!("; {across} of {} pairs across machine types", c.pairs.len())
+        } else {
+            String::new()
+        };
+        let what = format!("{} − {} ({}, {m:+.3}{spread}{mixed})", c.ours, c.other, c.group);
         if h.is_finite() && (m - h > 0.0 || m + h < 0.0) {
             resolved.push(what);
         } else {
@@ -65,4 +72,42 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
     }
     md.push_str("\n\n");
     md
+}
+
+/// The machine type a cell's numbers came from: its CPU (model and widest vector units) and the
+/// precision its perturbed frames were scored in. Training repeats bit for bit only within one.
+fn machine(r: &Row) -> String {
+    let cpu = if r.results.cpu.is_empty() { "CPU not recorded" } else { r.results.cpu.as_str() };
+    match r.results.scoring_precision {
+        Some(p) => format!("{cpu}, scoring in {}", p.name()),
+        None => cpu.to_owned(),
+    }
+}
+
+/// One sentence naming the machine types the cells ran on, with counts where there are several.
+fn machines(rows: &[Row]) -> String {
+    let mut kinds: Vec<(String, usize)> = Vec::new();
+    for r in rows {
+        let m = machine(r);
+        match kinds.iter_mut().find(|(k, _)| *k == m) {
+            Some((_, n)) => *n += 1,
+            None => kinds.push((m, 1)),
+        }
+    }
+    match kinds.as_slice() {
+        [] => String::new(),
+        [(only, _)] => format!(" Every cell ran on one machine type ({only})."),
+        _ => {
+            let list: Vec<String> = kinds
+                .iter()
+                .map(|(k, n)| format!("{k}: {n} cell{}", if *n == 1 { "" } else { "s" }))
+                .collect();
+            format!(
+                " Cells ran on {} machine types ({}); a pair across types also differs by the \
+                 machine's rounding (and scoring precision), not only by the method.",
+                kinds.len(),
+                list.join("; ")
+            )
+        }
+    }
 }

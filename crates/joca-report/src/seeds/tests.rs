@@ -122,4 +122,24 @@ fn a_panel_pairs_on_design_and_seed_and_takes_the_interval_over_designs() {
     let (md, _) = seeds_sections(&more);
     assert!(md.contains("(Blur, -0.010, one pair: no interval)"), "{md}");
     assert!(!md.contains("NaN"), "{md}");
+    assert!(
+        md.contains("Every cell ran on one machine type (CPU not recorded, scoring in fp32)."),
+        "{md}"
+    );
+    // Design c's baseline cells repeated on another CPU, scored in bf16: two machine types
+    // named with their counts, and the pairs that cross them counted per comparison.
+    let mut mixed = rows.clone();
+    for r in &mut mixed[8..10] {
+        r.results.cpu = "AMD EPYC (AVX-512, AVX-512 BF16)".into();
+        r.results.scoring_precision = Some(joca_core::compute::Precision::Bf16);
+    }
+    let (md, _) = seeds_sections(&mixed);
+    assert!(
+        md.contains(
+            "Cells ran on 2 machine types (CPU not recorded, scoring in fp32: 9 cells; AMD EPYC \
+             (AVX-512, AVX-512 BF16), scoring in bf16: 2 cells)"
+        ),
+        "{md}"
+    );
+    assert!(md.contains("0.020 ± ") && md.contains("; 2 of 5 pairs across machine types)"), "{md}");
 }
