@@ -73,3 +73,29 @@ fn a_panel_compares_controllers_on_the_same_designs() {
         assert!(md.contains(part), "{part:?} not in\n{md}");
     }
 }
+
+#[test]
+fn prepare_writes_every_cell_and_runs_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("panel.toml");
+    // The panel without the finished run: the Basler camera, two controllers, two seeds.
+    std::fs::write(&file, PANEL.replace("from_runs = [\"DONE\"]", "")).unwrap();
+    let cfg = dir.path().join("run.toml");
+    std::fs::write(&cfg, TINY_RUN).unwrap();
+    let exp = dir.path().join("exp");
+    let o = cli!("experiment", file, "--config", cfg, "--seeds 2 --prepare --out", exp);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    assert!(stdout(&o).contains("0 done, 0 partial, 4 missing of 4"), "{}", stdout(&o));
+    assert!(exp.join("experiment.json").is_file());
+    for cell in ["average-calibrated-basler-s0", "neural-calibrated-basler-s1"] {
+        let c = exp.join("cells").join(cell);
+        let toml = std::fs::read_to_string(c.join("cell.toml")).unwrap();
+        assert!(toml.contains("sensor = \"AR0134\""), "{cell}: the Basler camera's sensor: {toml}");
+        assert!(!c.join("checkpoint").exists() && !c.join("events.jsonl").exists(), "{cell}");
+        assert!(!c.join("cell.log").exists(), "{cell}: no cell was started");
+    }
+    assert!(!exp.join("report.md").exists());
+    // Not with --slurm (it submits) nor --status (it writes nothing).
+    let o = cli!("experiment", file, "--config", cfg, "--prepare --status --out", exp);
+    assert!(!o.status.success() && stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
+}

@@ -38,8 +38,13 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_parser = crate::config::count::<1, 64>)]
     jobs: usize,
     /// Print where each cell stands (and the Slurm job's, if one was submitted); run nothing.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "prepare")]
     status: bool,
+    /// Write every cell's configuration (cells/<id>/cell.toml) and the manifest, check the
+    /// finished cells against the grid, and run nothing: for `joca cell DIR` run by hand or by
+    /// another scheduler.
+    #[arg(long, conflicts_with = "slurm")]
+    prepare: bool,
     /// Submit the missing cells as one Slurm array job instead of running them here.
     #[arg(long)]
     slurm: bool,
@@ -78,6 +83,9 @@ pub fn run(args: &Args) -> Result<()> {
     output::claim(&dir, OutputKind::Experiment)?;
     let _lock = DirLock::acquire(&dir, "joca experiment")?;
     prepare(&exp, &dir)?;
+    if args.prepare {
+        return print_status(&exp, &dir);
+    }
     let todo: Vec<&Cell> = exp
         .cells
         .iter()
