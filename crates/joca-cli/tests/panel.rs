@@ -95,7 +95,7 @@ fn prepare_writes_every_cell_and_runs_none() {
         assert!(!c.join("cell.log").exists(), "{cell}: no cell was started");
     }
     assert!(!exp.join("report.md").exists());
-    // Not with --slurm (it submits) nor --status (it writes nothing).
+    // Refused beside --status, which writes nothing (and beside --slurm, which submits).
     let o = cli!("experiment", file, "--config", cfg, "--prepare --status --out", exp);
     assert!(!o.status.success() && stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
 }
