@@ -29,7 +29,7 @@
 //! Rain's forward scattering is a diffraction peak of width λ/D ≤ 10⁻³ rad for drops of
 //! D ≥ 0.5 mm, narrower than a pixel: rain has no glow here.
 
-use super::lens::Rays;
+use super::fog::Rays;
 use joca_core::PinholeCamera;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -165,7 +165,7 @@ pub fn fog_glow(
 /// into `out` (0 for the sky). Summed over a shutter's sub-frames and divided by the integrated
 /// frame's light above the airlight, it gives the light-weighted optical depth of what a pixel
 /// saw during the shutter (a lamp's when the lamp streaked across a distant facade). The
-/// simulator gets it from [`super::lens::fog`]'s own pass; this is the same for one view.
+/// simulator gets it from [`super::fog::fog`]'s own pass; this is the same for one view.
 pub fn light_depth(
     colour: &[f32],
     inv_depth: &[f32],

@@ -16,7 +16,7 @@ impl Simulator {
             Weather::Clear => target.light_depth.clear(),
             Weather::Fog { visibility_m } => {
                 let airlight = view.lighting.sky(0.0);
-                render::lens::fog(target, camera, visibility_m, airlight);
+                render::fog::fog(target, camera, visibility_m, airlight);
                 if self.config.optics_per_subframe {
                     let size = (target.width, target.height);
                     let Target { colour, light_depth, .. } = target;
@@ -25,7 +25,7 @@ impl Simulator {
             }
             Weather::Rain { rate_mm_h } => {
                 let beta = render::rain::extinction_per_m(rate_mm_h);
-                render::lens::attenuate(target, camera, beta, view.lighting.sky(0.0));
+                render::fog::attenuate(target, camera, beta, view.lighting.sky(0.0));
             }
         }
     }
