@@ -13,7 +13,8 @@ use rayon::prelude::*;
 
 /// Applies Koschmieder's law with visibility `visibility_m` to `target` seen through `camera`,
 /// with airlight `airlight` (calibrated DN per channel), and writes each pixel's light depth for
-/// fog's glow ([`super::glow::light_depth_of`]) into `target.light_depth` in the same pass.
+/// fog's glow (light above the airlight × optical depth) into `target.light_depth` in the same
+/// pass.
 pub fn fog(target: &mut Target, camera: &PinholeCamera, visibility_m: f64, airlight: [f32; 3]) {
     extinction(target, camera, (fog_extinction(visibility_m), airlight), true);
 }

@@ -1,5 +1,5 @@
 //! Fog's glow: light scattered once by the droplets on its way from a bright source to the
-//! camera, which Koschmieder's law (see [`super::lens`]) removes from the direct beam but does not
+//! camera, which Koschmieder's law (see [`super::fog`]) removes from the direct beam but does not
 //! put back anywhere.
 //!
 //! **Model.** A point source seen at distance d through fog of extinction β (optical depth
@@ -29,7 +29,6 @@
 //! Rain's forward scattering is a diffraction peak of width λ/D ≤ 10⁻³ rad for drops of
 //! D ≥ 0.5 mm, narrower than a pixel: rain has no glow here.
 
-use super::fog::Rays;
 use joca_core::PinholeCamera;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -146,10 +145,11 @@ fn weight(table: &[[f32; GAUSSIANS]], (j, f): (u32, f32), k: usize) -> f32 {
     table[j][k] * (1.0 - f) + table[j + 1][k] * f
 }
 
-/// Adds fog's glow to one instant's RGB view `colour` (interleaved, `width × height`, fogged:
+/// For the tests: adds fog's glow to one instant's RGB view `colour` (interleaved, `width × height`, fogged:
 /// Koschmieder applied) whose pixels lie at `inv_depth` (1/m along the axis; 0 = sky) seen
 /// through `camera`, in fog of extinction `beta_per_m` and airlight `airlight`.
-pub fn fog_glow(
+#[cfg(test)]
+fn fog_glow(
     colour: &mut [f32],
     inv_depth: &[f32],
     size: (usize, usize),
@@ -161,12 +161,13 @@ pub fn fog_glow(
     fog_glow_integrated(colour, &depth, size, camera, airlight);
 }
 
-/// Each pixel's light above the airlight (summed over channels) times its optical depth β·r,
-/// into `out` (0 for the sky). Summed over a shutter's sub-frames and divided by the integrated
-/// frame's light above the airlight, it gives the light-weighted optical depth of what a pixel
-/// saw during the shutter (a lamp's when the lamp streaked across a distant facade). The
-/// simulator gets it from [`super::fog::fog`]'s own pass; this is the same for one view.
-pub fn light_depth(
+/// For the tests: each pixel's light above the airlight (summed over channels) times its
+/// optical depth β·r, into `out` (0 for the sky), as [`super::fog::fog`] writes it in its own
+/// pass. Summed over a shutter's sub-frames and divided by the integrated frame's light above
+/// the airlight, it gives the light-weighted optical depth of what a pixel saw during the
+/// shutter (a lamp's when the lamp streaked across a distant facade).
+#[cfg(test)]
+fn light_depth(
     colour: &[f32],
     inv_depth: &[f32],
     (width, height): (usize, usize),
@@ -175,7 +176,7 @@ pub fn light_depth(
     out: &mut Vec<f32>,
 ) {
     let beta = beta_per_m as f32;
-    let rays = Rays::new(camera);
+    let rays = super::fog::Rays::new(camera);
     out.clear();
     out.resize(width * height, 0.0);
     out.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
@@ -207,7 +208,8 @@ fn excess(px: &[f32], airlight: [f32; 3]) -> [f32; 3] {
 }
 
 /// Adds fog's glow to a shutter-integrated RGB frame `colour` whose pixels' light-weighted
-/// optical depths sum to `light_depth` ([`light_depth`] summed with the shutter's weights).
+/// optical depths sum to `light_depth` (what [`super::fog::fog`] writes per sub-frame, summed
+/// with the shutter's weights).
 pub fn fog_glow_integrated(
     colour: &mut [f32],
     light_depth: &[f32],

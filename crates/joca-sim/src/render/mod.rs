@@ -71,8 +71,8 @@ pub struct Target {
     pub inv_depth: Vec<f32>,
     /// Index + 1 of the visible object per pixel (0 = ground or sky).
     pub id: Vec<u32>,
-    /// Fog's light above the airlight times its optical depth, per pixel
-    /// ([`glow::light_depth`]); empty without fog.
+    /// Fog's light above the airlight times its optical depth, per pixel (written by
+    /// [`fog::fog`], read by [`glow::fog_glow_integrated`]); empty without fog.
     pub light_depth: Vec<f32>,
     /// Per object index + 1: pixels covered by its camera-facing faces, before occlusion. Exact
     /// on id-only targets ([`render_ids`], the ground truth) for every object with a box that
