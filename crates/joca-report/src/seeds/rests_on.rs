@@ -2,6 +2,7 @@
 
 use crate::paired::comparisons;
 use crate::table::Row;
+use joca_core::compute::{CpuKernels, Denormals};
 
 /// "What the answer rests on": seeds, designs, test frames and objects per class, and which
 /// paired differences these cells resolve.
@@ -74,14 +75,23 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
     md
 }
 
-/// The machine type a cell's numbers came from: its CPU (model and widest vector units) and the
-/// precision its perturbed frames were scored in. Training repeats bit for bit only within one.
+/// The machine type a cell's numbers came from: everything the run report's machine line
+/// ([`crate::machine_line`]) names — CPU (model and widest vector units), libtorch's kernels and
+/// subnormal handling, each named only where it is not joca's default — and the precision its
+/// perturbed frames were scored in. Training repeats bit for bit only within one.
 fn machine(r: &Row) -> String {
-    let cpu = if r.results.cpu.is_empty() { "CPU not recorded" } else { r.results.cpu.as_str() };
-    match r.results.scoring_precision {
-        Some(p) => format!("{cpu}, scoring in {}", p.name()),
-        None => cpu.to_owned(),
+    let r = &r.results;
+    let mut m = if r.cpu.is_empty() { "CPU not recorded".to_owned() } else { r.cpu.clone() };
+    if r.cpu_kernels == Some(CpuKernels::Avx2) {
+        m.push_str(", libtorch's avx2 kernels");
     }
+    if r.denormals == Some(Denormals::Keep) {
+        m.push_str(", subnormal floats kept");
+    }
+    if let Some(p) = r.scoring_precision {
+        m.push_str(&format!(", scoring in {}", p.name()));
+    }
+    m
 }
 
 /// One sentence naming the machine types the cells ran on, with counts where there are several.
