@@ -10,8 +10,8 @@ use joca_nn::detector::{DetectorConfig, Precision};
 use joca_sim::Weather;
 use joca_train::{
     DesignSpec, FNumberRange, FixedCamera, Method, PerturbationMutation, PerturbationScore,
-    PerturbationSteps, RealConfig, RunConfig, RunEvent, Scenario, SearchTies, Source,
-    TestController, TrainError, run,
+    PerturbationSteps, RealConfig, RunConfig, RunEvent, Scenario, Source, TestController,
+    TrainError, run,
 };
 use std::ops::ControlFlow;
 use std::sync::Mutex;
