@@ -1,0 +1,156 @@
+//! `joca experiment`: a grid file's bad entries named, and a grid run, skipped when finished and
+//! resumed when killed.
+#![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
+
+use std::process::Command;
+
+mod common;
+use common::{TINY_RUN, cli, joca, stderr, stdout};
+
+/// A grid small enough for a test: 2 variants × 2 scenarios of a 1-generation run.
+const TINY_EXPERIMENT: &str = r#"
+title = "tiny"
+label_header = "Method"
+scenarios = ["calibrated", "blur4"]
+
+[[variant]]
+id = "tacos"
+label = "TaCOS + AverageAE"
+run = { method = "tacos-average" }
+
+[[variant]]
+id = "joca"
+label = "Ours"
+run = { method = "joca" }
+"#;
+
+#[test]
+fn experiment_files_with_unknown_methods_or_scenarios_name_them_and_the_valid_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("mine.toml");
+    std::fs::write(&file, TINY_EXPERIMENT.replace("tacos-average", "tacos-magic")).unwrap();
+    let o = cli!("experiment", file, "--out /tmp/joca-never");
+    let e = stderr(&o);
+    assert!(
+        e.contains("mine.toml")
+            && e.contains("variant \"tacos\"")
+            && e.contains("unknown method \"tacos-magic\"")
+            && e.contains("tacos-average, fixed-neural"),
+        "{e}"
+    );
+    std::fs::write(&file, TINY_EXPERIMENT.replace("\"blur4\"", "\"fog\"")).unwrap();
+    let o = cli!("experiment", file, "--out /tmp/joca-never");
+    let e = stderr(&o);
+    assert!(
+        e.contains("mine.toml: scenarios: unknown scenario \"fog\"") && e.contains("noise10"),
+        "{e}"
+    );
+    let o = cli!("experiment table9 --out /tmp/joca-never");
+    let e = stderr(&o);
+    assert!(
+        e.contains("unknown experiment \"table9\"") && e.contains("table1, ablation, sweep-weight"),
+        "{e}"
+    );
+    // Slurm that is not there is said plainly (PATH without sbatch).
+    let cfg = dir.path().join("tiny.toml");
+    std::fs::write(&cfg, TINY_RUN).unwrap();
+    std::fs::write(&file, TINY_EXPERIMENT).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_joca"))
+        .args(["experiment", file.to_str().unwrap(), "--config", cfg.to_str().unwrap(), "--slurm"])
+        .arg("--out")
+        .arg(dir.path().join("exp"))
+        .env("PATH", "/nonexistent")
+        .output()
+        .unwrap();
+    assert!(
+        stderr(&o).contains("Slurm is not reachable: `sbatch` is not on PATH"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("tiny.toml");
+    let cfg = dir.path().join("run.toml");
+    std::fs::write(&file, TINY_EXPERIMENT).unwrap();
+    std::fs::write(&cfg, TINY_RUN).unwrap();
+    let exp = dir.path().join("exp");
+    let args = [
+        "experiment",
+        file.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        exp.to_str().unwrap(),
+    ];
+    let o = joca(&[&args[..], &["--jobs", "2"]].concat());
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    let csv = std::fs::read_to_string(exp.join("results.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    let md = std::fs::read_to_string(exp.join("report.md")).unwrap();
+    assert!(
+        md.contains("4 of 4 cells finished")
+            && md.contains("| Motion blur×4 | TaCOS + AverageAE |"),
+        "{md}"
+    );
+    for f in [
+        "calibrated-settings.png",
+        "calibrated-frames.png",
+        "calibrated-fov.png",
+        "motion-blur-4-tunnel.gif",
+    ] {
+        assert!(exp.join("figures").join(f).is_file(), "{f}");
+    }
+    let html = std::fs::read_to_string(exp.join("report.html")).unwrap();
+    assert!(html.matches("src=\"").count() == html.matches("src=\"data:image/").count());
+
+    // A killed cell: results gone, checkpoint kept -> "partial", and the next invocation
+    // resumes it (its checkpoint is newer than the first three cells' results) and reports all.
+    let cell = exp.join("cells/joca-blur4");
+    std::fs::remove_file(cell.join("results.json")).unwrap();
+    let status = joca(&[&args[..], &["--status"]].concat());
+    assert!(stdout(&status).contains("partial  joca-blur4"), "{}", stdout(&status));
+    assert!(stdout(&status).contains("3 done, 1 partial, 0 missing of 4"), "{}", stdout(&status));
+    let before = std::fs::read_to_string(exp.join("cells/joca-calibrated/results.json")).unwrap();
+    let o = joca(&args);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    assert!(stdout(&o).contains("4 cells, 1 to run"), "{}", stdout(&o));
+    assert!(cell.join("results.json").is_file());
+    assert_eq!(
+        std::fs::read_to_string(exp.join("cells/joca-calibrated/results.json")).unwrap(),
+        before
+    );
+    assert_eq!(std::fs::read_to_string(exp.join("results.csv")).unwrap(), csv);
+
+    // A cell restored from its compact results (docs/results/ keeps results.json and the
+    // configuration only), first of its group: the report still has every figure, its row
+    // of the frames figure empty.
+    let compact = exp.join("cells/tacos-calibrated");
+    for entry in std::fs::read_dir(&compact).unwrap() {
+        let path = entry.unwrap().path();
+        let keep = ["results.json", "config.toml", "cell.toml", "best_design.json"];
+        if !keep.iter().any(|k| path.ends_with(k)) {
+            if path.is_dir() {
+                std::fs::remove_dir_all(&path).unwrap();
+            } else {
+                std::fs::remove_file(&path).unwrap();
+            }
+        }
+    }
+    std::fs::remove_dir_all(exp.join("figures")).unwrap();
+    let o = joca(&["report", exp.to_str().unwrap()]);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    assert!(exp.join("figures/calibrated-frames.png").is_file());
+
+    // The same directory with another configuration is refused, naming the field.
+    std::fs::write(&cfg, TINY_RUN.replace("steps_per_candidate = 3", "steps_per_candidate = 4"))
+        .unwrap();
+    let o = joca(&args);
+    assert!(
+        stderr(&o).contains("another configuration") && stderr(&o).contains("steps_per_candidate"),
+        "{}",
+        stderr(&o)
+    );
+}
