@@ -8,6 +8,15 @@ use joca_nn::detector::DetectorConfig;
 use joca_sim::Weather;
 use joca_train::{DesignSpec, FNumberRange, Method, run};
 
+/// Every event a run wrote to its `events.jsonl`, parsed.
+fn events(run_dir: &std::path::Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(run_dir.join("events.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
 #[test]
 fn every_method_runs_on_the_same_training_budget() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -49,10 +58,8 @@ fn a_panel_cell_trains_ours_on_the_given_design() {
     let r = run(&cfg, &dir.path().join("panel"), false, &mut go).unwrap();
     assert_eq!((r.design.sensor.as_str(), r.design.focal_length_mm), ("IMX546", 5.0));
     assert!(!r.design.optimised);
-    let events = std::fs::read_to_string(dir.path().join("panel/events.jsonl")).unwrap();
-    let designs: Vec<serde_json::Value> = events
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+    let designs: Vec<serde_json::Value> = events(&dir.path().join("panel"))
+        .into_iter()
         .filter(|v| v.get("candidate").is_some())
         .map(|v| v["design"].clone())
         .collect();
@@ -88,10 +95,8 @@ fn the_aperture_gene_stays_in_its_range_and_lens_and_weather_are_recorded() {
         r.conditions_note(),
         " through a thin lens (defocus and diffraction by depth), in fog:300"
     );
-    let events = std::fs::read_to_string(dir.path().join("aperture/events.jsonl")).unwrap();
-    let apertures: Vec<f64> = events
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+    let apertures: Vec<f64> = events(&dir.path().join("aperture"))
+        .into_iter()
         .filter(|v| v.get("candidate").is_some())
         .map(|v| v["design"]["f_number"].as_f64().unwrap())
         .collect();
@@ -115,10 +120,8 @@ fn a_dynamic_aperture_is_recorded_per_step_and_repeats() {
     let stops: Vec<_> = r.by_illumination.f_numbers().collect();
     assert_eq!(stops.len(), r.by_illumination.settings().count());
     assert!(stops.iter().all(|(_, n)| (2.0..=16.0).contains(n)), "{stops:?}");
-    let events = std::fs::read_to_string(dir.path().join("iris/events.jsonl")).unwrap();
-    let stops: Vec<f64> = events
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+    let stops: Vec<f64> = events(&dir.path().join("iris"))
+        .into_iter()
         .filter(|v| v.get("step").is_some() && v.get("loss").is_some())
         .map(|v| v["f_number"].as_f64().expect("every step records its f-number"))
         .collect();
