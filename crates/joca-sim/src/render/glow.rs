@@ -145,9 +145,9 @@ fn weight(table: &[[f32; GAUSSIANS]], (j, f): (u32, f32), k: usize) -> f32 {
     table[j][k] * (1.0 - f) + table[j + 1][k] * f
 }
 
-/// For the tests: adds fog's glow to one instant's RGB view `colour` (interleaved, `width × height`, fogged:
-/// Koschmieder applied) whose pixels lie at `inv_depth` (1/m along the axis; 0 = sky) seen
-/// through `camera`, in fog of extinction `beta_per_m` and airlight `airlight`.
+/// For the tests: adds fog's glow to one instant's RGB view `colour` (interleaved, `width ×
+/// height`, fogged: Koschmieder applied) whose pixels lie at `inv_depth` (1/m along the axis;
+/// 0 = sky) seen through `camera`, in fog of extinction `beta_per_m` and airlight `airlight`.
 #[cfg(test)]
 fn fog_glow(
     colour: &mut [f32],
