@@ -258,12 +258,14 @@ pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
         if path.is_file() {
             let old: CellFile = toml::from_str(&std::fs::read_to_string(&path)?)
                 .with_context(|| format!("cannot read {}", path.display()))?;
-            if old.run != cell.config {
+            // Fields the method does not read (AverageAE's perturbation search) may differ.
+            let (old, new) = (old.run.as_read(), cell.config.as_read());
+            if old != new {
                 bail!(
                     "{} was made with another configuration (fields differ: {}); use another \
                         --out, or delete the cell to run it again",
                     path.display(),
-                    differing_fields(&old.run, &cell.config).join(", ")
+                    differing_fields(&old, &new).join(", ")
                 );
             }
             continue;

@@ -160,3 +160,24 @@ fn a_bad_panel_names_the_entry_the_field_and_the_file() {
     let e = err("", &|s| s.replace("id = \"wide\"", "id = \"flir\""));
     assert!(e.contains("id \"flir\" names two different designs"), "{e}");
 }
+
+/// A prepared cell is checked against the grid in the fields its method reads: an AverageAE cell
+/// made when the presets scored the perturbation search by AP50 is still the grid's (AverageAE
+/// searches no perturbations), a NeuralAE cell made so is refused, naming the field.
+#[test]
+fn a_prepared_cell_must_match_the_grid_in_what_its_method_reads() {
+    let exp = resolve("controllers", "quick", None, 1).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    prepare(&exp, dir.path()).unwrap();
+    let as_ap50 = |id: &str| {
+        let path = dir.path().join("cells").join(id).join("cell.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("perturbation_score = \"loss\""), "{id}: {text}");
+        std::fs::write(&path, text.replace("\"loss\"", "\"ap50\"")).unwrap();
+    };
+    as_ap50("average-calibrated-flir");
+    prepare(&exp, dir.path()).unwrap();
+    as_ap50("neural-calibrated-flir");
+    let e = format!("{:#}", prepare(&exp, dir.path()).unwrap_err());
+    assert!(e.contains("neural-calibrated-flir") && e.contains("perturbation_score"), "{e}");
+}

@@ -141,7 +141,7 @@ pub(super) fn train(
             motion_scale: c.scenario.motion_scale(),
         };
         // 2. Perturbation mode: the same instant with perturbed settings (each with its own
-        // blur), rendered with the applied frame from one grid of sub-frames, scored by AP50.
+        // blur), rendered with the applied frame from one grid of sub-frames, and scored.
         let members = match (predicted, c.method.perturbations()) {
             (Some(predicted), true) => {
                 perturbation::members(cx, perturbation, predicted, predicted_iris, &sensor)

@@ -91,8 +91,9 @@ pub struct RunConfig {
     /// first) or `none` (the GA's order).
     #[serde(default)]
     pub perturbation_tie_break: TieBreak,
-    /// What scores a perturbation member: `ap50` (the paper's: the perturbed frame's AP50) or
-    /// `loss` (the detector's task loss on it, lower better).
+    /// What scores a perturbation member: `loss` (the presets': the detector's task loss on the
+    /// perturbed frame, lower better) or `ap50` (the paper's: the perturbed frame's AP50; what
+    /// a configuration without this field, written before it existed, ran).
     #[serde(default)]
     pub perturbation_score: PerturbationScore,
     /// How a perturbation offsets the exposure: `linear` (the paper's: a share of the range in
@@ -307,6 +308,20 @@ impl RunConfig {
         }
         self.real.folder_config()?;
         Ok(())
+    }
+
+    /// The configuration as its method reads it: where the method searches no perturbations,
+    /// the search's score, step and tie-break are set to what an absent field means. Two cells
+    /// whose `as_read` are equal run the same way, so a preset's change of the search does not
+    /// orphan a finished AverageAE cell.
+    pub fn as_read(&self) -> RunConfig {
+        let mut c = self.clone();
+        if !c.method.perturbations() {
+            c.perturbation_score = PerturbationScore::default();
+            c.perturbation_steps = PerturbationSteps::default();
+            c.perturbation_tie_break = TieBreak::default();
+        }
+        c
     }
 
     /// Whether the hardware GA designs the camera: the method searches and no `design` is

@@ -1,10 +1,10 @@
 //! DF-Grad's perturbation mode (paper Sec. 5): each member `(p_e, p_g)` of a small GA offsets
 //! NeuralAE's prediction by a fraction of each range; the instant is rendered with the
 //! perturbed exposure too (so with its own motion blur, which no gradient can see; the applied
-//! and perturbed shutters share one grid of sub-frames), formed, detected and scored by AP50
-//! (the paper's) or by the detector's task loss (`perturbation_score`). The best member's
-//! settings become the target of the GA loss l_GA. Each search counts whether members tied for
-//! the best score (then the tie-break or the GA's order chose), for `results.json`.
+//! and perturbed shutters share one grid of sub-frames), formed, detected and scored by the
+//! detector's task loss (the presets') or by AP50 (the paper's; `perturbation_score`). The best
+//! member's settings become the target of the GA loss l_GA. Each search counts whether members
+//! tied for the best score (then the tie-break or the GA's order chose), for `results.json`.
 //! Where NeuralAE sets the iris too, each member also offsets the iris's unit position (a third
 //! gene) and is rendered and formed at its own f-number (its own defocus and light).
 
@@ -203,8 +203,8 @@ fn best_member(fitness: &[f64]) -> usize {
 
 /// Scores the members' frames (`frames[i]` rendered with `members[i].applied`'s exposure, all of
 /// one instant): each is formed on the same noise sample, the frames go through the detector as
-/// one batch, and each is scored by AP50 (ties by fewer clipped pixels, unless switched off) or
-/// by its task loss (`perturbation_score`).
+/// one batch, and each is scored by its task loss (the presets') or by AP50 (ties by fewer clipped
+/// pixels, unless switched off; `perturbation_score`).
 /// Unless the perturbations are fixed, tells the GA their fitness. Returns the best member's
 /// settings (equal fitness goes to the first member), for the calibration pitch, and iris;
 /// `None` without members.

@@ -35,11 +35,16 @@ joca_core::named_enum! {
     #[derive(Default)]
     pub enum PerturbationScore("perturbation score") {
         /// The paper's: the perturbed frame's AP50 (ties ranked by `perturbation_tie_break`). One
-        /// frame's AP50 takes few values, so members often tie.
+        /// frame's AP50 takes few values, so members often tie (about nine searches in ten at
+        /// `standard`). What a configuration that does not name the score means: runs made
+        /// before the score was selectable scored by AP50, and their saved configurations must
+        /// keep saying so.
         #[default]
         Ap50 = "ap50",
         /// The detector's task loss on the perturbed frame (the training loss, normalised by the
-        /// frame's objects), lower better: continuous in the frame, so members rarely tie.
+        /// frame's objects), lower better: continuous in the frame, so members rarely tie. Every
+        /// preset names it: chosen over AP50 on a panel of six designs in calibrated and blur ×4
+        /// (docs/results/2026-11-27-perturbation-panel.md).
         Loss = "loss",
     }
 }

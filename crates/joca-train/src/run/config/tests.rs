@@ -58,3 +58,29 @@ fn a_dynamic_aperture_needs_a_thin_lens_and_neural_ae() {
     let e = bad.unwrap_err().to_string();
     assert!(e.contains("iris") && e.contains("fixed") && e.contains("dynamic"), "{e}");
 }
+
+/// Every preset scores the perturbation search by the task loss; a saved configuration that does
+/// not name the score (written before it was selectable, as the committed detector-input grid's
+/// cells) reads as the paper's AP50, which is what it ran, so an experiment never mistakes such a
+/// cell for one of today's.
+#[test]
+fn presets_score_by_the_loss_and_older_configurations_meant_ap50() {
+    use super::PerturbationScore;
+    for name in ["quick", "standard", "paper"] {
+        let path = format!("{}/../../presets/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+        let mut table: toml::Table =
+            toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let run: RunConfig = table.remove("run").unwrap().try_into().unwrap();
+        assert_eq!(run.perturbation_score, PerturbationScore::Loss, "{name}");
+    }
+    // A cell of issue 39's `standard` grid, run before the score was selectable.
+    let old = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../docs/results/2026-11-27-detector-input/standard/cells/basler-calibrated-s0/cell.toml"
+    );
+    let text = std::fs::read_to_string(old).unwrap();
+    assert!(!text.contains("perturbation_score"));
+    let mut table: toml::Table = toml::from_str(&text).unwrap();
+    let run: RunConfig = table.remove("run").unwrap().try_into().unwrap();
+    assert_eq!(run.perturbation_score, PerturbationScore::Ap50);
+}
