@@ -5,7 +5,7 @@
 # without the tie-break; calibrated, 12 cells), then the controllers panel (its AverageAE cells
 # come first: they do not depend on which perturbation search becomes the default; stop it before
 # its NeuralAE cells if the default changes; its NeuralAE cells in calibrated and blur x4 are the
-# perturbation panel's paper cells, shared by share_paper_cells.sh), then Table 1's baselines in
+# perturbation panel's paper cells, shared by share_cells.sh paper), then Table 1's baselines in
 # the three scenarios issue 39's grid did not run (docs/results/2026-11-27-table1-again/
 # table1-baselines.toml: they do not depend on ours' default), then the ablation panel (the
 # paper's method and its Table 3 ablations, with the paper's search; its `joca` cells shared the
@@ -20,7 +20,7 @@ target/panelbin/joca experiment docs/results/2026-11-27-panels/perturbation-mech
   --preset standard --seeds 1 --jobs 2 --config docs/results/2026-11-27-panels/threads1.toml \
   --out runs/pert-mechanism
 echo "$(date -u +%FT%TZ) end perturbation-mechanism rc=$?"
-docs/results/2026-11-27-panels/share_paper_cells.sh
+docs/results/2026-11-27-panels/share_cells.sh paper
 echo "$(date -u +%FT%TZ) start controllers panel"
 target/panelbin/joca experiment controllers --preset standard --seeds 1 --jobs 2 \
   --config docs/results/2026-11-27-panels/threads1.toml --out runs/ctrl-panel
@@ -30,7 +30,7 @@ target/panelbin/joca experiment docs/results/2026-11-27-table1-again/table1-base
   --preset standard --seeds 3 --jobs 2 --config docs/results/2026-11-27-panels/threads1.toml \
   --out runs/table1-baselines
 echo "$(date -u +%FT%TZ) end table1 baselines rc=$?"
-docs/results/2026-11-27-panels/share_paper_cells.sh
+docs/results/2026-11-27-panels/share_cells.sh paper
 echo "$(date -u +%FT%TZ) start ablation panel"
 target/panelbin/joca experiment ablation-panel --preset standard --seeds 1 --jobs 2 \
   --config docs/results/2026-11-27-panels/threads1.toml --out runs/ablation-panel

@@ -2,38 +2,51 @@
 # Starts issue 40's panels again on a fresh machine (sessions may start without runs/): builds
 # the panel binary if missing, rebuilds each experiment folder from its committed compact cells
 # (restore.sh), prepares the missing cells (`joca experiment --prepare`, which also checks every
-# restored cell.toml against the grid) and runs the cells listed below, two at a time, in order
-# (run_cells.sh). A cell that has not finished when the machine goes is lost (its checkpoint
-# stays on that machine): land finished cells as they come (land.sh) and commit them.
+# restored cell.toml against the grid), shares ours' cells (share_cells.sh) and runs the cells
+# listed below, two at a time, in order (run_cells.sh). A cell that has not finished when the
+# machine goes is lost (its checkpoint stays on that machine): land finished cells as they come
+# (land.sh) and commit them.
 # Usage: resume.sh [CELL ...] (default: the priority list below).
 set -euo pipefail
 cd /work/main
 here=docs/results/2026-11-27-panels
 bin=${PANEL_BIN:-target/panelbin/joca}
-if [ ! -x "$bin" ]; then
+prep=${PREP_BIN:-target/release/joca}
+if [ ! -x "$bin" ] || [ ! -x "$prep" ]; then
   scripts/bootstrap-libtorch.sh
   cargo build --release -p joca-cli
-  mkdir -p target/panelbin
-  cp target/release/joca "$bin"
+  mkdir -p "$(dirname "$bin")"
+  [ -x "$bin" ] || cp target/release/joca "$bin"
 fi
 opts=(--preset standard --seeds 1 --config "$here/threads1.toml")
-$here/restore.sh "$here/perturbation/cells" runs/pert-panel
-"$bin" experiment perturbation-panel "${opts[@]}" --out runs/pert-panel --prepare | tail -1
-if [ -d "$here/perturbation-mechanism/cells" ]; then
-  $here/restore.sh "$here/perturbation-mechanism/cells" runs/pert-mechanism
-fi
-"$bin" experiment "$here/perturbation-mechanism.toml" "${opts[@]}" --out runs/pert-mechanism \
-  --prepare | tail -1
-p=runs/pert-panel/cells
-m=runs/pert-mechanism/cells
+# Each experiment folder rebuilt from its committed compact cells, then prepared (which checks
+# every restored cell.toml against the grid) by a binary of today's presets (PREP_BIN): the
+# panel binary predates them.
+restore() { # COMPACT_DIR RUN_DIR EXPERIMENT
+  [ -d "$1/cells" ] && $here/restore.sh "$1/cells" "$2"
+  "$prep" experiment "$3" "${opts[@]}" --out "$2" --prepare | tail -1
+}
+restore $here/perturbation runs/pert-panel perturbation-panel
+restore $here/controllers runs/ctrl-panel controllers
+restore $here/ablation runs/ablation-panel ablation-panel
+# Ours' cells in calibrated and blur x4 are the perturbation panel's loss-linear cells.
+$here/share_cells.sh loss-linear
+c=runs/ctrl-panel/cells
+a=runs/ablation-panel/cells
 designs="flir basler cmv2000-10mm mt9v032-6mm python500-7mm imx287-10mm"
 if [ $# -gt 0 ]; then
   cells=("$@")
 else
-  # The linear-step variant (calibrated, then blur x4), then the mechanism follow-up in pairs.
+  # The controllers panel, each design's AverageAE cell beside its NeuralAE one where both run;
+  # then the ablation panel, each design's three ablations together.
   cells=()
-  for d in $designs; do cells+=("$p/loss-linear-calibrated-$d"); done
-  for d in $designs; do cells+=("$p/loss-linear-blur4-$d"); done
-  for d in $designs; do cells+=("$m/ap50-relative-calibrated-$d" "$m/ap50-no-tie-break-calibrated-$d"); done
+  for sc in calibrated blur4 noise20; do
+    for d in $designs; do cells+=("$c/average-$sc-$d" "$c/neural-$sc-$d"); done
+  done
+  for sc in calibrated blur4; do
+    for d in $designs; do
+      for v in no-ga-loss fixed-perturbation frozen-detector; do cells+=("$a/$v-$sc-$d"); done
+    done
+  done
 fi
 exec $here/run_cells.sh "$bin" "${cells[@]}"
