@@ -18,17 +18,23 @@ if [ ! -x "$bin" ] || [ ! -x "$prep" ]; then
   mkdir -p "$(dirname "$bin")"
   [ -x "$bin" ] || cp target/release/joca "$bin"
 fi
-opts=(--preset standard --seeds 1 --config "$here/threads1.toml")
+opts=(--preset standard --config "$here/threads1.toml")
 # Each experiment folder rebuilt from its committed compact cells, then prepared (which checks
 # every restored cell.toml against the grid) by a binary of today's presets (PREP_BIN): the
 # panel binary predates them.
-restore() { # COMPACT_DIR RUN_DIR EXPERIMENT
+restore() { # COMPACT_DIR RUN_DIR EXPERIMENT SEEDS
   [ -d "$1/cells" ] && $here/restore.sh "$1/cells" "$2"
-  "$prep" experiment "$3" "${opts[@]}" --out "$2" --prepare | tail -1
+  "$prep" experiment "$3" "${opts[@]}" --seeds "$4" --out "$2" --prepare | tail -1
 }
-restore $here/perturbation runs/pert-panel perturbation-panel
-restore $here/controllers runs/ctrl-panel controllers
-restore $here/ablation runs/ablation-panel ablation-panel
+t1=docs/results/2026-11-27-table1-again
+ow=docs/results/2026-11-27-optics-weather
+restore $here/perturbation runs/pert-panel perturbation-panel 1
+restore $here/controllers runs/ctrl-panel controllers 1
+restore $here/ablation runs/ablation-panel ablation-panel 1
+restore $t1/baselines runs/table1-baselines $t1/table1-baselines.toml 3
+restore $t1/ours runs/table1-ours $t1/table1-ours.toml 3
+restore $ow/aperture runs/aperture aperture 3
+restore $ow/fog runs/fog fog 3
 # Ours' cells in calibrated and blur x4 are the perturbation panel's loss-linear cells.
 $here/share_cells.sh loss-linear
 c=runs/ctrl-panel/cells
@@ -46,6 +52,21 @@ else
   for sc in calibrated blur4; do
     for d in $designs; do
       for v in no-ga-loss fixed-perturbation frozen-detector; do cells+=("$a/$v-$sc-$d"); done
+    done
+  done
+  # Then Table 1 again (baselines and ours, seed by seed), then issue 41's aperture and fog runs.
+  for s in 0 1 2; do
+    for sc in noise10 blur2 blur4; do
+      for v in flir basler tacos; do cells+=("runs/table1-baselines/cells/$v-$sc-s$s"); done
+    done
+    for sc in calibrated noise10 noise20 blur2 blur4; do
+      cells+=("runs/table1-ours/cells/joca-$sc-s$s")
+    done
+    for sc in calibrated noise20; do
+      for v in f16 aperture iris; do cells+=("runs/aperture/cells/$v-$sc-s$s"); done
+    done
+    for v in tacos-clear joca-clear tacos-fog300 joca-fog300; do
+      cells+=("runs/fog/cells/$v-calibrated-s$s")
     done
   done
 fi
