@@ -2,16 +2,24 @@
 use super::RunConfig;
 use std::path::PathBuf;
 
+/// The `[run]` table of a TOML file, relative to the repository.
+fn run_table(path: &str) -> toml::Table {
+    let path = format!("{}/../../{path}", env!("CARGO_MANIFEST_DIR"));
+    let mut table: toml::Table = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    match table.remove("run") {
+        Some(toml::Value::Table(run)) => run,
+        other => panic!("no [run] table: {other:?}"),
+    }
+}
+
 /// The quick preset's `[run]` with `detector_weights` set to `value` (or removed).
 fn with_weights(value: Option<&str>) -> RunConfig {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../presets/quick.toml");
-    let mut table: toml::Table = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-    let run = table.get_mut("run").and_then(|r| r.as_table_mut()).unwrap();
+    let mut run = run_table("presets/quick.toml");
     run.remove("detector_weights");
     if let Some(v) = value {
         run.insert("detector_weights".into(), v.into());
     }
-    table.remove("run").unwrap().try_into().unwrap()
+    run.try_into().unwrap()
 }
 
 #[test]
@@ -67,20 +75,14 @@ fn a_dynamic_aperture_needs_a_thin_lens_and_neural_ae() {
 fn presets_score_by_the_loss_and_older_configurations_meant_ap50() {
     use super::PerturbationScore;
     for name in ["quick", "standard", "paper"] {
-        let path = format!("{}/../../presets/{name}.toml", env!("CARGO_MANIFEST_DIR"));
-        let mut table: toml::Table =
-            toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-        let run: RunConfig = table.remove("run").unwrap().try_into().unwrap();
+        let run: RunConfig = run_table(&format!("presets/{name}.toml")).try_into().unwrap();
         assert_eq!(run.perturbation_score, PerturbationScore::Loss, "{name}");
     }
     // A cell of issue 39's `standard` grid, run before the score was selectable.
-    let old = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../docs/results/2026-11-27-detector-input/standard/cells/basler-calibrated-s0/cell.toml"
-    );
-    let text = std::fs::read_to_string(old).unwrap();
-    assert!(!text.contains("perturbation_score"));
-    let mut table: toml::Table = toml::from_str(&text).unwrap();
-    let run: RunConfig = table.remove("run").unwrap().try_into().unwrap();
+    let old =
+        "docs/results/2026-11-27-detector-input/standard/cells/basler-calibrated-s0/cell.toml";
+    let table = run_table(old);
+    assert!(!table.contains_key("perturbation_score"));
+    let run: RunConfig = table.try_into().unwrap();
     assert_eq!(run.perturbation_score, PerturbationScore::Ap50);
 }
