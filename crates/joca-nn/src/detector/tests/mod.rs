@@ -75,6 +75,7 @@ fn decoding_survives_nan_output() {
 
 #[test]
 fn the_deep_detector_keeps_the_quarter_resolution_heads_on_any_input() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let vs = VarStore::new(Device::Cpu);
     let d = Detector::new(
         &vs.root(),
@@ -90,6 +91,7 @@ fn the_deep_detector_keeps_the_quarter_resolution_heads_on_any_input() {
 
 #[test]
 fn a_shared_head_saves_two_hidden_convolutions() {
+    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     // Two 3×3 convolutions of 4c → 4c channels at stride 4, 2 FLOPs per multiply-add.
     let separate = DetectorConfig { width: 16, classes: 3, deep: true, shared_head: false };
     let shared = DetectorConfig { shared_head: true, ..separate };
