@@ -64,6 +64,15 @@ fn tiny(method: Method) -> RunConfig {
     }
 }
 
+/// Every event a run wrote to its `events.jsonl`, parsed.
+fn events(run_dir: &std::path::Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(run_dir.join("events.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
 fn go(_: &RunEvent) -> ControlFlow<()> {
     ControlFlow::Continue(())
 }

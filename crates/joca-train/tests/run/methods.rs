@@ -2,20 +2,11 @@
 //! aperture (a gene or set frame by frame) and the weather are recorded, and the frozen detector
 //! leaves the run as it came in.
 
-use super::{SERIAL, go, tiny};
+use super::{SERIAL, events, go, tiny};
 use joca_camera::{ApertureControl, LensModel};
 use joca_nn::detector::DetectorConfig;
 use joca_sim::Weather;
 use joca_train::{DesignSpec, FNumberRange, Method, run};
-
-/// Every event a run wrote to its `events.jsonl`, parsed.
-fn events(run_dir: &std::path::Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(run_dir.join("events.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
-}
 
 #[test]
 fn every_method_runs_on_the_same_training_budget() {

@@ -1,7 +1,7 @@
 //! The protocol every method shares: the stratified test, the scenes a generation's candidates
 //! share, the validation that picks the tested design, and the perturbation searches counted.
 
-use super::{SERIAL, go, tiny};
+use super::{SERIAL, events, go, tiny};
 use joca_train::{Method, PerturbationScore, PerturbationSteps, RunConfig, run};
 
 /// The test is stratified by illumination: four episodes are one day, one night, one tunnel and
@@ -40,12 +40,8 @@ fn candidates_of_a_generation_share_their_scenes_and_the_validation_picks_the_de
     let dir = tempfile::tempdir().unwrap();
     let cfg = RunConfig { steps_per_candidate: 8, ..tiny(Method::Joca) };
     let r = run(&cfg, dir.path(), false, &mut go).unwrap();
-    let events = std::fs::read_to_string(dir.path().join("events.jsonl")).unwrap();
-    let steps: Vec<serde_json::Value> = events
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-        .filter(|v| v.get("step").is_some())
-        .collect();
+    let steps: Vec<serde_json::Value> =
+        events(dir.path()).into_iter().filter(|v| v.get("step").is_some()).collect();
     // Steps 0 and 5 of each candidate are logged (stretches of 2 steps: step 5 is in the third):
     // two candidates per generation, two generations.
     let lights: Vec<&str> = steps.iter().map(|v| v["illumination"].as_str().unwrap()).collect();
