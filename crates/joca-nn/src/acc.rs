@@ -240,7 +240,7 @@ mod tests {
 
     #[test]
     fn histograms_sum_to_one_per_tile_and_locate_brightness() {
-        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let _serial = crate::torch_serial();
         let mut data = vec![0u8; 14 * 14 * 3];
         // The top-left quarter is white.
         for y in 0..7 {
@@ -259,7 +259,7 @@ mod tests {
 
     #[test]
     fn outputs_stay_inside_the_ranges_and_carry_gradients() {
-        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let _serial = crate::torch_serial();
         tch::manual_seed(1);
         let vs = nn::VarStore::new(Device::Cpu);
         let bounds = AccBounds::new(AccRanges::PAPER);
@@ -285,7 +285,7 @@ mod tests {
 
     #[test]
     fn with_the_iris_a_third_output_starts_halfway_and_learns() {
-        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let _serial = crate::torch_serial();
         tch::manual_seed(2);
         let vs = nn::VarStore::new(Device::Cpu);
         let bounds = AccBounds::new(AccRanges::PAPER).with_iris();

@@ -42,7 +42,14 @@ use tch::Device;
 /// libtorch's generator and thread count are process-wide: unit tests that create networks
 /// hold this lock so that each sees the seed it set.
 #[cfg(test)]
-pub(crate) static TORCH_SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+static TORCH_SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Holds [`TORCH_SERIAL`] for the rest of a test (a test that panicked while holding it does
+/// not poison it for the others).
+#[cfg(test)]
+pub(crate) fn torch_serial() -> std::sync::MutexGuard<'static, ()> {
+    TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
 
 /// The device and thread count that every tensor of a run uses.
 #[derive(Debug, Clone, Copy)]
@@ -96,6 +103,8 @@ mod tests {
     /// both checked against values computed by hand.
     #[test]
     fn libtorch_computes_a_product_and_its_gradient() {
+        // `Engine::cpu` reseeds the process-wide generator: not while another test draws from it.
+        let _serial = torch_serial();
         let engine = Engine::cpu(1);
         let a =
             Tensor::from_slice(&[1.0f32, 2.0, 3.0, 4.0]).view([2, 2]).to_device(engine.device());

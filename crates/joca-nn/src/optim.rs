@@ -199,7 +199,7 @@ mod tests {
     /// weight decay, bias-corrected moments), with gradients of both signs and a zero one.
     #[test]
     fn adamw_follows_the_closed_form() {
-        let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let _serial = crate::torch_serial();
         let c = AdamConfig { lr: 1e-2, weight_decay: 0.1, beta1: 0.9, beta2: 0.999, eps: 1e-8 };
         let vs = VarStore::new(tch::Device::Cpu);
         let p = vs.root().var_copy("p", &Tensor::from_slice(&[1.0f32, -2.0, 0.5]));

@@ -164,8 +164,7 @@ mod tests {
             name in proptest::sample::select(vec!["layer.weight", "other", ""]),
             structured in proptest::prelude::any::<bool>(),
         ) {
-            let _serial = crate::TORCH_SERIAL.lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            let _serial = crate::torch_serial();
             let dir = std::env::temp_dir().join(format!("joca-nn-fuzz-{}", std::process::id()));
             std::fs::create_dir_all(&dir).unwrap();
             let path = dir.join("w.safetensors");

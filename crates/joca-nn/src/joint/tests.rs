@@ -31,7 +31,7 @@ fn ga_supervision_loss_is_the_mean_l1_distance_in_normalised_units() {
 /// an iris from f/2 to f/16 (3 doublings of N) is −2·ln 8: a full stop-down costs 64× the light.
 #[test]
 fn the_iris_light_gradient_is_one_with_the_derivative_of_the_log_light() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let iris = Iris::new(2.0, 16.0);
     let u = Tensor::from_slice(&[0.37f32]).set_requires_grad(true);
     let factor = iris_light_gradient(&u, iris);
@@ -79,7 +79,7 @@ fn eq4_on_tensors_matches_the_camera_crate() {
 /// controller stuck at the top of its range in every light.
 #[test]
 fn the_cap_passes_the_gradient_of_the_uncapped_light() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     // 1.55 µm pixel: 40 ms → 234 ms before the cap; 25 dB + 13.4 dB > 30 dB: both limits hit.
     for (e0, g0, capped) in [(0.04, 25.0, true), (0.002, 5.0, false)] {
         let e = Tensor::from_slice(&[e0 as f32]).set_requires_grad(true);

@@ -8,7 +8,7 @@ use super::*;
 /// batch, with 2 threads (vectorised loops) as with 1.
 #[test]
 fn the_input_batch_is_the_tensor_ops_bit_for_bit() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let (w, h) = (37usize, 29usize);
     let a: Vec<u8> = (0..w * h * 3).map(|i| (i * 7 % 256) as u8).collect();
     let b: Vec<u8> = (0..w * h * 3).map(|i| (255 - i * 13 % 256) as u8).collect();
@@ -41,7 +41,7 @@ fn the_input_batch_is_the_tensor_ops_bit_for_bit() {
 
 #[test]
 fn a_batch_loss_is_the_object_weighted_combination_of_its_images() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(1);
     let (_vs, d) = random_detector(&engine, 3);
     let boxes = [
@@ -91,7 +91,7 @@ fn a_batch_loss_is_the_object_weighted_combination_of_its_images() {
 
 #[test]
 fn a_batch_of_frames_of_different_sizes_is_refused() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(1);
     let mut model = small_model(&engine);
     let (a, b) = (Rgb8Image::zeros(32, 24), Rgb8Image::zeros(24, 32));
@@ -105,7 +105,7 @@ fn a_batch_of_frames_of_different_sizes_is_refused() {
 /// same classes and order, boxes and scores equal to float rounding.
 #[test]
 fn a_batch_detects_what_each_frame_does_alone() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(2);
     engine.seed(5);
     let model = small_model(&engine);
@@ -131,7 +131,7 @@ fn a_batch_detects_what_each_frame_does_alone() {
 
 #[test]
 fn each_frames_loss_is_the_training_loss_of_that_frame_alone() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(1);
     engine.seed(5);
     let mut model = small_model(&engine);

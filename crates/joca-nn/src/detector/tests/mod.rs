@@ -50,7 +50,7 @@ fn random_detector(engine: &Engine, seed: i64) -> (VarStore, Detector) {
 
 #[test]
 fn any_input_size_gives_a_quarter_resolution_grid() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(1);
     let vs = VarStore::new(engine.device());
     let d = Detector::new(&vs.root(), DetectorConfig::default());
@@ -62,7 +62,7 @@ fn any_input_size_gives_a_quarter_resolution_grid() {
 
 #[test]
 fn decoding_survives_nan_output() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let h = Tensor::full([1, 3, 4, 4], f64::NAN, (Kind::Float, Device::Cpu));
     let out = DetectorOutput {
         heatmap: h,
@@ -75,7 +75,7 @@ fn decoding_survives_nan_output() {
 
 #[test]
 fn the_deep_detector_keeps_the_quarter_resolution_heads_on_any_input() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let vs = VarStore::new(Device::Cpu);
     let d = Detector::new(
         &vs.root(),
@@ -91,7 +91,7 @@ fn the_deep_detector_keeps_the_quarter_resolution_heads_on_any_input() {
 
 #[test]
 fn a_shared_head_saves_two_hidden_convolutions() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     // Two 3×3 convolutions of 4c → 4c channels at stride 4, 2 FLOPs per multiply-add.
     let separate = DetectorConfig { width: 16, classes: 3, deep: true, shared_head: false };
     let shared = DetectorConfig { shared_head: true, ..separate };

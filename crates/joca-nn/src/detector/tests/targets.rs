@@ -5,7 +5,7 @@ use super::*;
 
 #[test]
 fn targets_peak_at_object_centres() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let a = [Annotation::new(BBox::new(8.0, 12.0, 24.0, 20.0), Class::Walker)];
     let t = Targets::new(&a, &[], 3, 10, 10, Device::Cpu);
     assert_eq!(t.count, 1);
@@ -21,7 +21,7 @@ fn targets_peak_at_object_centres() {
 
 #[test]
 fn firing_inside_an_ignore_region_costs_nothing() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     // A walker ignore region over px x 9–23, y 13–19: cells x 2..6, y 3..5 of the walker plane.
     let region = [Annotation::new(BBox::new(9.0, 13.0, 23.0, 19.0), Class::Walker)];
     let object = [Annotation::new(BBox::new(40.0, 8.0, 60.0, 24.0), Class::Vehicle)];
@@ -56,7 +56,7 @@ fn firing_inside_an_ignore_region_costs_nothing() {
 
 #[test]
 fn class_weights_scale_that_class_and_nothing_else() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     // A vehicle 16×16 px and a walker 8×16 px on a 10×20 grid (stride 4); every logit 0 (p = ½)
     // and every size/offset output 0.
     let vehicle = Annotation::new(BBox::new(8.0, 8.0, 24.0, 24.0), Class::Vehicle);
@@ -103,7 +103,7 @@ fn maps_from(t: &Targets, h: i64, w: i64) -> (Tensor, Tensor) {
 
 #[test]
 fn gaussian_regression_decodes_the_box_from_a_peak_next_to_the_centre() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     // A vehicle 40×32 px centred on (40, 24) px: 10×8 cells, centre cell (10, 6), offset (0, 0).
     // CenterNet's radius for 8×10 cells at IoU 0.7 is 2.43 → 2, so σ = 5/6 and the Gaussian
     // covers the 5×5 cells around the centre.
@@ -147,7 +147,7 @@ fn gaussian_regression_decodes_the_box_from_a_peak_next_to_the_centre() {
 
 #[test]
 fn gaussian_regression_keeps_every_centre_for_its_own_object() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     // Two overlapping vehicles with centre cells (10, 6) and (11, 6): each lies in the other's
     // Gaussian, but a centre (value 1) outranks a neighbour.
     let a = Annotation::new(BBox::new(20.0, 8.0, 60.0, 40.0), Class::Vehicle);
@@ -165,7 +165,7 @@ fn gaussian_regression_keeps_every_centre_for_its_own_object() {
 
 #[test]
 fn a_minimum_radius_softens_the_neighbours_of_a_small_objects_centre() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     // A 10×10 px sign centred at (18, 18) px: 2.5 cells, CenterNet radius 0, centre cell (4, 4).
     let a = [Annotation::new(BBox::new(13.0, 13.0, 23.0, 23.0), Class::TrafficSign)];
     let at = |t: &Targets, y: i64, x: i64| t.heatmap.double_value(&[0, 2, y, x]);

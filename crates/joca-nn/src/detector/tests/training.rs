@@ -5,7 +5,7 @@ use super::*;
 
 #[test]
 fn learns_to_find_a_box_in_a_few_hundred_steps() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     for shared_head in [false, true] {
         let engine = Engine::cpu(2);
         engine.seed(3);
@@ -39,7 +39,7 @@ fn learns_to_find_a_box_in_a_few_hundred_steps() {
 
 #[test]
 fn weights_round_trip_and_refuse_another_architecture() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let dir = std::env::temp_dir().join(format!("joca-nn-weights-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("det.safetensors");
@@ -102,7 +102,7 @@ fn weights_round_trip_and_refuse_another_architecture() {
 
 #[test]
 fn a_non_finite_loss_is_refused_before_any_weight_changes() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(1);
     let mut model = small_model(&engine);
     let frame = frame_with_box(32, 32, BBox::new(4.0, 4.0, 12.0, 12.0));
@@ -115,7 +115,7 @@ fn a_non_finite_loss_is_refused_before_any_weight_changes() {
 
 #[test]
 fn the_weight_average_follows_the_closed_form() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(1);
     engine.seed(5);
     let config = DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false };
@@ -145,7 +145,7 @@ fn the_weight_average_follows_the_closed_form() {
 
 #[test]
 fn bfloat16_computation_stays_close_to_float32_and_trains_the_float32_weights() {
-    let _serial = crate::TORCH_SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _serial = crate::torch_serial();
     let engine = Engine::cpu(1);
     let (vs, d) = random_detector(&engine, 4);
     let frame = frame_with_box(64, 48, BBox::new(10.0, 8.0, 34.0, 26.0));
