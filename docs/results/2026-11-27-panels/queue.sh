@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# The queue as it ran in sessions 33-35, kept as the record; since session 36 resume.sh is the queue.
 # After issue 39's standard grid (standard-order.sh) has finished: issue 40's perturbation panel
 # at `standard`, one seed per design, two one-thread cells at a time in paired order (order.sh),
 # then what decides its mechanism (perturbation-mechanism.toml: AP50 with relative steps, AP50

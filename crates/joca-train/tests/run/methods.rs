@@ -25,9 +25,8 @@ fn every_method_runs_on_the_same_training_budget() {
         assert!(r.test.frames == 3);
         // The same training budget for every method, the fixed camera included: population
         // candidates of k frames per generation.
-        let events =
-            std::fs::read_to_string(dir.path().join(method.name()).join("events.jsonl")).unwrap();
-        let candidates = events.lines().filter(|l| l.contains("\"candidate\":")).count();
+        let events = events(&dir.path().join(method.name()));
+        let candidates = events.iter().filter(|v| v.get("candidate").is_some()).count();
         assert_eq!(candidates, cfg.generations * cfg.population, "{}", method.name());
     }
 }
