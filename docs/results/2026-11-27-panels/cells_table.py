@@ -1,10 +1,36 @@
 #!/usr/bin/env python3
 """Markdown table of a panel's finished cells, paired rows together: per scenario and design each
 variant's mAP, AP50, share of perturbation searches a tie decided, test exposure and gain by day
-and night, day / night exposure x gain and day's mean frame level. Reads the compact cells
-(results.json) that land.sh copies. Usage: cells_table.py CELLS_DIR"""
+and night, day / night exposure x gain and day's mean frame level. With --by-light, each cell's
+mAP by illumination instead, and each design's difference of every variant from the first
+(alphabetically) on the row below it. Reads the compact cells (results.json) that land.sh copies.
+Usage: cells_table.py [--by-light] CELLS_DIR"""
 import json, sys
 from pathlib import Path
+
+LIGHTS = ["day", "night", "tunnel", "cycle"]
+
+def by_light(cells):
+    """Per scenario and design, each variant's mAP by light and its difference from the first."""
+    groups = {}
+    for f in sorted(Path(cells).glob("*/results.json")):
+        r = json.loads(f.read_text())
+        t = r["test_by_illumination"]
+        maps = [t[l]["map"] if isinstance(t[l], dict) else t[l] for l in LIGHTS]
+        variant = f.parent.name.split("-" + r["scenario"] + "-")[0]
+        design = f.parent.name.split("-" + r["scenario"] + "-")[1]
+        groups.setdefault((r["scenario"], design), []).append((variant, maps))
+    print("| scenario | design | variant | " + " | ".join(f"mAP {l}" for l in LIGHTS) + " |")
+    print("|---|---|---|" + "---|" * len(LIGHTS))
+    for (scenario, design), rows in sorted(groups.items()):
+        rows.sort()
+        for variant, maps in rows:
+            print(f"| {scenario} | {design} | {variant} | "
+                  + " | ".join(f"{m:.4f}" for m in maps) + " |")
+        base_variant, base = rows[0]
+        for variant, maps in rows[1:]:
+            print(f"| {scenario} | {design} | {variant} − {base_variant} | "
+                  + " | ".join(f"{m - b:+.4f}" for m, b in zip(maps, base)) + " |")
 
 def main(cells):
     rows = []
@@ -28,4 +54,7 @@ def main(cells):
         print(f"| {scenario} | {design} | {variant} | " + " | ".join(vals) + " |")
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    if sys.argv[1] == "--by-light":
+        by_light(sys.argv[2])
+    else:
+        main(sys.argv[1])
