@@ -168,6 +168,14 @@ fn eval_writes_its_own_results_and_keeps_the_runs() {
     assert_eq!(again["test"], first["test"]);
     assert!(out.join("test-eval/trace.jsonl").is_file());
     assert!(out.join("results-frames1.json").is_file() && out.join("test-frames1").is_dir());
+    // Fresh scenes: another town of the test family, with its own episode count.
+    let o = joca(&["eval", s(&out), "--frames", "1", "--episodes", "4", "--town", "3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let fresh: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(out.join("results-frames1-episodes4-town3.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!((fresh["test"]["frames"].as_u64(), fresh["test_town"].as_u64()), (Some(4), Some(3)));
     // A folder joca did not mark is not evaluated.
     let o = joca(&["eval", s(dir.path())]);
     assert!(stderr(&o).contains("is not a joca run output"), "{}", stderr(&o));

@@ -76,6 +76,10 @@ pub struct RunResults {
     /// --controller average:DN`, written `average-DN`); absent for the run's own test.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_controller: Option<TestController>,
+    /// The town of the test family the test drove when it was not the test town (`joca eval
+    /// --town K`, K ≥ 2: fresh scenes of the same kind); absent for the run's own test.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_town: Option<u64>,
     /// How training's perturbation searches were decided (absent for methods without them, and
     /// in older runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -90,9 +90,10 @@ impl PartialOrd for Light {
 /// Which controller a re-test (`joca eval --controller`) drives the trained design with: the
 /// run's own, or AverageAE at a chosen frame mean — to measure what another exposure policy
 /// does to the same trained detector on the same design and test scenes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum TestController {
     /// The run's own controller (NeuralAE, or AverageAE at mid-grey for `tacos-average`).
+    #[default]
     Trained,
     /// AverageAE holding the frame mean at this level, DN.
     Average {

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Copies a finished grid cell's compact record into docs/results: results.json, best_design.json,
-config.toml, cell.toml, report.md, and sensors_by_generation.json (each generation's sensors, from
-events.jsonl, which stays out of the repository). Skips unfinished cells.
+config.toml, cell.toml, report.md, results-town<K>.json (`joca eval --town K`, where run), and
+sensors_by_generation.json (each generation's sensors, from events.jsonl, which stays out of the
+repository). Skips unfinished cells.
 Usage: compact.py GRID_DIR DEST_DIR [CELL ...]"""
 import json, shutil, sys
 from collections import defaultdict
@@ -11,7 +12,9 @@ def compact(src, dest):
     if not (src / "results.json").exists():
         return False
     dest.mkdir(parents=True, exist_ok=True)
-    for name in ["results.json", "best_design.json", "config.toml", "cell.toml", "report.md"]:
+    names = ["results.json", "best_design.json", "config.toml", "cell.toml", "report.md"]
+    names += sorted(f.name for f in src.glob("results-town*.json"))
+    for name in names:
         if (src / name).exists():
             shutil.copyfile(src / name, dest / name)
     gens = defaultdict(list)

@@ -3,17 +3,18 @@
 variant's mAP, AP50, share of perturbation searches a tie decided, test exposure and gain by day
 and night, day / night exposure x gain and day's mean frame level. With --by-light, each cell's
 mAP by illumination instead, and each design's difference of every variant from the first
-(alphabetically) on the row below it. Reads the compact cells (results.json) that land.sh copies.
-Usage: cells_table.py [--by-light] CELLS_DIR"""
-import json, sys
+(alphabetically) on the row below it. Reads the compact cells (results.json) that land.sh copies;
+with --results NAME, each cell's NAME instead (e.g. results-town2.json from eval_town.sh).
+Usage: cells_table.py [--by-light] [--results NAME] CELLS_DIR"""
+import argparse, json
 from pathlib import Path
 
 LIGHTS = ["day", "night", "tunnel", "cycle"]
 
-def by_light(cells):
+def by_light(cells, name):
     """Per scenario and design, each variant's mAP by light and its difference from the first."""
     groups = {}
-    for f in sorted(Path(cells).glob("*/results.json")):
+    for f in sorted(Path(cells).glob(f"*/{name}")):
         r = json.loads(f.read_text())
         t = r["test_by_illumination"]
         maps = [t[l]["map"] if isinstance(t[l], dict) else t[l] for l in LIGHTS]
@@ -32,9 +33,9 @@ def by_light(cells):
             print(f"| {scenario} | {design} | {variant} − {base_variant} | "
                   + " | ".join(f"{m - b:+.4f}" for m, b in zip(maps, base)) + " |")
 
-def main(cells):
+def table(cells, name):
     rows = []
-    for f in sorted(Path(cells).glob("*/results.json")):
+    for f in sorted(Path(cells).glob(f"*/{name}")):
         r = json.loads(f.read_text())
         cell = f.parent.name
         s, eg = r["settings_by_illumination"], r["exposure_gain_by_illumination"]
@@ -54,7 +55,9 @@ def main(cells):
         print(f"| {scenario} | {design} | {variant} | " + " | ".join(vals) + " |")
 
 if __name__ == "__main__":
-    if sys.argv[1] == "--by-light":
-        by_light(sys.argv[2])
-    else:
-        main(sys.argv[1])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--by-light", action="store_true")
+    ap.add_argument("--results", default="results.json")
+    ap.add_argument("cells")
+    a = ap.parse_args()
+    (by_light if a.by_light else table)(a.cells, a.results)

@@ -1,26 +1,33 @@
 #!/usr/bin/env bash
 # Copies an experiment's finished cells (compact records) into docs/results and writes its report
 # from them as they stand (`joca report` on a copy without checkpoints, so the running cells are
-# not touched). Usage: land.sh [JOCA_BINARY [RUN_DIR DEST_DIR]] (defaults target/release/joca,
-# the perturbation panel: runs/pert-panel into docs/results/2026-11-27-panels/perturbation).
+# not touched). Usage: land.sh [JOCA_BINARY [RUN_DIR DEST_DIR [RESULTS]]] (defaults
+# target/release/joca, the perturbation panel: runs/pert-panel into
+# docs/results/2026-11-27-panels/perturbation). With RESULTS (e.g. results-town2.json, written by
+# eval_town.sh), the report is of those tests instead, over the cells that have them:
+# DEST_DIR/report-town2.md and results-town2.csv.
 set -euo pipefail
 cd /work/main
 bin=${1:-target/release/joca}
 src=${2:-runs/pert-panel}
 dest=${3:-docs/results/2026-11-27-panels/perturbation}
+results=${4:-results.json}
+tag=${results#results}
+tag=${tag%.json}
 python3 docs/results/2026-11-27-detector-input/compact.py "$src" "$dest"
 tmp=$(mktemp -d)
 cp "$src/experiment.json" "$src/.joca-output" "$tmp/" 2>/dev/null || cp "$src/experiment.json" "$tmp/"
 mkdir -p "$tmp/cells"
 for d in "$src"/cells/*/; do
   id=$(basename "$d")
-  [ -f "$d/results.json" ] || continue
+  [ -f "$d/$results" ] || continue
   mkdir -p "$tmp/cells/$id"
   for f in "$d"/*; do [ "$(basename "$f")" = checkpoint ] || cp -r "$f" "$tmp/cells/$id/"; done
+  cp "$d/$results" "$tmp/cells/$id/results.json"
   cp "$d"/.joca-output "$tmp/cells/$id/" 2>/dev/null || true
 done
 "$bin" report "$tmp" >/dev/null
-sed "s#$tmp#$src#g" "$tmp/report.md" > "$dest/report.md"
-cp "$tmp/results.csv" "$dest/results.csv"
+sed "s#$tmp#$src#g" "$tmp/report.md" > "$dest/report$tag.md"
+cp "$tmp/results.csv" "$dest/results$tag.csv"
 rm -rf "$tmp"
-echo "landed $(ls "$dest"/cells | wc -l) cells; report: $dest/report.md"
+echo "landed $(ls "$dest"/cells | wc -l) cells; report: $dest/report$tag.md"

@@ -1,7 +1,7 @@
 //! `joca eval`: test a run's best design again from its checkpoint.
 
 use anyhow::{Context, Result, anyhow};
-use joca_train::{Scenario, TestController, evaluate_run};
+use joca_train::{EvalOptions, Scenario, TestController, evaluate_run};
 use std::path::PathBuf;
 
 /// Arguments of `joca eval`.
@@ -15,6 +15,14 @@ pub struct Args {
     /// Test under another scenario: calibrated, noise10, noise20, blur2, blur4.
     #[arg(long)]
     scenario: Option<String>,
+    /// Test episodes, stratified by light (day, night, tunnel, cycle in turn) [default: the run's].
+    #[arg(long)]
+    episodes: Option<u64>,
+    /// Drive another town of the test family: 0 is the run's test town; 2 to 9999 are fresh
+    /// towns of the same kind that no run trains, validates or tests on, to check a result on
+    /// other scenes; results go to `results-town<K>.json` and `test-town<K>/`.
+    #[arg(long, default_value_t = 0)]
+    town: u64,
     /// Drive the trained design with another controller: `trained` (the run's own), `average`
     /// (AverageAE at mid-grey) or `average:DN` (AverageAE holding the frame mean at DN). The
     /// design is still the one the run's own controller chose; results go to
@@ -29,7 +37,14 @@ pub fn run(args: &Args) -> Result<()> {
         args.scenario.as_deref().map(Scenario::from_name).transpose().map_err(|e| anyhow!(e))?;
     let controller =
         TestController::from_name(&args.controller).map_err(|e| anyhow!("--controller: {e}"))?;
-    let (r, test_dir) = evaluate_run(&args.run_dir, scenario, args.frames, controller)
+    let options = EvalOptions {
+        scenario,
+        frames_per_episode: args.frames,
+        episodes: args.episodes,
+        town: args.town,
+        controller,
+    };
+    let (r, test_dir) = evaluate_run(&args.run_dir, &options)
         .with_context(|| format!("cannot evaluate {}", args.run_dir.display()))?;
     let with = r.test_controller.map_or(String::new(), |c| format!(" with {}", c.name()));
     println!(

@@ -42,6 +42,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         denormals: None,
         cpu: String::new(),
         test_controller: None,
+        test_town: None,
         lens: Default::default(),
         weather: Default::default(),
         aperture: Default::default(),

@@ -138,10 +138,11 @@ pub(super) struct Plan {
 }
 
 impl Plan {
-    /// The test: the test town, `test_episodes` × `test_frames_per_episode`.
-    pub(super) fn test(config: &super::RunConfig) -> Self {
+    /// The test: town `town` of the test family (0: the test town; 1 is the validation's),
+    /// `test_episodes` × `test_frames_per_episode`.
+    pub(super) fn test(config: &super::RunConfig, town: u64) -> Self {
         Self {
-            town: test_map_seed(0),
+            town: test_map_seed(town),
             episodes: config.test_episodes,
             frames_per_episode: config.test_frames_per_episode,
             noise: "test-noise",

@@ -15,22 +15,57 @@ use joca_nn::joint::JointModel;
 use joca_record::Validated;
 use std::path::{Path, PathBuf};
 
+/// What `joca eval` changes about a run's test (the default: nothing — the same test again).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EvalOptions {
+    /// Another scenario.
+    pub scenario: Option<Scenario>,
+    /// Another number of scored frames per episode.
+    pub frames_per_episode: Option<usize>,
+    /// Another number of episodes (stratified by light as the test's are).
+    pub episodes: Option<u64>,
+    /// Another town of the test family: fresh scenes of the same kind, never trained or validated
+    /// on (0, the default, is the test town; 1 is the validation town and refused).
+    pub town: u64,
+    /// Another controller.
+    pub controller: TestController,
+}
+
+/// The largest `--town` index accepted.
+pub const MAX_TEST_TOWN: u64 = 9_999;
+
+impl EvalOptions {
+    /// Refuses the validation town and an index past [`MAX_TEST_TOWN`].
+    fn check(&self) -> Result<(), TrainError> {
+        if self.town == 1 || self.town > MAX_TEST_TOWN {
+            return Err(TrainError::Config {
+                field: "--town".into(),
+                value: self.town.to_string(),
+                allowed: format!(
+                    "0 (the test town) or 2 to {MAX_TEST_TOWN} (fresh towns of the test family); \
+                     1 is the validation town that chose among the designs"
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
 /// Tests the best design of a finished (or interrupted) run again, from its checkpoint: the
-/// trained detector and NeuralAE in closed loop on the test town, optionally under another
-/// scenario, with another number of frames, or with another controller (`controller`: AverageAE
-/// at a chosen frame mean in place of the trained one; the design is still chosen with the run's
-/// own controller). Never rewrites the run's own `results.json`: writes `results-eval.json`
-/// (for another scenario `results-<scenario>.json`, for another controller
-/// `results-<controller>.json`, for another frame count `results-frames<N>.json`, or these
-/// joined: `results-<scenario>-<controller>-frames<N>.json`), its trace and showcases in the
-/// matching `test-…` folder, and returns the results and that folder. Holds the run
+/// trained detector and NeuralAE in closed loop, by default on the test town, with whatever
+/// `options` change (another scenario, frame or episode count, town of the test family, or
+/// controller: AverageAE at a chosen frame mean in place of the trained one; the design is still
+/// chosen with the run's own controller). Never rewrites the run's own `results.json`: writes
+/// `results-<tags>.json` with one tag per change, joined by `-` (`<scenario>`, `<controller>`,
+/// `frames<N>`, `episodes<N>`, `town<K>`; `eval` when nothing changed), its trace and showcases
+/// in the matching `test-<tags>` folder, and returns the results and that folder. Holds the run
 /// directory's lock while it works, so it never reads a checkpoint a run is writing.
 pub fn evaluate_run(
     run_dir: &Path,
-    scenario: Option<Scenario>,
-    frames_per_episode: Option<usize>,
-    controller: TestController,
+    options: &EvalOptions,
 ) -> Result<(RunResults, PathBuf), TrainError> {
+    options.check()?;
+    let EvalOptions { scenario, frames_per_episode, episodes, town, controller } = *options;
     if output::check(run_dir, OutputKind::Run)? != Some(output::Claimed::Earlier) {
         return Err(TrainError::Corrupt {
             path: run_dir.display().to_string(),
@@ -49,9 +84,12 @@ pub fn evaluate_run(
     if let Some(s) = scenario {
         config.scenario = s;
     }
-    let run_frames = config.test_frames_per_episode;
+    let (run_frames, run_episodes) = (config.test_frames_per_episode, config.test_episodes);
     if let Some(f) = frames_per_episode {
         config.test_frames_per_episode = f;
+    }
+    if let Some(n) = episodes {
+        config.test_episodes = n;
     }
     config.validate()?;
     let dir = CheckpointDir::new(run_dir.join("checkpoint")).existing().ok_or_else(|| {
@@ -74,6 +112,12 @@ pub fn evaluate_run(
     if config.test_frames_per_episode != run_frames {
         tags.push(format!("frames{}", config.test_frames_per_episode));
     }
+    if config.test_episodes != run_episodes {
+        tags.push(format!("episodes{}", config.test_episodes));
+    }
+    if town != 0 {
+        tags.push(format!("town{town}"));
+    }
     if tags.is_empty() {
         tags.push("eval".to_owned());
     }
@@ -81,10 +125,12 @@ pub fn evaluate_run(
         (format!("results-{}.json", tags.join("-")), format!("test-{}", tags.join("-")));
     let out = run_dir.join(test_dir);
     cx.test_controller = controller;
+    cx.test_town = town;
     let mut results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
     if controller != TestController::Trained {
         results.test_controller = Some(controller);
     }
+    results.test_town = (town != 0).then_some(town);
     write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
     Ok((results, out))
 }
@@ -135,7 +181,7 @@ pub(super) fn test_design(
     (design, validation): (&CameraDesign, Vec<Validated>),
     out: Option<&Path>,
 ) -> Result<RunResults, TrainError> {
-    let plan = Plan::test(&cx.config);
+    let plan = Plan::test(&cx.config, cx.test_town);
     let tested = closed_loop::test(cx, model, design, plan, out)?;
     let config = &cx.config;
     let mut results = RunResults {
@@ -161,6 +207,7 @@ pub(super) fn test_design(
         denormals: Some(joca_nn::kernels::denormals()),
         cpu: cpu_description(),
         test_controller: None,
+        test_town: None,
         perturbation_ties: (state.ties.searches > 0).then_some(state.ties),
         lens: config.lens,
         weather: config.weather,

@@ -37,8 +37,8 @@ pub use config::{
     PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, Source, TieBreak,
 };
 pub(crate) use config::{check_detector, check_input};
+pub use evaluate::{EvalOptions, MAX_TEST_TOWN, cpu_description, evaluate_run};
 use evaluate::{best_design, test_design};
-pub use evaluate::{cpu_description, evaluate_run};
 use joca_camera::{
     AccRanges, Calibration, DesignSpace, GenomeCodec, ImageFormation, SensorEncoding,
 };
@@ -134,6 +134,8 @@ struct Context {
     watch: Stopwatch,
     /// The controller closed-loop tests drive the design with (`joca eval --controller`).
     test_controller: TestController,
+    /// The test family's town the test drives (`joca eval --town`; 0: the test town).
+    test_town: u64,
     /// The perturbation searches of the candidate in training, and their ties.
     ties: SearchTies,
 }
@@ -277,6 +279,7 @@ fn setup(
         log_path,
         watch: Stopwatch::default(),
         test_controller: TestController::Trained,
+        test_town: 0,
         ties: SearchTies::default(),
     };
     Ok((cx, model))

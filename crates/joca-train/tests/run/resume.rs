@@ -4,7 +4,7 @@
 use super::{SERIAL, go, tiny};
 use crate::common::{poison_first_tensor, snapshot};
 use joca_camera::{DetectorInput, Resampler};
-use joca_train::{Method, RunConfig, RunEvent, TestController, TrainError, run};
+use joca_train::{EvalOptions, Method, RunConfig, RunEvent, TestController, TrainError, run};
 use std::ops::ControlFlow;
 
 #[test]
@@ -36,8 +36,7 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
 
     // `eval` re-tests the best design from the checkpoint and reproduces the test scores.
     let (e, test_dir) =
-        joca_train::evaluate_run(&dir.path().join("a"), None, None, TestController::Trained)
-            .unwrap();
+        joca_train::evaluate_run(&dir.path().join("a"), &EvalOptions::default()).unwrap();
     assert_eq!(e, a);
     // Into its own files: the run's `results.json` and `test/` stay the run's.
     assert_eq!(test_dir, dir.path().join("a").join("test-eval"));
@@ -45,14 +44,27 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     // Another controller on the same trained design: its own files, the run's left alone.
     let before = std::fs::read(dir.path().join("a").join("results.json")).unwrap();
     let average = TestController::from_name("average:60").unwrap();
-    let (o, test_dir) =
-        joca_train::evaluate_run(&dir.path().join("a"), None, None, average).unwrap();
+    let options = EvalOptions { controller: average, ..EvalOptions::default() };
+    let (o, test_dir) = joca_train::evaluate_run(&dir.path().join("a"), &options).unwrap();
     assert_eq!(o.test_controller, Some(TestController::Average { target_dn: 60.0 }));
     assert_eq!((o.design.clone(), o.test.frames), (a.design.clone(), a.test.frames));
     assert_eq!(test_dir, dir.path().join("a").join("test-average-60"));
     assert!(test_dir.join("showcase.json").exists());
     let written = std::fs::read_to_string(dir.path().join("a").join("results-average-60.json"));
     assert!(written.unwrap().contains("\"test_controller\": \"average-60\""));
+    assert_eq!(std::fs::read(dir.path().join("a").join("results.json")).unwrap(), before);
+    // A fresh town of the test family: the same design on other scenes, recorded as such.
+    let options = EvalOptions { town: 2, ..EvalOptions::default() };
+    let (t, test_dir) = joca_train::evaluate_run(&dir.path().join("a"), &options).unwrap();
+    assert_eq!((t.test_town, t.design.clone()), (Some(2), a.design.clone()));
+    assert_ne!(t.test.class_objects, a.test.class_objects, "town 2 drove the test town's scenes");
+    assert_eq!(test_dir, dir.path().join("a").join("test-town2"));
+    let written = std::fs::read_to_string(dir.path().join("a").join("results-town2.json"));
+    assert!(written.unwrap().contains("\"test_town\": 2"));
+    // The validation town chose among the designs: refused, naming the flag and the range.
+    let options = EvalOptions { town: 1, ..EvalOptions::default() };
+    let e = joca_train::evaluate_run(&dir.path().join("a"), &options).unwrap_err().to_string();
+    assert!(e.contains("--town = 1 is invalid: 0 (the test town) or 2 to 9999"), "{e}");
     assert_eq!(std::fs::read(dir.path().join("a").join("results.json")).unwrap(), before);
 
     let mut other = cfg.clone();

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Tests every finished cell of a panel again on a fresh town of the test family (`joca eval
+# --town K`: the same trained detector and controller on the same design, other scenes of the
+# same kind), one cell after another, skipping cells that already have results-town<K>.json.
+# A paired difference that holds on the cells' own test town and on town K does not rest on one
+# sample of test scenes. Land with `land.sh BIN RUN_DIR DEST_DIR results-town<K>.json`.
+# Usage: eval_town.sh JOCA_BINARY RUN_DIR TOWN [CELL_NAME_PREFIX ...]
+set -euo pipefail
+bin=$1 src=$2 town=$3
+shift 3
+prefixes=("${@:-}")
+for d in "$src"/cells/*/; do
+  id=$(basename "$d")
+  [ -f "$d/results.json" ] && [ -d "$d/checkpoint" ] || continue
+  [ -f "$d/results-town$town.json" ] && continue
+  match=0
+  for p in "${prefixes[@]}"; do [[ "$id" == "$p"* ]] && match=1; done
+  [ "$match" = 1 ] || continue
+  echo "$(date -u +%FT%TZ) eval  $id town $town"
+  "$bin" eval "$d" --town "$town" | head -1
+done
+echo "$(date -u +%FT%TZ) done  town $town in $src"
