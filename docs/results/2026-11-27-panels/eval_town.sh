@@ -17,6 +17,7 @@ for d in "$src"/cells/*/; do
   for p in "${prefixes[@]}"; do [[ "$id" == "$p"* ]] && match=1; done
   [ "$match" = 1 ] || continue
   echo "$(date -u +%FT%TZ) eval  $id town $town"
-  "$bin" eval "$d" --town "$town" | head -1
+  "$bin" eval "$d" --town "$town" > "$d/eval-town$town.log"
+  head -1 "$d/eval-town$town.log"
 done
 echo "$(date -u +%FT%TZ) done  town $town in $src"
