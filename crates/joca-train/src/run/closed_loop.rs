@@ -260,7 +260,7 @@ pub(super) fn test(
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
         write_atomic(&dir.join("trace.jsonl"), &trace)?;
-        // The showcases drive the test town (tunnel, day, night): not part of a real-image run.
+        // The showcases drive the test's town (tunnel, day, night): not part of a real-image run.
         let showcases =
             if real.is_some() { Vec::new() } else { showcases(cx, model, design, &camera, dir)? };
         write_atomic(
@@ -310,8 +310,8 @@ pub(super) struct Tested {
 }
 
 /// The showcase sequences: a tunnel transition (every frame saved), a day and a night drive
-/// (last frame saved). Same town, episodes and times for every run, so different methods are
-/// compared on the same scenes.
+/// (last frame saved). Same town (the test's: the test town, or `joca eval --town`'s), episodes
+/// and times for every run, so different methods are compared on the same scenes.
 fn showcases(
     cx: &mut Context,
     model: &mut JointModel,
@@ -329,7 +329,8 @@ fn showcases(
     .enumerate()
     {
         // The test has built these towns already: the run's simulator cache holds them.
-        let sim = simulator(&mut cx.sims, test_map_seed(0), &cx.config, Some(illumination));
+        let sim =
+            simulator(&mut cx.sims, test_map_seed(cx.test_town), &cx.config, Some(illumination));
         let episode = 0;
         let dt = sim.frame_interval_s();
         let (start_s, frames) = if illumination == Illumination::Tunnel {

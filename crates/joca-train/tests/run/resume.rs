@@ -59,6 +59,9 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     assert_eq!((t.test_town, t.design.clone()), (Some(2), a.design.clone()));
     assert_ne!(t.test.class_objects, a.test.class_objects, "town 2 drove the test town's scenes");
     assert_eq!(test_dir, dir.path().join("a").join("test-town2"));
+    // Its showcases too are town 2's (town 0's would repeat the run's own, byte for byte).
+    let showcase = |d: &str| std::fs::read(dir.path().join("a").join(d).join("showcase.json"));
+    assert_ne!(showcase("test-town2").unwrap(), showcase("test").unwrap());
     let written = std::fs::read_to_string(dir.path().join("a").join("results-town2.json"));
     assert!(written.unwrap().contains("\"test_town\": 2"));
     // The validation town chose among the designs: refused, naming the flag and the range.
