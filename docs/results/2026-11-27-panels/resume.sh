@@ -18,6 +18,14 @@ if [ ! -x "$bin" ] || [ ! -x "$prep" ]; then
   mkdir -p "$(dirname "$bin")"
   [ -x "$bin" ] || cp target/release/joca "$bin"
 fi
+# Each finished cell is then re-tested on town 2 of the test family (run_cells.sh) by a joca with
+# `eval --town` (9880527 on): the panel binary predates it.
+export EVAL_BIN=${EVAL_BIN:-target/evalbin/joca}
+if [ ! -x "$EVAL_BIN" ]; then
+  cargo build --release -p joca-cli
+  mkdir -p "$(dirname "$EVAL_BIN")"
+  cp target/release/joca "$EVAL_BIN"
+fi
 opts=(--preset standard --config "$here/threads1.toml")
 # Each experiment folder rebuilt from its committed compact cells, then prepared (which checks
 # every restored cell.toml against the grid) by a binary of today's presets (PREP_BIN): the
@@ -70,4 +78,10 @@ else
     done
   done
 fi
+# Cells finished before run_cells.sh re-tested them (their checkpoints still here), in the
+# background beside the queue.
+for r in runs/ctrl-panel runs/ablation-panel runs/table1-baselines runs/table1-ours runs/aperture \
+  runs/fog; do
+  [ -d "$r/cells" ] && $here/eval_town.sh "$EVAL_BIN" "$r" 2 >> runs/eval-town2.log 2>&1
+done &
 exec $here/run_cells.sh "$bin" "${cells[@]}"

@@ -2,7 +2,10 @@
 # Runs the named cells (folders holding a cell.toml, prepared by `joca experiment` or copied),
 # in the given order, at most two at a time, each `joca cell DIR` with its log in DIR/cell.log.
 # Skips finished cells, resumes partial ones, and counts cells already running (also ones an
-# earlier `joca experiment` started). Usage: run_cells.sh JOCA_BINARY CELL_DIR...
+# earlier `joca experiment` started). With EVAL_BIN (a joca with `eval --town`), each cell it
+# finishes is then tested again on town 2 of the test family (results-town2.json; see
+# eval_town.sh), while its checkpoint is still on this machine.
+# Usage: [EVAL_BIN=JOCA] run_cells.sh JOCA_BINARY CELL_DIR...
 cd /work/main
 export OMP_WAIT_POLICY=PASSIVE
 bin=${1:?joca binary}
@@ -14,7 +17,11 @@ for cell in "$@"; do
   while [ "$(pgrep -fc 'joca cell runs/')" -ge 2 ]; do sleep 20; done
   echo "$(date -u +%FT%TZ) start $cell"
   ( "$bin" cell "$cell" >> "$cell/cell.log" 2>&1 \
-      && echo "$(date -u +%FT%TZ) done  $cell" || echo "$(date -u +%FT%TZ) FAILED $cell" ) &
+      && echo "$(date -u +%FT%TZ) done  $cell" || { echo "$(date -u +%FT%TZ) FAILED $cell"; exit; }
+    if [ -n "${EVAL_BIN:-}" ]; then
+      "$EVAL_BIN" eval "$cell" --town 2 > "$cell/eval-town2.log" 2>&1 \
+        && echo "$(date -u +%FT%TZ) town2 $cell" || echo "$(date -u +%FT%TZ) town2 FAILED $cell"
+    fi ) &
   sleep 5
 done
 wait
