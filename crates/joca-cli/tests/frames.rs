@@ -174,6 +174,11 @@ fn a_run_on_a_recorded_folder_reports_the_real_image_layout() {
     let sensor = results["design"]["sensor"].as_str().unwrap().to_owned();
     let o = cli!("sensors --format csv --fits 800x600");
     assert!(stdout(&o).contains(&format!(",{sensor},")), "{sensor} does not fit 800x600");
+    // Recorded frames have no towns: `eval --town` is refused, naming the flag and the run.
+    let o = joca(&["eval", out.to_str().unwrap(), "--town", "2"]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("--town = 2 is invalid: 0 only"), "{e}");
+    assert!(e.contains("recorded frames") && !out.join("results-town2.json").exists(), "{e}");
 
     // Frames without exposure are refused with the fix; a bad setting names the field.
     let text = std::fs::read_to_string(rec.join("annotations.json")).unwrap();

@@ -100,6 +100,16 @@ pub fn evaluate_run(
     })?;
     let state: RunState = read_json(&dir.join("state.json"))?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
+    if town != 0 && cx.real.is_some() {
+        return Err(TrainError::Config {
+            field: "--town".into(),
+            value: town.to_string(),
+            allowed: format!(
+                "0 only: {} tests on recorded frames, which have no towns",
+                run_dir.display()
+            ),
+        });
+    }
     model.load(&dir)?;
     let (design, validation) = best_design(&mut cx, &mut model, &state)?;
     let mut tags = Vec::new();
