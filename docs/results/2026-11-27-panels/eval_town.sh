@@ -4,18 +4,15 @@
 # same kind), one cell after another, skipping cells that already have results-town<K>.json.
 # A paired difference that holds on the cells' own test town and on town K does not rest on one
 # sample of test scenes. Land with `land.sh BIN RUN_DIR DEST_DIR results-town<K>.json`.
-# Usage: eval_town.sh JOCA_BINARY RUN_DIR TOWN [CELL_NAME_PREFIX ...]
+# Usage: eval_town.sh JOCA_BINARY RUN_DIR TOWN [CELL_NAME ...] (default: every cell)
 set -euo pipefail
 bin=$1 src=$2 town=$3
 shift 3
-prefixes=("${@:-}")
-for d in "$src"/cells/*/; do
-  id=$(basename "$d")
+if [ $# -gt 0 ]; then names=("$@"); else names=(); for d in "$src"/cells/*/; do names+=("$(basename "$d")"); done; fi
+for id in "${names[@]}"; do
+  d=$src/cells/$id
   [ -f "$d/results.json" ] && [ -d "$d/checkpoint" ] || continue
   [ -f "$d/results-town$town.json" ] && continue
-  match=0
-  for p in "${prefixes[@]}"; do [[ "$id" == "$p"* ]] && match=1; done
-  [ "$match" = 1 ] || continue
   echo "$(date -u +%FT%TZ) eval  $id town $town"
   # A cell another eval holds (run_cells.sh's, just finished) is refused by its lock: go on.
   if "$bin" eval "$d" --town "$town" > "$d/eval-town$town.log" 2>&1; then

@@ -30,7 +30,9 @@ opts=(--preset standard --config "$here/threads1.toml")
 # Each experiment folder rebuilt from its committed compact cells, then prepared (which checks
 # every restored cell.toml against the grid) by a binary of today's presets (PREP_BIN): the
 # panel binary predates them.
+runs_dirs=()
 restore() { # COMPACT_DIR RUN_DIR EXPERIMENT SEEDS
+  runs_dirs+=("$2")
   [ -d "$1/cells" ] && $here/restore.sh "$1/cells" "$2"
   "$prep" experiment "$3" "${opts[@]}" --seeds "$4" --out "$2" --prepare | tail -1
 }
@@ -80,8 +82,10 @@ else
 fi
 # Cells finished before run_cells.sh re-tested them (their checkpoints still here), in the
 # background beside the queue.
-for r in runs/ctrl-panel runs/ablation-panel runs/table1-baselines runs/table1-ours runs/aperture \
-  runs/fog; do
+# (Not the perturbation panel: its only cells with checkpoints are the loss-linear ones, and
+# their byte-identical copies in the controllers and ablation panels are re-tested there.)
+for r in "${runs_dirs[@]}"; do
+  [ "$r" = runs/pert-panel ] && continue
   [ -d "$r/cells" ] && $here/eval_town.sh "$EVAL_BIN" "$r" 2 >> runs/eval-town2.log 2>&1
 done &
 exec $here/run_cells.sh "$bin" "${cells[@]}"

@@ -18,10 +18,9 @@ for cell in "$@"; do
   echo "$(date -u +%FT%TZ) start $cell"
   ( "$bin" cell "$cell" >> "$cell/cell.log" 2>&1 \
       && echo "$(date -u +%FT%TZ) done  $cell" || { echo "$(date -u +%FT%TZ) FAILED $cell"; exit; }
-    if [ -n "${EVAL_BIN:-}" ]; then
-      "$EVAL_BIN" eval "$cell" --town 2 > "$cell/eval-town2.log" 2>&1 \
-        && echo "$(date -u +%FT%TZ) town2 $cell" || echo "$(date -u +%FT%TZ) town2 FAILED $cell"
-    fi ) &
+    [ -z "${EVAL_BIN:-}" ] \
+      || docs/results/2026-11-27-panels/eval_town.sh "$EVAL_BIN" "${cell%/cells/*}" 2 "${cell##*/}"
+  ) &
   sleep 5
 done
 wait
