@@ -5,33 +5,76 @@ and night, day / night exposure x gain and day's mean frame level. With --by-lig
 mAP by illumination instead, and each design's difference of every variant from the first
 (alphabetically) on the row below it. Reads the compact cells (results.json) that land.sh copies;
 with --results NAME, each cell's NAME instead (e.g. results-town2.json from eval_town.sh).
-Usage: cells_table.py [--by-light] [--results NAME] CELLS_DIR"""
-import argparse, json
+With --towns NAME,NAME[,...], each design's paired difference (every variant − the first) per results file
+and averaged over them (mAP overall and by light), its mean and 95 % Student-t interval over the
+designs (scipy), and the correlation of the per-design differences between the first two files.
+Usage: cells_table.py [--by-light | --towns NAME,NAME[,...]] [--results NAME] CELLS_DIR"""
+import argparse, json, statistics
 from pathlib import Path
 
 LIGHTS = ["day", "night", "tunnel", "cycle"]
 
-def by_light(cells, name):
-    """Per scenario and design, each variant's mAP by light and its difference from the first."""
-    groups = {}
+def groups(cells, name):
+    """{(scenario, design): [(variant, [mAP overall, mAP by light ...])]}, variants sorted."""
+    out = {}
     for f in sorted(Path(cells).glob(f"*/{name}")):
         r = json.loads(f.read_text())
         t = r["test_by_illumination"]
-        maps = [t[l]["map"] if isinstance(t[l], dict) else t[l] for l in LIGHTS]
-        variant = f.parent.name.split("-" + r["scenario"] + "-")[0]
-        design = f.parent.name.split("-" + r["scenario"] + "-")[1]
-        groups.setdefault((r["scenario"], design), []).append((variant, maps))
+        maps = [r["test"]["map"]] + [t[l]["map"] if isinstance(t[l], dict) else t[l]
+                                     for l in LIGHTS]
+        variant, design = f.parent.name.split("-" + r["scenario"] + "-")
+        out.setdefault((r["scenario"], design), []).append((variant, maps))
+    return {k: sorted(v) for k, v in out.items()}
+
+def by_light(cells, name):
+    """Per scenario and design, each variant's mAP by light and its difference from the first."""
     print("| scenario | design | variant | " + " | ".join(f"mAP {l}" for l in LIGHTS) + " |")
     print("|---|---|---|" + "---|" * len(LIGHTS))
-    for (scenario, design), rows in sorted(groups.items()):
-        rows.sort()
+    for (scenario, design), rows in sorted(groups(cells, name).items()):
         for variant, maps in rows:
             print(f"| {scenario} | {design} | {variant} | "
-                  + " | ".join(f"{m:.4f}" for m in maps) + " |")
+                  + " | ".join(f"{m:.4f}" for m in maps[1:]) + " |")
         base_variant, base = rows[0]
         for variant, maps in rows[1:]:
             print(f"| {scenario} | {design} | {variant} − {base_variant} | "
-                  + " | ".join(f"{m - b:+.4f}" for m, b in zip(maps, base)) + " |")
+                  + " | ".join(f"{m - b:+.4f}" for m, b in zip(maps[1:], base[1:])) + " |")
+
+def paired(cells, name):
+    """{(scenario, variant − base): {design: [Δ mAP overall, Δ by light ...]}} from one file."""
+    out = {}
+    for (scenario, design), rows in groups(cells, name).items():
+        base_variant, base = rows[0]
+        for variant, maps in rows[1:]:
+            key = (scenario, f"{variant} − {base_variant}")
+            out.setdefault(key, {})[design] = [m - b for m, b in zip(maps, base)]
+    return out
+
+def towns(cells, names):
+    from scipy.stats import t as student_t
+    per = [paired(cells, n) for n in names]
+    cols = ["mAP"] + LIGHTS
+    print("| scenario | difference | results | designs | " + " | ".join(cols) + " | ahead |")
+    print("|---|---|---|---|" + "---|" * len(cols) + "---|")
+    for key in sorted(per[0]):
+        designs = sorted(set.intersection(*(set(p.get(key, {})) for p in per)))
+        if len(designs) < 2:
+            continue
+        mean_of = {d: [statistics.mean(p[key][d][i] for p in per) for i in range(len(cols))]
+                   for d in designs}
+        for label, diffs in [(n, {d: per[k][key][d] for d in designs}) for k, n in
+                             enumerate(names)] + [("mean of " + " and ".join(names), mean_of)]:
+            cells_ = []
+            for i in range(len(cols)):
+                x = [diffs[d][i] for d in designs]
+                h = student_t.ppf(0.975, len(x) - 1) * statistics.stdev(x) / len(x) ** 0.5
+                cells_.append(f"{statistics.mean(x):+.3f} ± {h:.3f}")
+            ahead = sum(diffs[d][0] > 0 for d in designs)
+            print(f"| {key[0]} | {key[1]} | {label} | {len(designs)} | " + " | ".join(cells_)
+                  + f" | {ahead} of {len(designs)} |")
+        r = statistics.correlation([per[0][key][d][0] for d in designs],
+                                   [per[1][key][d][0] for d in designs])
+        print(f"| {key[0]} | {key[1]} | r(Δ mAP, {names[0]} vs {names[1]}) | {len(designs)} | "
+              f"{r:.3f} |" + " |" * (len(cols) - 1) + " |")
 
 def table(cells, name):
     rows = []
@@ -57,7 +100,11 @@ def table(cells, name):
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--by-light", action="store_true")
+    ap.add_argument("--towns", metavar="NAME,NAME[,...]")
     ap.add_argument("--results", default="results.json")
     ap.add_argument("cells")
     a = ap.parse_args()
-    (by_light if a.by_light else table)(a.cells, a.results)
+    if a.towns:
+        towns(a.cells, a.towns.split(","))
+    else:
+        (by_light if a.by_light else table)(a.cells, a.results)
