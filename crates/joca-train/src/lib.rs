@@ -28,8 +28,8 @@ pub use pretrain::{
 };
 pub use run::{
     DesignSpec, DesignSummary, EvalOptions, FNumberRange, FixedCamera, HardwareMutation,
-    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MAX_TEST_TOWN, Method, PerturbationMutation,
-    PerturbationScore, PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent,
-    RunResults, Scenario, SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak,
-    bench_step, cpu_description, evaluate_run, run,
+    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, Method, PerturbationMutation, PerturbationScore,
+    PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario,
+    SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step,
+    cpu_description, evaluate_run, run,
 };

@@ -32,7 +32,7 @@ pub struct EvalOptions {
 }
 
 /// The largest `--town` index accepted.
-pub const MAX_TEST_TOWN: u64 = 9_999;
+const MAX_TEST_TOWN: u64 = 9_999;
 
 impl EvalOptions {
     /// Refuses the validation town and an index past [`MAX_TEST_TOWN`].
