@@ -3,16 +3,19 @@
 variant's mAP, AP50, share of perturbation searches a tie decided, test exposure and gain by day
 and night, day / night exposure x gain and day's mean frame level. With --by-light, each cell's
 mAP by illumination instead, and each design's difference of every variant from the first
-(alphabetically) on the row below it. Reads the compact cells (results.json) that land.sh copies;
-with --results NAME, each cell's NAME instead (e.g. results-town2.json from eval_town.sh).
-With --towns NAME,NAME[,...], each design's paired difference (every variant − the first) per results file
-and averaged over them (mAP overall and by light), its mean and 95 % Student-t interval over the
-designs (scipy), and the correlation of the per-design differences between the first two files.
-Usage: cells_table.py [--by-light | --towns NAME,NAME[,...]] [--results NAME] CELLS_DIR"""
+(alphabetically, or the one --base names) on the row below it. Reads the compact cells
+(results.json) that land.sh copies; with --results NAME, each cell's NAME instead (e.g.
+results-town2.json from eval_town.sh). With --towns NAME,NAME[,...], each design's paired
+difference (every variant − the first, or − --base) per results file and averaged over them (mAP
+overall and by light), its mean and 95 % Student-t interval over the designs (scipy), and the
+correlation of the per-design differences between the first two files.
+Usage: cells_table.py [--by-light | --towns NAME,NAME[,...]] [--results NAME] [--base VARIANT]
+       CELLS_DIR"""
 import argparse, json, statistics
 from pathlib import Path
 
 LIGHTS = ["day", "night", "tunnel", "cycle"]
+BASE = None  # the variant every other is compared with (--base); None: the first alphabetically
 
 def groups(cells, name):
     """{(scenario, design): [(variant, [mAP overall, mAP by light ...])]}, variants sorted."""
@@ -24,7 +27,7 @@ def groups(cells, name):
                                      for l in LIGHTS]
         variant, design = f.parent.name.split("-" + r["scenario"] + "-")
         out.setdefault((r["scenario"], design), []).append((variant, maps))
-    return {k: sorted(v) for k, v in out.items()}
+    return {k: sorted(v, key=lambda r: (r[0] != BASE, r[0])) for k, v in out.items()}
 
 def by_light(cells, name):
     """Per scenario and design, each variant's mAP by light and its difference from the first."""
@@ -102,8 +105,10 @@ if __name__ == "__main__":
     ap.add_argument("--by-light", action="store_true")
     ap.add_argument("--towns", metavar="NAME,NAME[,...]")
     ap.add_argument("--results", default="results.json")
+    ap.add_argument("--base", metavar="VARIANT")
     ap.add_argument("cells")
     a = ap.parse_args()
+    BASE = a.base
     if a.towns:
         towns(a.cells, a.towns.split(","))
     else:

@@ -26,6 +26,10 @@ if [ ! -x "$EVAL_BIN" ]; then
   mkdir -p "$(dirname "$EVAL_BIN")"
   cp target/release/joca "$EVAL_BIN"
 fi
+# Every cell on libtorch's AVX2 kernels, hence fp32 scoring, whatever the CPU: the controllers
+# panel and ours' cells ran on AVX2-only machines, and cells of one panel are paired across
+# sessions whose machine type changes (on AVX-512 BF16 the default scores in bf16, other kernels).
+export JOCA_CPU_KERNELS=${JOCA_CPU_KERNELS:-avx2}
 opts=(--preset standard --config "$here/threads1.toml")
 # Each experiment folder rebuilt from its committed compact cells, then prepared (which checks
 # every restored cell.toml against the grid) by a binary of today's presets (PREP_BIN): the
