@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Copies a finished grid cell's compact record into docs/results: results.json, best_design.json,
-config.toml, cell.toml, report.md, results-town<K>.json (`joca eval --town K`, where run), and
-sensors_by_generation.json (each generation's sensors, from events.jsonl, which stays out of the
-repository). Skips unfinished cells.
+config.toml, cell.toml, report.md, results-town<K>.json (`joca eval --town K`, where run),
+sensors_by_generation.json (each generation's sensors) and training_by_generation.json (each
+generation's mean over its candidates of the training frames' mAP, AP50, TP ratio and fitness),
+both from events.jsonl, which stays out of the repository. Skips unfinished cells.
 Usage: compact.py GRID_DIR DEST_DIR [CELL ...]"""
 import json, shutil, sys
 from collections import defaultdict
@@ -17,7 +18,7 @@ def compact(src, dest):
     for name in names:
         if (src / name).exists():
             shutil.copyfile(src / name, dest / name)
-    gens = defaultdict(list)
+    gens, scores = defaultdict(list), defaultdict(list)
     # A cell restored from its compact record (restore.sh) has no events.jsonl: its
     # sensors_by_generation.json came with it.
     events = src / "events.jsonl"
@@ -26,8 +27,14 @@ def compact(src, dest):
         e = json.loads(line)
         if "candidate" in e and "design" in e:
             gens[e["generation"]].append(e["design"]["sensor"])
+            s = e["scores"]
+            scores[e["generation"]].append([s["map"], s["ap50"], s["tp_ratio"], e["fitness"]])
     if gens:
         (dest / "sensors_by_generation.json").write_text(json.dumps(gens, indent=0) + "\n")
+        training = {g: dict(zip(["map", "ap50", "tp_ratio", "fitness"],
+                                (round(sum(c) / len(c), 6) for c in zip(*rows))))
+                    for g, rows in scores.items()}
+        (dest / "training_by_generation.json").write_text(json.dumps(training, indent=1) + "\n")
     return True
 
 def main(grid, dest, names):

@@ -8,9 +8,12 @@ mAP by illumination instead, and each design's difference of every variant from 
 results-town2.json from eval_town.sh). With --towns NAME,NAME[,...], each design's paired
 difference (every variant − the first, or − --base) per results file and averaged over them (mAP
 overall and by light), its mean and 95 % Student-t interval over the designs (scipy), and the
-correlation of the per-design differences between the first two files.
-Usage: cells_table.py [--by-light | --towns NAME,NAME[,...]] [--results NAME] [--base VARIANT]
-       CELLS_DIR"""
+correlation of the per-design differences between the first two files. With --training, each
+cell's mAP on its own training frames (training_by_generation.json, from compact.py: the mean
+over the generations, and over the last four) beside its test mAP on the test town and on town 2,
+and each design's difference of every variant from the first (or --base) on the rows below.
+Usage: cells_table.py [--by-light | --towns NAME,NAME[,...] | --training] [--results NAME]
+       [--base VARIANT] CELLS_DIR"""
 import argparse, json, statistics
 from pathlib import Path
 
@@ -79,6 +82,31 @@ def towns(cells, names):
         print(f"| {key[0]} | {key[1]} | r(Δ mAP, {names[0]} vs {names[1]}) | {len(designs)} | "
               f"{r:.3f} |" + " |" * (len(cols) - 1) + " |")
 
+def training(cells):
+    """Per scenario and design, each variant's training-frame mAP beside its test mAP."""
+    rows = {}
+    for f in sorted(Path(cells).glob("*/training_by_generation.json")):
+        gens = json.loads(f.read_text())
+        train = [gens[g]["map"] for g in sorted(gens, key=int)]
+        r = json.loads((f.parent / "results.json").read_text())
+        town2 = f.parent / "results-town2.json"
+        t2 = json.loads(town2.read_text())["test"]["map"] if town2.exists() else float("nan")
+        variant, design = f.parent.name.split("-" + r["scenario"] + "-")
+        vals = [statistics.mean(train), statistics.mean(train[-4:]), r["test"]["map"], t2]
+        rows.setdefault((r["scenario"], design), []).append((variant, vals))
+    print("| scenario | design | variant | training mAP, all generations | training mAP, last four "
+          "| test mAP, test town | test mAP, town 2 |")
+    print("|---|---|---|---|---|---|---|")
+    for (scenario, design), group in sorted(rows.items()):
+        group.sort(key=lambda r: (r[0] != BASE, r[0]))
+        for variant, vals in group:
+            print(f"| {scenario} | {design} | {variant} | " + " | ".join(f"{v:.4f}" for v in vals)
+                  + " |")
+        base_variant, base = group[0]
+        for variant, vals in group[1:]:
+            print(f"| {scenario} | {design} | {variant} − {base_variant} | "
+                  + " | ".join(f"{v - b:+.4f}" for v, b in zip(vals, base)) + " |")
+
 def table(cells, name):
     rows = []
     for f in sorted(Path(cells).glob(f"*/{name}")):
@@ -104,6 +132,7 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--by-light", action="store_true")
     ap.add_argument("--towns", metavar="NAME,NAME[,...]")
+    ap.add_argument("--training", action="store_true")
     ap.add_argument("--results", default="results.json")
     ap.add_argument("--base", metavar="VARIANT")
     ap.add_argument("cells")
@@ -111,5 +140,7 @@ if __name__ == "__main__":
     BASE = a.base
     if a.towns:
         towns(a.cells, a.towns.split(","))
+    elif a.training:
+        training(a.cells)
     else:
         (by_light if a.by_light else table)(a.cells, a.results)
