@@ -2,14 +2,15 @@
 """Same-design comparisons across machine types: for each cell of REPEATS_DIR (a panel cell run
 again, same cell.toml, on another machine type) its mAP, AP50, tie share and day exposure beside
 the original in CELLS_DIR, and beside each other variant of CELLS_DIR on the same scenario and
-design that ran on the repeat's machine type (a same-machine pair).
+design that ran on the repeat's machine type (a same-machine pair). Where both the repeat and the
+original were also tested on town 2 (results-town2.json), their difference there too.
 Usage: machine_pairs.py CELLS_DIR REPEATS_DIR"""
 import json, sys
 from pathlib import Path
 
 
-def load(d):
-    r = json.loads((d / "results.json").read_text())
+def load(d, name="results.json"):
+    r = json.loads((d / name).read_text())
     t = r.get("perturbation_ties")
     return {
         "map": r["test"]["map"],
@@ -45,6 +46,11 @@ def main(cells, repeats):
     for name, a, b in pairs:
         print(f"{name}: repeat − original {b['map'] - a['map']:+.4f} mAP, "
               f"{b['ap50'] - a['ap50']:+.3f} AP50, day E {b['day_e'] - a['day_e']:+.1f} ms")
+        town2 = [d / "results-town2.json" for d in (cells / name, repeats / name)]
+        if all(f.exists() for f in town2):
+            a2, b2 = (load(f.parent, f.name) for f in town2)
+            print(f"{name}, town 2: repeat − original {b2['map'] - a2['map']:+.4f} mAP, "
+                  f"{b2['ap50'] - a2['ap50']:+.3f} AP50")
 
 
 if __name__ == "__main__":
