@@ -30,20 +30,28 @@ def groups(cells, name):
                                      for l in LIGHTS]
         variant, design = f.parent.name.split("-" + r["scenario"] + "-")
         out.setdefault((r["scenario"], design), []).append((variant, maps))
-    return {k: sorted(v, key=lambda r: (r[0] != BASE, r[0])) for k, v in out.items()}
+    return {k: ordered(v) for k, v in out.items()}
+
+def ordered(rows):
+    """[(variant, values)] with the base variant (--base, else the first alphabetically) first."""
+    return sorted(rows, key=lambda r: (r[0] != BASE, r[0]))
+
+def print_group(scenario, design, rows):
+    """Each variant's values, then each variant's difference from the first, one row each."""
+    for variant, vals in rows:
+        print(f"| {scenario} | {design} | {variant} | " + " | ".join(f"{v:.4f}" for v in vals)
+              + " |")
+    base_variant, base = rows[0]
+    for variant, vals in rows[1:]:
+        print(f"| {scenario} | {design} | {variant} − {base_variant} | "
+              + " | ".join(f"{v - b:+.4f}" for v, b in zip(vals, base)) + " |")
 
 def by_light(cells, name):
     """Per scenario and design, each variant's mAP by light and its difference from the first."""
     print("| scenario | design | variant | " + " | ".join(f"mAP {l}" for l in LIGHTS) + " |")
     print("|---|---|---|" + "---|" * len(LIGHTS))
     for (scenario, design), rows in sorted(groups(cells, name).items()):
-        for variant, maps in rows:
-            print(f"| {scenario} | {design} | {variant} | "
-                  + " | ".join(f"{m:.4f}" for m in maps[1:]) + " |")
-        base_variant, base = rows[0]
-        for variant, maps in rows[1:]:
-            print(f"| {scenario} | {design} | {variant} − {base_variant} | "
-                  + " | ".join(f"{m - b:+.4f}" for m, b in zip(maps[1:], base[1:])) + " |")
+        print_group(scenario, design, [(variant, maps[1:]) for variant, maps in rows])
 
 def paired(cells, name):
     """{(scenario, variant − base): {design: [Δ mAP overall, Δ by light ...]}} from one file."""
@@ -98,14 +106,7 @@ def training(cells):
           "| test mAP, test town | test mAP, town 2 |")
     print("|---|---|---|---|---|---|---|")
     for (scenario, design), group in sorted(rows.items()):
-        group.sort(key=lambda r: (r[0] != BASE, r[0]))
-        for variant, vals in group:
-            print(f"| {scenario} | {design} | {variant} | " + " | ".join(f"{v:.4f}" for v in vals)
-                  + " |")
-        base_variant, base = group[0]
-        for variant, vals in group[1:]:
-            print(f"| {scenario} | {design} | {variant} − {base_variant} | "
-                  + " | ".join(f"{v - b:+.4f}" for v, b in zip(vals, base)) + " |")
+        print_group(scenario, design, ordered(group))
 
 def table(cells, name):
     rows = []
