@@ -12,18 +12,28 @@ correlation of the per-design differences between the first two files. With --tr
 cell's mAP on its own training frames (training_by_generation.json, from compact.py: the mean
 over the generations, and over the last four) beside its test mAP on the test town and on town 2,
 and each design's difference of every variant from the first (or --base) on the rows below.
+With several CELLS_DIRs, a cell of a later one replaces the same-named cell of an earlier one (e.g.
+a panel's cells, then repeats of some of them on another machine type).
 Usage: cells_table.py [--by-light | --towns NAME,NAME[,...] | --training] [--results NAME]
-       [--base VARIANT] CELLS_DIR"""
+       [--base VARIANT] CELLS_DIR [CELLS_DIR ...]"""
 import argparse, json, statistics
 from pathlib import Path
 
 LIGHTS = ["day", "night", "tunnel", "cycle"]
 BASE = None  # the variant every other is compared with (--base); None: the first alphabetically
 
+def cell_files(cells, name):
+    """Each cell's file NAME, sorted by cell, from the last of the CELLS_DIRs that has it."""
+    files = {}
+    for d in cells:
+        for f in Path(d).glob(f"*/{name}"):
+            files[f.parent.name] = f
+    return [files[c] for c in sorted(files)]
+
 def groups(cells, name):
     """{(scenario, design): [(variant, [mAP overall, mAP by light ...])]}, variants sorted."""
     out = {}
-    for f in sorted(Path(cells).glob(f"*/{name}")):
+    for f in cell_files(cells, name):
         r = json.loads(f.read_text())
         t = r["test_by_illumination"]
         maps = [r["test"]["map"]] + [t[l]["map"] if isinstance(t[l], dict) else t[l]
@@ -93,7 +103,7 @@ def towns(cells, names):
 def training(cells):
     """Per scenario and design, each variant's training-frame mAP beside its test mAP."""
     rows = {}
-    for f in sorted(Path(cells).glob("*/training_by_generation.json")):
+    for f in cell_files(cells, "training_by_generation.json"):
         gens = json.loads(f.read_text())
         train = [gens[g]["map"] for g in sorted(gens, key=int)]
         r = json.loads((f.parent / "results.json").read_text())
@@ -110,7 +120,7 @@ def training(cells):
 
 def table(cells, name):
     rows = []
-    for f in sorted(Path(cells).glob(f"*/{name}")):
+    for f in cell_files(cells, name):
         r = json.loads(f.read_text())
         cell = f.parent.name
         s, eg = r["settings_by_illumination"], r["exposure_gain_by_illumination"]
@@ -136,7 +146,7 @@ if __name__ == "__main__":
     ap.add_argument("--training", action="store_true")
     ap.add_argument("--results", default="results.json")
     ap.add_argument("--base", metavar="VARIANT")
-    ap.add_argument("cells")
+    ap.add_argument("cells", nargs="+")
     a = ap.parse_args()
     BASE = a.base
     if a.towns:
