@@ -15,7 +15,8 @@ def load(d, name="results.json"):
     return {
         "map": r["test"]["map"],
         "ap50": r["test"]["ap50"],
-        "ties": 100 * t["tied"] / t["searches"] if t and t["searches"] else float("nan"),
+        # No perturbation search (no GA loss): no tie share.
+        "ties": f"{100 * t['tied'] / t['searches']:.1f} %" if t and t["searches"] else "—",
         "day_e": r["settings_by_illumination"]["day"][0],
         "machine": f"{r.get('cpu', '?')}, scoring {r.get('scoring_precision', '?')}",
         "scenario": r["scenario"],
@@ -33,7 +34,7 @@ def main(cells, repeats):
         a, b = load(orig), load(rep.parent)
         for tag, x in [("original", a), ("repeat", b)]:
             print(f"| {name} ({tag}) | {x['machine']} | {x['map']:.4f} | {x['ap50']:.3f} "
-                  f"| {x['ties']:.1f} % | {x['day_e']:.1f} |")
+                  f"| {x['ties']} | {x['day_e']:.1f} |")
         pairs.append((name, a, b))
         # Other variants of the same scenario and design on the repeat's machine type.
         rest = name[name.index("-" + b["scenario"] + "-") + 1:]
@@ -41,7 +42,7 @@ def main(cells, repeats):
             o = load(other.parent)
             if other.parent.name != name and o["machine"] == b["machine"]:
                 print(f"| {other.parent.name} | {o['machine']} | {o['map']:.4f} | {o['ap50']:.3f} "
-                      f"| {o['ties']:.1f} % | {o['day_e']:.1f} |")
+                      f"| {o['ties']} | {o['day_e']:.1f} |")
     print()
     for name, a, b in pairs:
         print(f"{name}: repeat − original {b['map'] - a['map']:+.4f} mAP, "
