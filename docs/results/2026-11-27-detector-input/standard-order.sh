@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the standard grid's cells in the order the must-shows need them (the noise loss of the
 # fixed cameras first, then ours and TaCOS seed by seed), then the experiment for its report.
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 bin=target/gridbin/joca
 dir=runs/std-input
 while pgrep -f "gridbin/joca cell" >/dev/null; do sleep 15; done

@@ -7,7 +7,7 @@
 # eval_town.sh), the report is of those tests instead, over the cells that have them:
 # DEST_DIR/report-town2.md and results-town2.csv.
 set -euo pipefail
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 bin=${1:-target/release/joca}
 src=${2:-runs/pert-panel}
 dest=${3:-docs/results/2026-11-27-panels/perturbation}

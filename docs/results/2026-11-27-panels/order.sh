@@ -4,7 +4,7 @@
 # that decides the default) so each design's pair lands together; the linear-step variant last.
 # run_cells.sh skips finished cells, resumes partial ones, and counts cells already running (also
 # ones started by an earlier `joca experiment`). Then writes the experiment's report.
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 bin=target/panelbin/joca
 dir=runs/pert-panel
 designs="flir basler cmv2000-10mm mt9v032-6mm python500-7mm imx287-10mm"

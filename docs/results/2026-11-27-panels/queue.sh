@@ -11,7 +11,7 @@
 # table1-baselines.toml: they do not depend on ours' default), then the ablation panel (the
 # paper's method and its Table 3 ablations, with the paper's search; its `joca` cells shared the
 # same way). Resumes finished and partial cells when run again.
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 while pgrep -f "standard-order.sh" >/dev/null || pgrep -f "gridbin/joca cell" >/dev/null; do sleep 30; done
 echo "$(date -u +%FT%TZ) start perturbation-panel"
 docs/results/2026-11-27-panels/order.sh

@@ -4,7 +4,7 @@
 # machine repeats in place of the originals. RUN_DIR gives the experiment (its experiment.json).
 # Usage: report_cells.sh JOCA_BINARY RUN_DIR DEST_MD CELLS_DIR [CELLS_DIR ...]
 set -euo pipefail
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 bin=$1 run=$2 dest=$3
 shift 3
 tmp=$(mktemp -d)

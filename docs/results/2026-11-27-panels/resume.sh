@@ -8,7 +8,7 @@
 # (land.sh) and commit them.
 # Usage: resume.sh [CELL ...] (default: the priority list below).
 set -euo pipefail
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 here=docs/results/2026-11-27-panels
 bin=${PANEL_BIN:-target/panelbin/joca}
 prep=${PREP_BIN:-target/release/joca}

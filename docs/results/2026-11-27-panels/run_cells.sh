@@ -6,7 +6,7 @@
 # finishes is then tested again on town 2 of the test family (results-town2.json; see
 # eval_town.sh), while its checkpoint is still on this machine.
 # Usage: [EVAL_BIN=JOCA] run_cells.sh JOCA_BINARY CELL_DIR...
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 export OMP_WAIT_POLICY=PASSIVE
 bin=${1:?joca binary}
 shift

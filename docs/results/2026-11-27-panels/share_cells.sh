@@ -6,7 +6,7 @@
 # cell by cell), so the same computation. Copies each finished one into runs/ctrl-panel and
 # runs/ablation-panel instead of running it again, with a note of where it came from. A panel
 # directory not yet made is skipped. Usage: share_cells.sh [VARIANT]
-cd /work/main
+cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 variant=${1:-loss-linear}
 for target in ctrl-panel:neural ablation-panel:joca; do
   dir=runs/${target%%:*}
