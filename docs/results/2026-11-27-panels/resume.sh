@@ -68,7 +68,8 @@ else
       for v in no-ga-loss fixed-perturbation frozen-detector; do cells+=("$a/$v-$sc-$d"); done
     done
   done
-  # Then Table 1 again (baselines and ours, seed by seed), then issue 41's aperture and fog runs.
+  # Then Table 1 again (baselines and ours, seed by seed: issue 40 first, as its three seeds
+  # resolve it), then issue 41's aperture and fog runs, seed by seed.
   for s in 0 1 2; do
     for sc in noise10 blur2 blur4; do
       for v in flir basler tacos; do cells+=("runs/table1-baselines/cells/$v-$sc-s$s"); done
@@ -76,6 +77,8 @@ else
     for sc in calibrated noise10 noise20 blur2 blur4; do
       cells+=("runs/table1-ours/cells/joca-$sc-s$s")
     done
+  done
+  for s in 0 1 2; do
     for sc in calibrated noise20; do
       for v in f16 aperture iris; do cells+=("runs/aperture/cells/$v-$sc-s$s"); done
     done
