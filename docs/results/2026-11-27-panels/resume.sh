@@ -47,6 +47,7 @@ restore $here/controllers runs/ctrl-panel controllers 1
 restore $here/ablation runs/ablation-panel ablation-panel 1
 restore $t1/baselines runs/table1-baselines $t1/table1-baselines.toml 3
 restore $t1/ours runs/table1-ours $t1/table1-ours.toml 3
+restore $t1/tacos runs/table1-tacos $t1/table1-tacos.toml 3
 restore $ow/aperture runs/aperture aperture 3
 restore $ow/fog runs/fog fog 3
 # Ours' cells in calibrated and blur x4 are the perturbation panel's loss-linear cells.
@@ -74,6 +75,7 @@ else
     for sc in noise10 blur2 blur4; do
       for v in flir basler tacos; do cells+=("runs/table1-baselines/cells/$v-$sc-s$s"); done
     done
+    for sc in calibrated noise20; do cells+=("runs/table1-tacos/cells/tacos-$sc-s$s"); done
     for sc in calibrated noise10 noise20 blur2 blur4; do
       cells+=("runs/table1-ours/cells/joca-$sc-s$s")
     done
