@@ -80,6 +80,11 @@ pub struct RunResults {
     /// --town K`, K ≥ 2: fresh scenes of the same kind); absent for the run's own test.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub test_town: Option<u64>,
+    /// The detector weights the test used in place of the run's own trained detector (`joca eval
+    /// --detector start`: the file its detector started from, as its config names it); absent
+    /// for the run's own detector.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_detector: Option<String>,
     /// How training's perturbation searches were decided (absent for methods without them, and
     /// in older runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -29,6 +29,12 @@ pub struct Args {
     /// `results-<controller>.json` and `test-<controller>/`.
     #[arg(long, default_value = "trained")]
     controller: String,
+    /// Test with another detector: `trained` (the run's own) or `start` (the weights the run's
+    /// detector started from, its config's `detector_weights`, as that file is now), on the
+    /// design chosen with the trained one; results go to `results-detector-start.json` and
+    /// `test-detector-start/`.
+    #[arg(long, default_value = "trained", value_parser = ["trained", "start"])]
+    detector: String,
 }
 
 /// Runs `joca eval`.
@@ -43,10 +49,14 @@ pub fn run(args: &Args) -> Result<()> {
         episodes: args.episodes,
         town: args.town,
         controller,
+        start_detector: args.detector == "start",
     };
     let (r, test_dir) = evaluate_run(&args.run_dir, &options)
         .with_context(|| format!("cannot evaluate {}", args.run_dir.display()))?;
-    let with = r.test_controller.map_or(String::new(), |c| format!(" with {}", c.name()));
+    let mut with = r.test_controller.map_or(String::new(), |c| format!(" with {}", c.name()));
+    if let Some(weights) = &r.test_detector {
+        with.push_str(&format!(" with the detector of {weights}"));
+    }
     println!(
         "{} / {}{with}: {} behind {:.2} mm at x {:.2} m, z {:.2} m -> mAP {:.3}, AP50 {:.3}, TP ratio \
             {:.3} over {} frames",

@@ -43,6 +43,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         cpu: String::new(),
         test_controller: None,
         test_town: None,
+        test_detector: None,
         lens: Default::default(),
         weather: Default::default(),
         aperture: Default::default(),

@@ -29,6 +29,10 @@ pub struct EvalOptions {
     pub town: u64,
     /// Another controller.
     pub controller: TestController,
+    /// Test with the detector weights the run started from (its config's `detector_weights`) in
+    /// place of its trained detector, on the design chosen with the trained one: what training
+    /// the detector in the loop changed on that design and those scenes.
+    pub start_detector: bool,
 }
 
 /// The largest `--town` index accepted.
@@ -54,10 +58,11 @@ impl EvalOptions {
 /// Tests the best design of a finished (or interrupted) run again, from its checkpoint: the
 /// trained detector and NeuralAE in closed loop, by default on the test town, with whatever
 /// `options` change (another scenario, frame or episode count, town of the test family, or
-/// controller: AverageAE at a chosen frame mean in place of the trained one; the design is still
-/// chosen with the run's own controller). Never rewrites the run's own `results.json`: writes
-/// `results-<tags>.json` with one tag per change, joined by `-` (`<scenario>`, `<controller>`,
-/// `frames<N>`, `episodes<N>`, `town<K>`; `eval` when nothing changed), its trace and showcases
+/// controller: AverageAE at a chosen frame mean in place of the trained one; or detector: the
+/// weights it started from; the design is still chosen with the run's own model). Never rewrites
+/// the run's own `results.json`: writes `results-<tags>.json` with one tag per change, joined by
+/// `-` (`<scenario>`, `<controller>`, `detector-start`, `frames<N>`, `episodes<N>`, `town<K>`;
+/// `eval` when nothing changed), its trace and showcases
 /// in the matching `test-<tags>` folder, and returns the results and that folder. Holds the run
 /// directory's lock while it works, so it never reads a checkpoint a run is writing.
 pub fn evaluate_run(
@@ -65,7 +70,8 @@ pub fn evaluate_run(
     options: &EvalOptions,
 ) -> Result<(RunResults, PathBuf), TrainError> {
     options.check()?;
-    let EvalOptions { scenario, frames_per_episode, episodes, town, controller } = *options;
+    let EvalOptions { scenario, frames_per_episode, episodes, town, controller, start_detector } =
+        *options;
     if output::check(run_dir, OutputKind::Run)? != Some(output::Claimed::Earlier) {
         return Err(TrainError::Corrupt {
             path: run_dir.display().to_string(),
@@ -92,6 +98,19 @@ pub fn evaluate_run(
         config.test_episodes = n;
     }
     config.validate()?;
+    let start_weights = if start_detector {
+        Some(config.detector_weights.clone().ok_or_else(|| TrainError::Config {
+            field: "--detector".into(),
+            value: "start".into(),
+            allowed: format!(
+                "trained only: {} started from random detector weights (its config names no \
+                 run.detector_weights)",
+                config_path.display()
+            ),
+        })?)
+    } else {
+        None
+    };
     let dir = CheckpointDir::new(run_dir.join("checkpoint")).existing().ok_or_else(|| {
         TrainError::Corrupt {
             path: run_dir.join("checkpoint").display().to_string(),
@@ -119,6 +138,11 @@ pub fn evaluate_run(
     if controller != TestController::Trained {
         tags.push(controller.name());
     }
+    if let Some(weights) = &start_weights {
+        // After the design is chosen: the swap tests the detector, not the choice.
+        model.load_detector(weights)?;
+        tags.push("detector-start".to_owned());
+    }
     if config.test_frames_per_episode != run_frames {
         tags.push(format!("frames{}", config.test_frames_per_episode));
     }
@@ -141,6 +165,7 @@ pub fn evaluate_run(
         results.test_controller = Some(controller);
     }
     results.test_town = (town != 0).then_some(town);
+    results.test_detector = start_weights.map(|w| w.display().to_string());
     write_atomic(&run_dir.join(name), &serde_json::to_string_pretty(&results).unwrap_or_default())?;
     Ok((results, out))
 }
@@ -218,6 +243,7 @@ pub(super) fn test_design(
         cpu: cpu_description(),
         test_controller: None,
         test_town: None,
+        test_detector: None,
         perturbation_ties: (state.ties.searches > 0).then_some(state.ties),
         lens: config.lens,
         weather: config.weather,

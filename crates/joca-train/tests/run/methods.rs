@@ -1,12 +1,12 @@
 //! Every method runs on the same training budget, a design panel's cell holds its design, the
 //! aperture (a gene or set frame by frame) and the weather are recorded, and the frozen detector
-//! leaves the run as it came in.
+//! leaves the run as it came in (and `eval --detector start` of it repeats its test).
 
 use super::{SERIAL, events, go, tiny};
 use joca_camera::{ApertureControl, LensModel};
 use joca_nn::detector::DetectorConfig;
 use joca_sim::Weather;
-use joca_train::{DesignSpec, FNumberRange, Method, run};
+use joca_train::{DesignSpec, EvalOptions, FNumberRange, Method, evaluate_run, run};
 
 #[test]
 fn every_method_runs_on_the_same_training_budget() {
@@ -150,4 +150,12 @@ fn the_frozen_detector_needs_weights_and_leaves_them_unchanged() {
         std::fs::read(dir.path().join("frozen/checkpoint/detector.safetensors")).unwrap(),
         std::fs::read(&weights).unwrap()
     );
+    // Tested with the weights it started from, it is tested with its own detector: the same
+    // scores, written to their own file naming the weights.
+    let options = EvalOptions { start_detector: true, ..EvalOptions::default() };
+    let (e, test_dir) = evaluate_run(&dir.path().join("frozen"), &options).unwrap();
+    assert_eq!((e.test, e.design), (r.test, r.design));
+    assert_eq!(e.test_detector.as_deref(), Some(weights.display().to_string().as_str()));
+    assert_eq!(test_dir, dir.path().join("frozen/test-detector-start"));
+    assert!(dir.path().join("frozen/results-detector-start.json").is_file());
 }

@@ -69,6 +69,10 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     let e = joca_train::evaluate_run(&dir.path().join("a"), &options).unwrap_err().to_string();
     assert!(e.contains("--town = 1 is invalid: 0 (the test town) or 2 to 9999"), "{e}");
     assert_eq!(std::fs::read(dir.path().join("a").join("results.json")).unwrap(), before);
+    // The run's detector started from random weights: nothing to swap back to, refused.
+    let options = EvalOptions { start_detector: true, ..EvalOptions::default() };
+    let e = joca_train::evaluate_run(&dir.path().join("a"), &options).unwrap_err().to_string();
+    assert!(e.contains("--detector = start is invalid") && e.contains("random detector"), "{e}");
 
     let mut other = cfg.clone();
     other.task_weight = 5.0;
