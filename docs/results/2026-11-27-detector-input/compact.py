@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Copies a finished grid cell's compact record into docs/results: results.json, best_design.json,
 config.toml, cell.toml, report.md, results-town<K>.json (`joca eval --town K`, where run),
+results-detector-start*.json (`joca eval --detector start`, where run),
 sensors_by_generation.json (each generation's sensors) and training_by_generation.json (each
 generation's mean over its candidates of the training frames' mAP, AP50, TP ratio and fitness),
 both from events.jsonl, which stays out of the repository. Skips unfinished cells.
@@ -15,6 +16,7 @@ def compact(src, dest):
     dest.mkdir(parents=True, exist_ok=True)
     names = ["results.json", "best_design.json", "config.toml", "cell.toml", "report.md"]
     names += sorted(f.name for f in src.glob("results-town*.json"))
+    names += sorted(f.name for f in src.glob("results-detector-start*.json"))
     for name in names:
         if (src / name).exists():
             shutil.copyfile(src / name, dest / name)

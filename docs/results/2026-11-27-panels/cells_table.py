@@ -12,10 +12,15 @@ correlation of the per-design differences between the first two files. With --tr
 cell's mAP on its own training frames (training_by_generation.json, from compact.py: the mean
 over the generations, and over the last four) beside its test mAP on the test town and on town 2,
 and each design's difference of every variant from the first (or --base) on the rows below.
+With --swap, per scenario and design, ours (joca) against its own controller driving the detector
+it started from (results-detector-start*.json, detector_swap.sh) and the frozen-detector cell, on
+the test town and town 2: "frozen − ours" split into the detector's part (start − trained
+detector, ours' controller) and the controller's part (frozen's − ours' controller, both on the
+starting detector), with means and 95 % Student-t intervals over the designs.
 With several CELLS_DIRs, a cell of a later one replaces the same-named cell of an earlier one (e.g.
 a panel's cells, then repeats of some of them on another machine type).
-Usage: cells_table.py [--by-light | --towns NAME,NAME[,...] | --training] [--results NAME]
-       [--base VARIANT] CELLS_DIR [CELLS_DIR ...]"""
+Usage: cells_table.py [--by-light | --towns NAME,NAME[,...] | --training | --swap]
+       [--results NAME] [--base VARIANT] CELLS_DIR [CELLS_DIR ...]"""
 import argparse, json, statistics
 from pathlib import Path
 
@@ -118,6 +123,41 @@ def training(cells):
     for (scenario, design), group in sorted(rows.items()):
         print_group(scenario, design, ordered(group))
 
+def swap(cells):
+    """Frozen − ours split into the detector's and the controller's part, per design and town."""
+    from scipy.stats import t as student_t
+    towns = [("test town", "results.json", "results-detector-start.json"),
+             ("town 2", "results-town2.json", "results-detector-start-town2.json")]
+    ours = {f.parent.name: f.parent for f in cell_files(cells, "results-detector-start.json")}
+    frozen = {f.parent.name: f.parent for f in cell_files(cells, "results.json")
+              if f.parent.name.startswith("frozen-detector-")}
+    mp = lambda d, n: json.loads((d / n).read_text())["test"]["map"]
+    print("| scenario | design | town | ours | ours' controller, starting detector | frozen "
+          "| frozen − ours | detector part (start − trained) | controller part (frozen − ours') |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    parts = {}
+    for name, d in sorted(ours.items()):
+        scenario, design = name.removeprefix("joca-").split("-", 1)
+        fz = frozen.get(f"frozen-detector-{scenario}-{design}")
+        for town, res, swp in towns:
+            if fz is None or not (d / swp).exists() or not (fz / res).exists():
+                continue
+            o, w, f = mp(d, res), mp(d, swp), mp(fz, res)
+            row = [f - o, w - o, f - w]
+            parts.setdefault((scenario, town), []).append(row)
+            print(f"| {scenario} | {design} | {town} | {o:.4f} | {w:.4f} | {f:.4f} | "
+                  + " | ".join(f"{x:+.4f}" for x in row) + " |")
+    for (scenario, town), rows in sorted(parts.items()):
+        if len(rows) < 2:
+            continue
+        out = []
+        for i in range(3):
+            x = [r[i] for r in rows]
+            h = student_t.ppf(0.975, len(x) - 1) * statistics.stdev(x) / len(x) ** 0.5
+            out.append(f"{statistics.mean(x):+.3f} ± {h:.3f}")
+        print(f"| {scenario} | mean of {len(rows)} designs | {town} | | | | " + " | ".join(out)
+              + " |")
+
 def table(cells, name):
     rows = []
     for f in cell_files(cells, name):
@@ -144,6 +184,7 @@ if __name__ == "__main__":
     ap.add_argument("--by-light", action="store_true")
     ap.add_argument("--towns", metavar="NAME,NAME[,...]")
     ap.add_argument("--training", action="store_true")
+    ap.add_argument("--swap", action="store_true")
     ap.add_argument("--results", default="results.json")
     ap.add_argument("--base", metavar="VARIANT")
     ap.add_argument("cells", nargs="+")
@@ -153,5 +194,7 @@ if __name__ == "__main__":
         towns(a.cells, a.towns.split(","))
     elif a.training:
         training(a.cells)
+    elif a.swap:
+        swap(a.cells)
     else:
         (by_light if a.by_light else table)(a.cells, a.results)
