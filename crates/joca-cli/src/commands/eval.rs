@@ -31,7 +31,8 @@ pub struct Args {
     controller: String,
     /// Test with another detector: `trained` (the run's own) or `start` (the weights the run's
     /// detector started from, its config's `detector_weights`, as that file is now), on the
-    /// design chosen with the trained one; results go to `results-detector-start.json` and
+    /// design chosen with the trained one (NeuralAE keeps its trained weights but reads that
+    /// detector's features); results go to `results-detector-start.json` and
     /// `test-detector-start/`.
     #[arg(long, default_value = "trained", value_parser = ["trained", "start"])]
     detector: String,

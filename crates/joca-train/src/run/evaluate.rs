@@ -31,7 +31,9 @@ pub struct EvalOptions {
     pub controller: TestController,
     /// Test with the detector weights the run started from (its config's `detector_weights`) in
     /// place of its trained detector, on the design chosen with the trained one: what training
-    /// the detector in the loop changed on that design and those scenes.
+    /// the detector in the loop changed on that design and those scenes. NeuralAE keeps its
+    /// trained weights; its semantic input is the detector's features, so it reads the swapped
+    /// detector's.
     pub start_detector: bool,
 }
 
