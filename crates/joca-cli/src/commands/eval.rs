@@ -1,8 +1,18 @@
 //! `joca eval`: test a run's best design again from its checkpoint.
 
 use anyhow::{Context, Result, anyhow};
+use clap::ValueEnum;
 use joca_train::{EvalOptions, Scenario, TestController, evaluate_run};
 use std::path::PathBuf;
+
+/// Which detector the test uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Detector {
+    /// The run's own trained detector.
+    Trained,
+    /// The weights the run's detector started from.
+    Start,
+}
 
 /// Arguments of `joca eval`.
 #[derive(Debug, clap::Args)]
@@ -34,8 +44,8 @@ pub struct Args {
     /// design chosen with the trained one (NeuralAE keeps its trained weights but reads that
     /// detector's features); results go to `results-detector-start.json` and
     /// `test-detector-start/`.
-    #[arg(long, default_value = "trained", value_parser = ["trained", "start"])]
-    detector: String,
+    #[arg(long, value_enum, default_value_t = Detector::Trained)]
+    detector: Detector,
 }
 
 /// Runs `joca eval`.
@@ -50,7 +60,7 @@ pub fn run(args: &Args) -> Result<()> {
         episodes: args.episodes,
         town: args.town,
         controller,
-        start_detector: args.detector == "start",
+        start_detector: args.detector == Detector::Start,
     };
     let (r, test_dir) = evaluate_run(&args.run_dir, &options)
         .with_context(|| format!("cannot evaluate {}", args.run_dir.display()))?;

@@ -64,9 +64,9 @@ impl EvalOptions {
 /// weights it started from; the design is still chosen with the run's own model). Never rewrites
 /// the run's own `results.json`: writes `results-<tags>.json` with one tag per change, joined by
 /// `-` (`<scenario>`, `<controller>`, `detector-start`, `frames<N>`, `episodes<N>`, `town<K>`;
-/// `eval` when nothing changed), its trace and showcases
-/// in the matching `test-<tags>` folder, and returns the results and that folder. Holds the run
-/// directory's lock while it works, so it never reads a checkpoint a run is writing.
+/// `eval` when nothing changed), its trace and showcases in the matching `test-<tags>` folder,
+/// and returns the results and that folder. Holds the run directory's lock while it works, so it
+/// never reads a checkpoint a run is writing.
 pub fn evaluate_run(
     run_dir: &Path,
     options: &EvalOptions,
