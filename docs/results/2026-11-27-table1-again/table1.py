@@ -29,18 +29,23 @@ PAPER = {
               "tacos": (0.271, 0.364, 5.5), "joca": (0.303, 0.384, 6.6)},
 }
 
-def interval(xs):
-    """'mean ± half-width' of a 95 % Student-t interval over xs ('mean' alone for one value)."""
+def interval(xs, sign=False):
+    """'mean ± half-width' of a 95 % Student-t interval over xs ('mean (n = 1)' for one value),
+    the mean with its sign always where `sign`."""
     from scipy.stats import t as student_t
-    m = statistics.mean(xs)
+    m = f"{statistics.mean(xs):{'+' if sign else ''}.3f}"
     if len(xs) < 2:
-        return f"{m:+.3f} (n = 1)" if m < 0 else f"{m:.3f} (n = 1)"
+        return f"{m} (n = 1)"
     h = student_t.ppf(0.975, len(xs) - 1) * statistics.stdev(xs) / len(xs) ** 0.5
-    return f"{m:+.3f} ± {h:.3f}" if m < 0 else f"{m:.3f} ± {h:.3f}"
+    return f"{m} ± {h:.3f}"
 
 def signed(xs):
-    s = interval(xs)
-    return s if s.startswith(("+", "-")) else "+" + s
+    return interval(xs, sign=True)
+
+def header(*columns):
+    """A markdown table's header row and its separator."""
+    print("| " + " | ".join(columns) + " |")
+    print("|" + "---|" * len(columns))
 
 def load(dirs):
     """{(scenario, method, seed): cell}, later dirs replacing earlier ones."""
@@ -63,9 +68,8 @@ def seeds_of(cells, scenario, method):
     return sorted(s for (sc, m, s) in cells if sc == scenario and m == method)
 
 def main_table(cells):
-    print("| scenario | method | seeds | mAP | paper mAP | TP ratio | paper TP | mAP, town 2 "
-          "| from |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    header("scenario", "method", "seeds", "mAP", "paper mAP", "TP ratio", "paper TP", "mAP, town 2",
+           "from")
     for sc in SCENARIOS:
         for m in METHODS:
             seeds = seeds_of(cells, sc, m)
@@ -81,9 +85,8 @@ def main_table(cells):
                   f"{','.join(sorted({str(c['from']) for c in cs}))} |")
 
 def designs(cells):
-    print("| scenario | method | seed | design | x, z (m) | mAP | day E (ms), G (dB) "
-          "| day frame (DN) |")
-    print("|---|---|---|---|---|---|---|---|")
+    header("scenario", "method", "seed", "design", "x, z (m)", "mAP", "day E (ms), G (dB)",
+           "day frame (DN)")
     for sc in SCENARIOS:
         for m in METHODS:
             for s in seeds_of(cells, sc, m):
@@ -95,8 +98,7 @@ def designs(cells):
                       f"{r['mean_dn_by_illumination']['day']:.0f} |")
 
 def paired(cells):
-    print("| scenario | ours − | seeds | Δ mAP, test town | ahead | Δ mAP, town 2 | ahead |")
-    print("|---|---|---|---|---|---|---|")
+    header("scenario", "ours −", "seeds", "Δ mAP, test town", "ahead", "Δ mAP, town 2", "ahead")
     for sc in SCENARIOS:
         for m in METHODS[:-1]:
             seeds = [s for s in seeds_of(cells, sc, m) if (sc, "joca", s) in cells]
@@ -122,16 +124,14 @@ def against_calibrated(cells, method, what, value):
         print(f"| {LABEL[method]} | {what} | {sc} | {per} | {signed([b - a for a, b in pairs])} |")
 
 def mechanisms(cells):
-    print("| method | quantity | scenario | calibrated → scenario, by seed | change |")
-    print("|---|---|---|---|---|")
+    header("method", "quantity", "scenario", "calibrated → scenario, by seed", "change")
     for m in ["tacos", "joca"]:
         against_calibrated(cells, m, "pixel pitch (µm)", lambda r: r["design"]["pixel_pitch_um"])
     for m in ["tacos", "joca"]:
         against_calibrated(cells, m, "day exposure (ms)",
                            lambda r: r["settings_by_illumination"]["day"][0])
     print()
-    print("| scenario | seeds | ours day E (ms) | TaCOS + AverageAE day E (ms) | ours − TaCOS |")
-    print("|---|---|---|---|---|")
+    header("scenario", "seeds", "ours day E (ms)", "TaCOS + AverageAE day E (ms)", "ours − TaCOS")
     for sc in SCENARIOS:
         seeds = [s for s in seeds_of(cells, sc, "joca") if (sc, "tacos", s) in cells]
         if not seeds:
