@@ -50,7 +50,9 @@ restore $t1/ours runs/table1-ours $t1/table1-ours.toml 3
 restore $t1/tacos runs/table1-tacos $t1/table1-tacos.toml 3
 restore $ow/aperture runs/aperture aperture 3
 restore $ow/fog runs/fog fog 3
-# Ours' cells in calibrated and blur x4 are the perturbation panel's loss-linear cells.
+# Ours' cells in calibrated and blur x4 are the perturbation panel's loss-linear cells; the fog
+# experiment's clear-weather cells are Table 1's calibrated ones (run_cells.sh shares again
+# before each cell, so those taken later are copied, not run).
 $here/share_cells.sh loss-linear
 c=runs/ctrl-panel/cells
 a=runs/ablation-panel/cells

@@ -4,13 +4,15 @@
 # Skips finished cells, resumes partial ones, and counts cells already running (also ones an
 # earlier `joca experiment` started). With EVAL_BIN (a joca with `eval --town`), each cell it
 # finishes is then tested again on town 2 of the test family (results-town2.json; see
-# eval_town.sh), while its checkpoint is still on this machine.
+# eval_town.sh), while its checkpoint is still on this machine. Before each cell, share_cells.sh
+# copies in any cell that another panel's finished cell already computed (identical cell.toml).
 # Usage: [EVAL_BIN=JOCA] run_cells.sh JOCA_BINARY CELL_DIR...
 cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 export OMP_WAIT_POLICY=PASSIVE
 bin=${1:?joca binary}
 shift
 for cell in "$@"; do
+  docs/results/2026-11-27-panels/share_cells.sh
   [ -f "$cell/results.json" ] && continue
   pgrep -f "joca cell $cell\$" >/dev/null && continue
   # Only cells under runs/ count: a test's `joca cell /tmp/...` must not take a slot.

@@ -5,25 +5,32 @@
 # same binary (target/panelbin/joca) and a `cell.toml` identical byte for byte (checked here,
 # cell by cell), so the same computation. Copies each finished one into runs/ctrl-panel and
 # runs/ablation-panel instead of running it again, with a note of where it came from. A panel
-# directory not yet made is skipped. Usage: share_cells.sh [VARIANT]
+# directory not yet made is skipped. Likewise issue 41's clear-weather fog cells (runs/fog, ours
+# and TaCOS + AverageAE in calibrated) are Table 1's calibrated cells of the same seed.
+# Usage: share_cells.sh [VARIANT]
 cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 variant=${1:-loss-linear}
+share() { # SRC DST: copies a finished SRC into an unfinished DST if their cell.toml are identical
+  [ -f "$1/results.json" ] && [ -d "$2" ] && [ ! -f "$2/results.json" ] || return 0
+  if cmp -s "$1/cell.toml" "$2/cell.toml"; then
+    cp -a "$1/." "$2/"
+    echo "copied from $1 (same binary, identical cell.toml: the same computation)" \
+      > "$2/copied-from.txt"
+    echo "$(date -u +%FT%TZ) shared $1 -> $2"
+  else
+    echo "$(date -u +%FT%TZ) NOT shared $1 -> $2: cell.toml differs"
+  fi
+}
 for target in ctrl-panel:neural ablation-panel:joca; do
   dir=runs/${target%%:*}
   prefix=${target##*:}
   for sc in calibrated blur4; do
     for d in flir basler cmv2000-10mm mt9v032-6mm python500-7mm imx287-10mm; do
-      src=runs/pert-panel/cells/$variant-$sc-$d
-      dst=$dir/cells/$prefix-$sc-$d
-      [ -f "$src/results.json" ] && [ -d "$dst" ] && [ ! -f "$dst/results.json" ] || continue
-      if cmp -s "$src/cell.toml" "$dst/cell.toml"; then
-        cp -a "$src/." "$dst/"
-        echo "copied from $src (same binary, identical cell.toml: the same computation)" \
-          > "$dst/copied-from.txt"
-        echo "$(date -u +%FT%TZ) shared $src -> $dst"
-      else
-        echo "$(date -u +%FT%TZ) NOT shared $src -> $dst: cell.toml differs"
-      fi
+      share "runs/pert-panel/cells/$variant-$sc-$d" "$dir/cells/$prefix-$sc-$d"
     done
   done
+done
+for s in 0 1 2; do
+  share "runs/table1-ours/cells/joca-calibrated-s$s" "runs/fog/cells/joca-clear-calibrated-s$s"
+  share "runs/table1-tacos/cells/tacos-calibrated-s$s" "runs/fog/cells/tacos-clear-calibrated-s$s"
 done
