@@ -5,9 +5,9 @@ interval over seeds (scipy), beside the paper's Table 1; each seed's design and 
 ours minus every other method paired by seed (same training frames and test scenes per seed, not
 the same design); the pixel pitch each GA method chose per scenario against calibrated, by seed;
 and under blur x2 / x4 ours' daylight exposure against TaCOS + AverageAE's and against ours'
-calibrated, by seed. With several CELLS_DIRs a cell of a later one replaces the same-named cell of
-an earlier one (e.g. issue 39's grid, then Table 1's own cells); every row names where its cells
-came from. Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
+calibrated, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
+all of an earlier one's (e.g. issue 39's grid, then Table 1's own cells), so no row mixes grids
+(their machine types differ); every row names where its cells came from. Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
 import json, statistics, sys
 from pathlib import Path
 
@@ -48,9 +48,10 @@ def header(*columns):
     print("|" + "---|" * len(columns))
 
 def load(dirs):
-    """{(scenario, method, seed): cell}, later dirs replacing earlier ones."""
+    """{(scenario, method, seed): cell}, a later dir's (scenario, method) replacing an earlier's."""
     cells = {}
     for tag, d in enumerate(dirs):
+        found = {}
         for f in sorted(Path(d).glob("*/results.json")):
             name = f.parent.name
             method, rest = name.split("-", 1)
@@ -59,9 +60,12 @@ def load(dirs):
                 continue
             r = json.loads(f.read_text())
             t2 = f.parent / "results-town2.json"
-            cells[(scenario, method, int(seed))] = {
+            found[(scenario, method, int(seed))] = {
                 "r": r, "town2": json.loads(t2.read_text())["test"]["map"] if t2.exists() else None,
                 "from": tag + 1}
+        rows = {(sc, m) for (sc, m, _) in found}
+        cells = {k: c for k, c in cells.items() if k[:2] not in rows}
+        cells.update(found)
     return cells
 
 def seeds_of(cells, scenario, method):
