@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""Issue 41's tables from finished cells named VARIANT-SCENARIO-sSEED (results.json; results-town2.json
+where eval_town.sh made one), one experiment folder at a time:
+
+  optics.py aperture CELLS_DIR   the `aperture` experiment (f16, aperture, iris × calibrated,
+                                 noise20): per variant the mAP over seeds, overall and per
+                                 illumination; each seed's design, f-number, exposure and gain by
+                                 day, night and tunnel; each variant minus f16 paired by seed.
+  optics.py fog CELLS_DIR        the `fog` experiment (tacos/joca × clear/fog300): per method and
+                                 weather the mAP over seeds; each seed's design and settings; fog
+                                 minus clear per method and ours minus TaCOS per weather, paired
+                                 by seed.
+
+Intervals: mean ± t(0.975, n − 1)·s/√n over seeds (scipy's Student t), as table1.py. Every cell of a
+seed sees the same training frames and test scenes, so differences are paired by seed (the designs
+differ: each variant runs its own GA)."""
+import json, sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "2026-11-27-table1-again"))
+from table1 import header, interval, signed  # noqa: E402
+
+LIGHTS = ["day", "night", "tunnel", "cycle"]
+
+def load(d):
+    """{(variant, scenario, seed): {"r": results, "town2": mAP or None}}."""
+    cells = {}
+    for f in sorted(Path(d).glob("*/results.json")):
+        variant_scenario, seed = f.parent.name.rsplit("-s", 1)
+        variant, scenario = variant_scenario.rsplit("-", 1)
+        t2 = f.parent / "results-town2.json"
+        cells[(variant, scenario, int(seed))] = {
+            "r": json.loads(f.read_text()),
+            "town2": json.loads(t2.read_text())["test"]["map"] if t2.exists() else None}
+    return cells
+
+def keys(cells, at):
+    return sorted({k[at] for k in cells}, key=lambda v: (v not in ORDER, ORDER.index(v)
+                                                          if v in ORDER else v))
+
+ORDER = ["f16", "aperture", "iris", "tacos-clear", "joca-clear", "tacos-fog300", "joca-fog300",
+         "calibrated", "noise20"]
+
+def light_map(c, light):
+    return c["r"]["test_by_illumination"][light]["map"]
+
+def f_number(r, light):
+    """The f-number a light was tested at: the iris's, else the design's (None: pinhole)."""
+    return r.get("f_number_by_illumination", {}).get(light, r["design"].get("f_number"))
+
+def summary(cells):
+    header("scenario", "variant", "seeds", "mAP, test town", "mAP, town 2",
+           *[f"mAP {l}" for l in LIGHTS])
+    for sc in keys(cells, 1):
+        for v in keys(cells, 0):
+            cs = [c for (cv, csc, _), c in sorted(cells.items()) if cv == v and csc == sc]
+            if not cs:
+                continue
+            t2 = [c["town2"] for c in cs if c["town2"] is not None]
+            print(f"| {sc} | {v} | {len(cs)} | {interval([c['r']['test']['map'] for c in cs])} | "
+                  f"{interval(t2) if t2 else '–'} | "
+                  + " | ".join(interval([light_map(c, l) for c in cs]) for l in LIGHTS) + " |")
+
+def settings(r, light):
+    e, g = r["settings_by_illumination"][light]
+    n = f_number(r, light)
+    return f"{e:.1f}, {g:.1f}" + (f", f/{n:.1f}" if n else "")
+
+def designs(cells):
+    header("scenario", "variant", "seed", "design", "mAP", "day E (ms), G (dB), N",
+           "night E, G, N", "tunnel E, G, N", "night mAP", "tunnel mAP")
+    for (v, sc, s), c in sorted(cells.items(), key=lambda kv: (kv[0][1], ORDER.index(kv[0][0])
+                                                               if kv[0][0] in ORDER else 99,
+                                                               kv[0][2])):
+        r, d = c["r"], c["r"]["design"]
+        print(f"| {sc} | {v} | {s} | {d['sensor']} {d['pixel_pitch_um']:g} µm, "
+              f"{d['focal_length_mm']:.2f} mm | {r['test']['map']:.4f} | "
+              + " | ".join(settings(r, l) for l in ["day", "night", "tunnel"])
+              + f" | {light_map(c, 'night'):.4f} | {light_map(c, 'tunnel'):.4f} |")
+
+def paired(cells, pairs):
+    """Rows A − B for each (A, B) in PAIRS, per scenario, over the seeds both have."""
+    header("scenario", "A − B", "seeds", "Δ mAP, test town", "ahead", "Δ mAP, town 2",
+           *[f"Δ mAP {l}" for l in LIGHTS], "Δ day E (ms)", "Δ day G (dB)", "Δ night E (ms)",
+           "Δ night G (dB)", "Δ pitch (µm)")
+    for sc in keys(cells, 1):
+        for a, b in pairs:
+            seeds = sorted(s for (v, c, s) in cells if v == a and c == sc
+                           and (b, sc, s) in cells)
+            if not seeds:
+                continue
+            ps = [(cells[(a, sc, s)], cells[(b, sc, s)]) for s in seeds]
+            diff = lambda f: signed([f(x) - f(y) for x, y in ps])
+            d1 = [x["r"]["test"]["map"] - y["r"]["test"]["map"] for x, y in ps]
+            d2 = [x["town2"] - y["town2"] for x, y in ps
+                  if x["town2"] is not None and y["town2"] is not None]
+            print(f"| {sc} | {a} − {b} | {len(seeds)} | {signed(d1)} | "
+                  f"{sum(x > 0 for x in d1)} of {len(d1)} | {signed(d2) if d2 else '–'} | "
+                  + " | ".join(diff(lambda c, l=l: light_map(c, l)) for l in LIGHTS) + " | "
+                  + " | ".join(diff(lambda c, l=l, i=i: c["r"]["settings_by_illumination"][l][i])
+                               for l in ["day", "night"] for i in [0, 1]) + " | "
+                  + diff(lambda c: c["r"]["design"]["pixel_pitch_um"]) + " |")
+
+PAIRS = {
+    "aperture": [("aperture", "f16"), ("iris", "f16"), ("iris", "aperture")],
+    "fog": [("joca-fog300", "joca-clear"), ("tacos-fog300", "tacos-clear"),
+            ("joca-clear", "tacos-clear"), ("joca-fog300", "tacos-fog300")],
+}
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] not in PAIRS:
+        sys.exit(__doc__)
+    cells = load(sys.argv[2])
+    print(f"Cells: {sys.argv[2]} ({len(cells)} finished)")
+    for part in (summary, designs, lambda c: paired(c, PAIRS[sys.argv[1]])):
+        print()
+        part(cells)
