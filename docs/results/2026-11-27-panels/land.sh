@@ -27,7 +27,22 @@ for d in "$src"/cells/*/; do
   cp "$d"/.joca-output "$tmp/cells/$id/" 2>/dev/null || true
 done
 "$bin" report "$tmp" >/dev/null
-sed "s#$tmp#$src#g" "$tmp/report.md" > "$dest/report$tag.md"
+# The figures change at every landing, so they are committed once, when a grid is complete
+# (FIGURES=1: beside the report, figures/ for the test town, figures-town2/ for town 2); until
+# then the report leaves out each figure and its caption and says so.
+if [ -n "${FIGURES:-}" ]; then
+  sed -e "s#$tmp#$src#g" -e "s#(figures/#(figures$tag/#g" "$tmp/report.md" > "$dest/report$tag.md"
+  rm -rf "$dest/figures$tag"
+  cp -r "$tmp/figures" "$dest/figures$tag"
+else
+  sed "s#$tmp#$src#g" "$tmp/report.md" | awk -v src="$src" '
+    /^!\[.*\]\(figures\// { skip = 1; n++; next }
+    skip && /^\*/ { skip = 0; next }
+    /^$/ { if (!blank) print; blank = 1; next }
+    { skip = 0; blank = 0; print }
+    END { printf "\n(%d figures left out until the grid is complete: `joca report %s` draws them.)\n", n, src }' \
+    > "$dest/report$tag.md"
+fi
 cp "$tmp/results.csv" "$dest/results$tag.csv"
 rm -rf "$tmp"
 echo "landed $(ls "$dest"/cells | wc -l) cells; report: $dest/report$tag.md"
