@@ -35,12 +35,8 @@ if [ -n "${FIGURES:-}" ]; then
   rm -rf "$dest/figures$tag"
   cp -r "$tmp/figures" "$dest/figures$tag"
 else
-  sed "s#$tmp#$src#g" "$tmp/report.md" | awk -v src="$src" '
-    /^!\[.*\]\(figures\// { skip = 1; n++; next }
-    skip && /^\*/ { skip = 0; next }
-    /^$/ { if (!blank) print; blank = 1; next }
-    { skip = 0; blank = 0; print }
-    END { printf "\n(%d figures left out until the grid is complete: `joca report %s` draws them.)\n", n, src }' \
+  sed "s#$tmp#$src#g" "$tmp/report.md" \
+    | awk -v src="$src" -f docs/results/2026-11-27-panels/strip_figures.awk \
     > "$dest/report$tag.md"
 fi
 cp "$tmp/results.csv" "$dest/results$tag.csv"

@@ -1,0 +1,10 @@
+# Leaves a `joca report` markdown's figures (an image line and its italic caption) out of a
+# landed report, whose figures are not committed, and says so at the end; squeezes the blank
+# lines they leave. Usage: awk -v src=RUN_DIR -f strip_figures.awk report.md
+/^!\[.*\]\(figures\// { skip = 1; n++; next }
+skip && /^\*/ { skip = 0; next }
+/^$/ { if (!blank) print; blank = 1; next }
+{ skip = 0; blank = 0; print }
+END {
+  if (n) printf "\n(%d figures not committed: `joca report %s` draws them on the machine that ran the cells.)\n", n, src
+}
