@@ -7,7 +7,8 @@ the same design); the pixel pitch each GA method chose per scenario against cali
 and under blur x2 / x4 ours' daylight exposure against TaCOS + AverageAE's and against ours'
 calibrated, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
 all of an earlier one's (e.g. issue 39's grid, then Table 1's own cells), so no row mixes grids
-(their machine types differ); every row names where its cells came from. Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
+(their machine types differ); every row names where its cells came from.
+Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
 import json, statistics, sys
 from pathlib import Path
 
