@@ -18,7 +18,7 @@ import json, sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "2026-11-27-table1-again"))
-from table1 import header, interval, signed  # noqa: E402
+from table1 import header, interval, read_cell, signed  # noqa: E402
 
 LIGHTS = ["day", "night", "tunnel", "cycle"]
 
@@ -28,18 +28,18 @@ def load(d):
     for f in sorted(Path(d).glob("*/results.json")):
         variant_scenario, seed = f.parent.name.rsplit("-s", 1)
         variant, scenario = variant_scenario.rsplit("-", 1)
-        t2 = f.parent / "results-town2.json"
-        cells[(variant, scenario, int(seed))] = {
-            "r": json.loads(f.read_text()),
-            "town2": json.loads(t2.read_text())["test"]["map"] if t2.exists() else None}
+        cells[(variant, scenario, int(seed))] = read_cell(f.parent)
     return cells
 
-def keys(cells, at):
-    return sorted({k[at] for k in cells}, key=lambda v: (v not in ORDER, ORDER.index(v)
-                                                          if v in ORDER else v))
-
+# Display order of variants and scenarios; others after them, by name.
 ORDER = ["f16", "aperture", "iris", "tacos-clear", "joca-clear", "tacos-fog300", "joca-fog300",
          "calibrated", "noise20"]
+
+def rank(v):
+    return (ORDER.index(v), "") if v in ORDER else (len(ORDER), v)
+
+def keys(cells, at):
+    return sorted({k[at] for k in cells}, key=rank)
 
 def light_map(c, light):
     return c["r"]["test_by_illumination"][light]["map"]
@@ -69,9 +69,8 @@ def settings(r, light):
 def designs(cells):
     header("scenario", "variant", "seed", "design", "mAP", "day E (ms), G (dB), N",
            "night E, G, N", "tunnel E, G, N", "night mAP", "tunnel mAP")
-    for (v, sc, s), c in sorted(cells.items(), key=lambda kv: (kv[0][1], ORDER.index(kv[0][0])
-                                                               if kv[0][0] in ORDER else 99,
-                                                               kv[0][2])):
+    for (v, sc, s), c in sorted(cells.items(),
+                                key=lambda kv: (rank(kv[0][1]), rank(kv[0][0]), kv[0][2])):
         r, d = c["r"], c["r"]["design"]
         print(f"| {sc} | {v} | {s} | {d['sensor']} {d['pixel_pitch_um']:g} µm, "
               f"{d['focal_length_mm']:.2f} mm | {r['test']['map']:.4f} | "

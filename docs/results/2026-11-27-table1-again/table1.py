@@ -48,6 +48,12 @@ def header(*columns):
     print("| " + " | ".join(columns) + " |")
     print("|" + "---|" * len(columns))
 
+def read_cell(d):
+    """A cell folder's results and its town-2 mAP (None where eval_town.sh made none)."""
+    t2 = d / "results-town2.json"
+    return {"r": json.loads((d / "results.json").read_text()),
+            "town2": json.loads(t2.read_text())["test"]["map"] if t2.exists() else None}
+
 def load(dirs):
     """{(scenario, method, seed): cell}, a later dir's (scenario, method) replacing an earlier's."""
     cells = {}
@@ -59,11 +65,7 @@ def load(dirs):
             scenario, seed = rest.rsplit("-s", 1)
             if method not in METHODS or scenario not in SCENARIOS:
                 continue
-            r = json.loads(f.read_text())
-            t2 = f.parent / "results-town2.json"
-            found[(scenario, method, int(seed))] = {
-                "r": r, "town2": json.loads(t2.read_text())["test"]["map"] if t2.exists() else None,
-                "from": tag + 1}
+            found[(scenario, method, int(seed))] = {**read_cell(f.parent), "from": tag + 1}
         rows = {(sc, m) for (sc, m, _) in found}
         cells = {k: c for k, c in cells.items() if k[:2] not in rows}
         cells.update(found)
