@@ -10,9 +10,6 @@ dest=docs/results/2026-11-27-optics-weather
 for part in aperture fog; do
   src=runs/$part
   ls "$src"/cells/*/results.json > /dev/null 2>&1 || continue
-  $panels/land.sh "$bin" "$src" "$dest/$part" | tail -1
-  if ls "$src"/cells/*/results-town2.json > /dev/null 2>&1; then
-    $panels/land.sh "$bin" "$src" "$dest/$part" results-town2.json | tail -1
-  fi
+  $panels/land.sh "$bin" "$src" "$dest/$part" both | grep "^landed"
   python3 $dest/optics.py "$part" "$dest/$part/cells" > "$dest/$part.md"
 done

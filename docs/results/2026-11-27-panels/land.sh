@@ -5,13 +5,21 @@
 # target/release/joca, the perturbation panel: runs/pert-panel into
 # docs/results/2026-11-27-panels/perturbation). With RESULTS (e.g. results-town2.json, written by
 # eval_town.sh), the report is of those tests instead, over the cells that have them:
-# DEST_DIR/report-town2.md and results-town2.csv.
+# DEST_DIR/report-town2.md and results-town2.csv. RESULTS `both`: results.json, then
+# results-town2.json where any cell has it.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 bin=${1:-target/release/joca}
 src=${2:-runs/pert-panel}
 dest=${3:-docs/results/2026-11-27-panels/perturbation}
 results=${4:-results.json}
+if [ "$results" = both ]; then # the test town, then town 2 over the cells that have it
+  "$0" "$bin" "$src" "$dest" results.json
+  if ls "$src"/cells/*/results-town2.json > /dev/null 2>&1; then
+    "$0" "$bin" "$src" "$dest" results-town2.json
+  fi
+  exit
+fi
 tag=${results#results}
 tag=${tag%.json}
 python3 docs/results/2026-11-27-detector-input/compact.py "$src" "$dest"

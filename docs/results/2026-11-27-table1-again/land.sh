@@ -13,10 +13,7 @@ cells=(docs/results/2026-11-27-detector-input/standard/cells)
 for part in baselines tacos ours; do
   src=runs/table1-$part
   if ls "$src"/cells/*/results.json > /dev/null 2>&1; then
-    $panels/land.sh "$bin" "$src" "$dest/$part" | tail -1
-    if ls "$src"/cells/*/results-town2.json > /dev/null 2>&1; then
-      $panels/land.sh "$bin" "$src" "$dest/$part" results-town2.json | tail -1
-    fi
+    $panels/land.sh "$bin" "$src" "$dest/$part" both | grep "^landed"
   fi
   [ -d "$dest/$part/cells" ] && cells+=("$dest/$part/cells")
 done
