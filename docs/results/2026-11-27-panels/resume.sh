@@ -6,7 +6,8 @@
 # listed below, two at a time, in order (run_cells.sh). A cell that has not finished when the
 # machine goes is lost (its checkpoint stays on that machine): land finished cells as they come
 # (land.sh) and commit them.
-# Usage: resume.sh [CELL ...] (default: the priority list below).
+# Usage: resume.sh [CELL ...]: the named cells first (a scenario's missing seeds, say), then the
+# priority list below.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 here=docs/results/2026-11-27-panels
@@ -57,40 +58,36 @@ $here/share_cells.sh loss-linear
 c=runs/ctrl-panel/cells
 a=runs/ablation-panel/cells
 designs="flir basler cmv2000-10mm mt9v032-6mm python500-7mm imx287-10mm"
-if [ $# -gt 0 ]; then
-  cells=("$@")
-else
-  # The controllers panel, each design's AverageAE cell beside its NeuralAE one where both run;
-  # then the ablation panel, each design's three ablations together.
-  cells=()
-  for sc in calibrated blur4 noise20; do
-    for d in $designs; do cells+=("$c/average-$sc-$d" "$c/neural-$sc-$d"); done
+cells=("$@")
+# The controllers panel, each design's AverageAE cell beside its NeuralAE one where both run;
+# then the ablation panel, each design's three ablations together.
+for sc in calibrated blur4 noise20; do
+  for d in $designs; do cells+=("$c/average-$sc-$d" "$c/neural-$sc-$d"); done
+done
+for sc in calibrated blur4; do
+  for d in $designs; do
+    for v in no-ga-loss fixed-perturbation frozen-detector; do cells+=("$a/$v-$sc-$d"); done
   done
-  for sc in calibrated blur4; do
-    for d in $designs; do
-      for v in no-ga-loss fixed-perturbation frozen-detector; do cells+=("$a/$v-$sc-$d"); done
-    done
+done
+# Then Table 1 again (baselines and ours, seed by seed: issue 40 first, as its three seeds
+# resolve it), then issue 41's aperture and fog runs, seed by seed.
+for s in 0 1 2; do
+  for sc in noise10 blur2 blur4; do
+    for v in flir basler tacos; do cells+=("runs/table1-baselines/cells/$v-$sc-s$s"); done
   done
-  # Then Table 1 again (baselines and ours, seed by seed: issue 40 first, as its three seeds
-  # resolve it), then issue 41's aperture and fog runs, seed by seed.
-  for s in 0 1 2; do
-    for sc in noise10 blur2 blur4; do
-      for v in flir basler tacos; do cells+=("runs/table1-baselines/cells/$v-$sc-s$s"); done
-    done
-    for sc in calibrated noise20; do cells+=("runs/table1-tacos/cells/tacos-$sc-s$s"); done
-    for sc in calibrated noise10 noise20 blur2 blur4; do
-      cells+=("runs/table1-ours/cells/joca-$sc-s$s")
-    done
+  for sc in calibrated noise20; do cells+=("runs/table1-tacos/cells/tacos-$sc-s$s"); done
+  for sc in calibrated noise10 noise20 blur2 blur4; do
+    cells+=("runs/table1-ours/cells/joca-$sc-s$s")
   done
-  for s in 0 1 2; do
-    for sc in calibrated noise20; do
-      for v in f16 aperture iris; do cells+=("runs/aperture/cells/$v-$sc-s$s"); done
-    done
-    for v in tacos-clear joca-clear tacos-fog300 joca-fog300; do
-      cells+=("runs/fog/cells/$v-calibrated-s$s")
-    done
+done
+for s in 0 1 2; do
+  for sc in calibrated noise20; do
+    for v in f16 aperture iris; do cells+=("runs/aperture/cells/$v-$sc-s$s"); done
   done
-fi
+  for v in tacos-clear joca-clear tacos-fog300 joca-fog300; do
+    cells+=("runs/fog/cells/$v-calibrated-s$s")
+  done
+done
 # Cells finished before run_cells.sh re-tested them (their checkpoints still here), in the
 # background beside the queue.
 # (Not the perturbation panel: its only cells with checkpoints are the loss-linear ones, and
