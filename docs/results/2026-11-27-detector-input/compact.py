@@ -4,9 +4,10 @@ config.toml, cell.toml, report.md, results-town<K>.json (`joca eval --town K`, w
 results-detector-start*.json (`joca eval --detector start`, where run),
 sensors_by_generation.json (each generation's sensors) and training_by_generation.json (each
 generation's mean over its candidates of the training frames' mAP, AP50, TP ratio and fitness),
-both from events.jsonl, which stays out of the repository. Skips unfinished cells.
+both from events.jsonl, which stays out of the repository. Skips unfinished cells. The cell's
+report.md comes without its figures, which stay out too (strip_figures.awk says so in it).
 Usage: compact.py GRID_DIR DEST_DIR [CELL ...]"""
-import json, shutil, sys
+import json, shutil, subprocess, sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -14,12 +15,14 @@ def compact(src, dest):
     if not (src / "results.json").exists():
         return False
     dest.mkdir(parents=True, exist_ok=True)
-    names = ["results.json", "best_design.json", "config.toml", "cell.toml", "report.md"]
+    names = ["results.json", "best_design.json", "config.toml", "cell.toml"]
     names += sorted(f.name for f in src.glob("results-town*.json"))
     names += sorted(f.name for f in src.glob("results-detector-start*.json"))
     for name in names:
         if (src / name).exists():
             shutil.copyfile(src / name, dest / name)
+    if (src / "report.md").exists():
+        strip_figures(src / "report.md", dest / "report.md", src)
     gens, scores = defaultdict(list), defaultdict(list)
     # A cell restored from its compact record (restore.sh) has no events.jsonl: its
     # sensors_by_generation.json came with it.
@@ -38,6 +41,13 @@ def compact(src, dest):
                     for g, rows in scores.items()}
         (dest / "training_by_generation.json").write_text(json.dumps(training, indent=1) + "\n")
     return True
+
+def strip_figures(report, dest, src):
+    """Writes `report` to `dest` without its figure links (uncommitted files) and their captions."""
+    awk = Path(__file__).resolve().parent.parent / "2026-11-27-panels" / "strip_figures.awk"
+    text = subprocess.run(["awk", "-v", f"src={src}", "-f", str(awk), str(report)],
+                          check=True, capture_output=True, text=True).stdout
+    dest.write_text(text)
 
 def main(grid, dest, names):
     cells = Path(grid) / "cells"

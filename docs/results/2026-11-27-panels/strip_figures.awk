@@ -6,5 +6,7 @@ skip && /^\*/ { skip = 0; next }
 /^$/ { if (!blank) print; blank = 1; next }
 { skip = 0; blank = 0; print }
 END {
-  if (n) printf "\n(%d figures not committed: `joca report %s` draws them on the machine that ran the cells.)\n", n, src
+  if (!n) exit
+  if (!blank) print ""
+  printf "(%d figures not committed: `joca report %s` draws them on the machine that ran the cells.)\n", n, src
 }
