@@ -11,6 +11,13 @@
 cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 variant=${1:-loss-linear}
 share() { # SRC DST: copies a finished SRC into an unfinished DST if their cell.toml are identical
+  if [ -f "$2/copied-from.txt" ]; then # shared before SRC's later tests (eval_town.sh) were in
+    for f in "$1"/results-town*.json; do
+      [ -f "$f" ] && [ ! -f "$2/${f##*/}" ] || continue
+      cp -a "$f" "$2/" && echo "$(date -u +%FT%TZ) shared $f -> $2"
+    done
+    return 0
+  fi
   [ -f "$1/results.json" ] && [ -d "$2" ] && [ ! -f "$2/results.json" ] || return 0
   if cmp -s "$1/cell.toml" "$2/cell.toml"; then
     cp -a "$1/." "$2/"
