@@ -51,6 +51,8 @@ restore $t1/ours runs/table1-ours $t1/table1-ours.toml 3
 restore $t1/tacos runs/table1-tacos $t1/table1-tacos.toml 3
 restore $ow/aperture runs/aperture aperture 3
 restore $ow/fog runs/fog fog 3
+restore docs/results/2026-12-01-field-of-view/panel runs/fov-panel \
+  docs/results/2026-12-01-field-of-view/fov-panel.toml 1
 # Ours' cells in calibrated and blur x4 are the perturbation panel's loss-linear cells; the fog
 # experiment's clear-weather cells are Table 1's calibrated ones (run_cells.sh shares again
 # before each cell, so those taken later are copied, not run).
@@ -69,7 +71,11 @@ for sc in calibrated blur4; do
     for v in no-ga-loss fixed-perturbation frozen-detector; do cells+=("$a/$v-$sc-$d"); done
   done
 done
-# Then Table 1 again (baselines and ours, seed by seed: issue 40 first, as its three seeds
+# The field-of-view check (lens against sensor behind the fixed cameras' gap), then Table 1 again
+for d in flir imx172-10mm imx287-3mm6 imx287-10mm; do
+  cells+=("runs/fov-panel/cells/average-calibrated-$d")
+done
+# Table 1 again (baselines and ours, seed by seed: issue 40 first, as its three seeds
 # resolve it), then issue 41's aperture and fog runs, seed by seed.
 for s in 0 1 2; do
   for sc in noise10 blur2 blur4; do
