@@ -53,6 +53,8 @@ restore $ow/aperture runs/aperture aperture 3
 restore $ow/fog runs/fog fog 3
 restore docs/results/2026-12-01-field-of-view/panel runs/fov-panel \
   docs/results/2026-12-01-field-of-view/fov-panel.toml 1
+restore docs/results/2026-12-01-field-of-view/input runs/fov-input \
+  docs/results/2026-12-01-field-of-view/fov-input.toml 1
 # Ours' cells in calibrated and blur x4 are the perturbation panel's loss-linear cells; the fog
 # experiment's clear-weather cells are Table 1's calibrated ones (run_cells.sh shares again
 # before each cell, so those taken later are copied, not run).
@@ -71,10 +73,12 @@ for sc in calibrated blur4; do
     for v in no-ga-loss fixed-perturbation frozen-detector; do cells+=("$a/$v-$sc-$d"); done
   done
 done
-# The field-of-view check (lens against sensor behind the fixed cameras' gap), then Table 1 again
+# The field-of-view checks (lens against sensor behind the fixed cameras' gap; twice the input),
+# then Table 1.
 for d in flir imx172-10mm imx287-3mm6 imx287-10mm; do
   cells+=("runs/fov-panel/cells/average-calibrated-$d")
 done
+for d in flir imx287-10mm; do cells+=("runs/fov-input/cells/average-480-calibrated-$d"); done
 # Table 1 again (baselines and ours, seed by seed: issue 40 first, as its three seeds
 # resolve it), then issue 41's aperture and fog runs, seed by seed.
 for s in 0 1 2; do
