@@ -75,10 +75,7 @@ for sc in calibrated blur4; do
 done
 # The field-of-view checks (lens against sensor behind the fixed cameras' gap; twice the input),
 # then Table 1.
-for d in flir imx172-10mm imx287-3mm6 imx287-10mm; do
-  cells+=("runs/fov-panel/cells/average-calibrated-$d")
-done
-for d in flir imx287-10mm; do cells+=("runs/fov-input/cells/average-480-calibrated-$d"); done
+for c in runs/fov-panel/cells/*/ runs/fov-input/cells/*/; do cells+=("${c%/}"); done
 # Table 1 again (baselines and ours, seed by seed: issue 40 first, as its three seeds
 # resolve it), then issue 41's aperture and fog runs, seed by seed.
 for s in 0 1 2; do

@@ -7,10 +7,10 @@ the cell's test mAP overall and per distance band (objects per band in brackets)
 Usage: bands.py CELLS_DIR [CELLS_DIR ...] [--filter SUBSTRING] [--town2]
 Reads each cell's results.json (results-town2.json with --town2); prints a markdown table.
 """
+import argparse
 import json
 import math
 import os
-import sys
 
 
 def input_size(w_mm, h_mm, short_px, long_max_px):
@@ -28,22 +28,21 @@ def car_px(design, width_px, distance_m=85.0, car_m=1.8):
     return car_m * design["focal_length_mm"] / distance_m / w_mm * width_px
 
 
-def main(argv):
-    town2 = "--town2" in argv
-    args = [a for a in argv if a != "--town2"]
-    wanted = ""
-    if "--filter" in args:
-        i = args.index("--filter")
-        wanted = args[i + 1]
-        del args[i : i + 2]
-    name = "results-town2.json" if town2 else "results.json"
-    rows = []
-    for cells in args:
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("cells", nargs="+", help="folders of cell directories")
+    ap.add_argument("--filter", default="", help="only cells whose name contains this")
+    ap.add_argument("--town2", action="store_true", help="results-town2.json")
+    args = ap.parse_args()
+    name = "results-town2.json" if args.town2 else "results.json"
+    rows, edges = [], []
+    for cells in args.cells:
         for cell in sorted(os.listdir(cells)):
             path = os.path.join(cells, cell, name)
-            if wanted not in cell or not os.path.exists(path):
+            if args.filter not in cell or not os.path.exists(path):
                 continue
             r = json.load(open(path))
+            edges = r["test_bands"]
             d = r["design"]
             w_mm, h_mm = d["sensor_mm"]
             inp = r["input"]
@@ -58,7 +57,6 @@ def main(argv):
                  % (cell, d["sensor"], d["focal_length_mm"], d["pixel_pitch_um"], fov,
                     w_px, h_px, car_px(d, w_px), car_px(d, w800), r["test"]["map"], bands))
             )
-    edges = json.load(open(path))["test_bands"] if rows else []
     head = " | ".join("%g–%g m" % (b["from_m"], b["to_m"]) for b in edges)
     print("| cell | design | field | input | car px @85 m | at 800 px | mAP | %s |" % head)
     print("|---" * (7 + len(edges)) + "|")
@@ -67,4 +65,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main()
