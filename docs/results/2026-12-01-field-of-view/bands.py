@@ -15,7 +15,8 @@ import os
 
 def input_size(w_mm, h_mm, short_px, long_max_px):
     """The detector input (width, height) in pixels: short side short_px, long side at most
-    long_max_px, aspect kept (DESIGN.md, "Detector input")."""
+    long_max_px, aspect kept (DESIGN.md, "Detector input"; joca's own is `DetectorInput::size_for`
+    in crates/joca-camera/src/input.rs, which also rounds to whole pixels of the native grid)."""
     scale = short_px / min(w_mm, h_mm)
     if max(w_mm, h_mm) * scale > long_max_px:
         scale = long_max_px / max(w_mm, h_mm)

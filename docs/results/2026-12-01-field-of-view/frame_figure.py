@@ -48,7 +48,7 @@ def main(argv):
     for p in panels:
         sheet.paste(p, (0, y))
         y += p.height
-    # JPEG for the committed figure: the frames' noise leaves PNG at ~5x the size.
+    # JPEG for the committed figure: sensor noise compresses poorly as PNG.
     sheet.save(out, quality=80, optimize=True)
 
 
