@@ -3,7 +3,7 @@
 where eval_town.sh made one): per scenario and method the mAP and TP ratio, mean and 95 % Student-t
 interval over seeds (scipy), beside the paper's Table 1; each seed's design and daylight exposure;
 ours minus every other method paired by seed (same training frames and test scenes per seed, not
-the same design); the pixel pitch each GA method chose per scenario against calibrated, by seed;
+the same design); the pixel pitch and mAP of each GA method per scenario against calibrated, by seed;
 and under blur x2 / x4 ours' daylight exposure against TaCOS + AverageAE's and against ours'
 calibrated, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
 all of an earlier one's (e.g. issue 39's grid, then Table 1's own cells), so no row mixes grids
@@ -134,6 +134,8 @@ def mechanisms(cells):
     header("method", "quantity", "scenario", "calibrated → scenario, by seed", "change")
     for m in ["tacos", "joca"]:
         against_calibrated(cells, m, "pixel pitch (µm)", lambda r: r["design"]["pixel_pitch_um"])
+    for m in ["tacos", "joca"]:
+        against_calibrated(cells, m, "mAP", lambda r: r["test"]["map"])
     for m in ["tacos", "joca"]:
         against_calibrated(cells, m, "day exposure (ms)",
                            lambda r: r["settings_by_illumination"]["day"][0])
