@@ -3,9 +3,9 @@
 where eval_town.sh made one): per scenario and method the mAP and TP ratio, mean and 95 % Student-t
 interval over seeds (scipy), beside the paper's Table 1; each seed's design and daylight exposure;
 ours minus every other method paired by seed (same training frames and test scenes per seed, not
-the same design); each GA method's pixel pitch, mAP and daylight exposure per scenario against
-its calibrated cell, by seed; and per scenario ours' daylight exposure against TaCOS +
-AverageAE's, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
+the same design); every method's mAP and each GA method's pixel pitch and daylight exposure per
+scenario against its calibrated cell, by seed; and per scenario ours' daylight exposure against
+TaCOS + AverageAE's, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
 all of an earlier one's (e.g. issue 39's grid, then Table 1's own cells), so no row mixes grids
 (their machine types differ); every row names where its cells came from.
 Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
@@ -134,7 +134,7 @@ def mechanisms(cells):
     header("method", "quantity", "scenario", "calibrated → scenario, by seed", "change")
     for m in ["tacos", "joca"]:
         against_calibrated(cells, m, "pixel pitch (µm)", lambda r: r["design"]["pixel_pitch_um"])
-    for m in ["tacos", "joca"]:
+    for m in METHODS:
         against_calibrated(cells, m, "mAP", lambda r: r["test"]["map"])
     for m in ["tacos", "joca"]:
         against_calibrated(cells, m, "day exposure (ms)",
