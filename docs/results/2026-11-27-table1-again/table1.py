@@ -2,10 +2,10 @@
 """Table 1 again from finished cells named METHOD-SCENARIO-sSEED (results.json; results-town2.json
 where eval_town.sh made one): per scenario and method the mAP and TP ratio, mean and 95 % Student-t
 interval over seeds (scipy), beside the paper's Table 1; each seed's design and daylight exposure;
-ours minus every other method paired by seed (same training frames and test scenes per seed, not
-the same design); every method's mAP and each GA method's pixel pitch and daylight exposure per
-scenario against its calibrated cell, by seed; and per scenario ours' daylight exposure against
-TaCOS + AverageAE's, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
+ours minus every other method paired by seed (same training frames and test scenes per seed, not the
+same design); every method's mAP and each GA method's pixel pitch and daylight exposure per scenario
+against its calibrated cell, by seed; and per scenario ours' daylight exposure against TaCOS +
+AverageAE's, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
 all of an earlier one's (e.g. issue 39's grid, then Table 1's own cells), so no row mixes grids
 (their machine types differ); every row names where its cells came from.
 Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
