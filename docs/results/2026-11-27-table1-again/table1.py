@@ -5,7 +5,9 @@ interval over seeds (scipy), beside the paper's Table 1; each seed's design and 
 ours minus every other method paired by seed (same training frames and test scenes per seed, not the
 same design); every method's mAP and each GA method's pixel pitch and daylight exposure per scenario
 against its calibrated cell, by seed; and per scenario ours' daylight exposure against TaCOS +
-AverageAE's, by seed. With several CELLS_DIRs a later one's cells of a scenario and method replace
+AverageAE's, by seed; and ours minus every other method pooled over the scenarios per seed (each
+seed's mean over the scenarios both methods ran, then the interval over seeds: the scenarios of one
+seed share its training frames and test scenes, so they are not independent). With several CELLS_DIRs a later one's cells of a scenario and method replace
 all of an earlier one's (e.g. issue 39's grid, then Table 1's own cells), so no row mixes grids
 (their machine types differ); every row names where its cells came from.
 Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
@@ -150,11 +152,34 @@ def mechanisms(cells):
         print(f"| {sc} | {len(seeds)} | {', '.join(f'{x:.1f}' for x in o)} | "
               f"{', '.join(f'{x:.1f}' for x in t)} | {signed([a - b for a, b in zip(o, t)])} |")
 
+def pooled(cells):
+    """Ours − each method, per seed the mean over the scenarios where both have the value, on the
+    test town, town 2 and their mean; the interval is over seeds; [n, n, n]: scenarios per seed."""
+    header("ours −", "seeds", "test town", "town 2", "mean of both towns", "per seed (test town)")
+    both = lambda c: (c["r"]["test"]["map"] + c["town2"]) / 2 if c["town2"] is not None else None
+    for m in METHODS[:-1]:
+        cols, first = [], None
+        for value in (lambda c: c["r"]["test"]["map"], lambda c: c["town2"], both):
+            by_seed = {}
+            for (sc, mm, s), c in cells.items():
+                o = cells.get((sc, "joca", s))
+                if mm == m and o is not None and value(c) is not None and value(o) is not None:
+                    by_seed.setdefault(s, []).append(value(o) - value(c))
+            if not by_seed:
+                cols.append("–")
+                continue
+            means = [statistics.mean(by_seed[s]) for s in sorted(by_seed)]
+            counts = ", ".join(str(len(by_seed[s])) for s in sorted(by_seed))
+            cols.append(f"{signed(means)} [{counts}]")
+            first = first or means
+        print(f"| {LABEL[m]} | {len(first)} | {' | '.join(cols)} | "
+              f"{', '.join(f'{x:+.3f}' for x in first)} |")
+
 if __name__ == "__main__":
     if len(sys.argv) < 2 or sys.argv[1].startswith("-"):
         sys.exit(__doc__)
     cells = load(sys.argv[1:])
     print("Cells from: " + "; ".join(f"{i + 1} = {d}" for i, d in enumerate(sys.argv[1:])))
-    for part in (main_table, paired, designs, mechanisms):
+    for part in (main_table, paired, pooled, designs, mechanisms):
         print()
         part(cells)
