@@ -7,9 +7,10 @@ same design); every method's mAP and each GA method's pixel pitch and daylight e
 against its calibrated cell, by seed; and per scenario ours' daylight exposure against TaCOS +
 AverageAE's, by seed; and ours minus every other method pooled over the scenarios per seed (each
 seed's mean over the scenarios both methods ran, then the interval over seeds: the scenarios of one
-seed share its training frames and test scenes, so they are not independent). With several CELLS_DIRs a later one's cells of a scenario and method replace
-all of an earlier one's (e.g. issue 39's grid, then Table 1's own cells), so no row mixes grids
-(their machine types differ); every row names where its cells came from.
+seed share its training frames and test scenes, so they are not independent). With several
+CELLS_DIRs a later one's cells of a scenario and method replace all of an earlier one's (e.g. issue
+39's grid, then Table 1's own cells), so no row mixes grids (their machine types differ); every row
+names where its cells came from.
 Usage: table1.py CELLS_DIR [CELLS_DIR ...]"""
 import json, statistics, sys
 from pathlib import Path
