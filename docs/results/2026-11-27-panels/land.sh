@@ -42,6 +42,17 @@ if [ -n "${FIGURES:-}" ]; then
   sed -e "s#$tmp#$src#g" -e "s#(figures/#(figures$tag/#g" "$tmp/report.md" > "$dest/report$tag.md"
   rm -rf "$dest/figures$tag"
   cp -r "$tmp/figures" "$dest/figures$tag"
+  # Another test's figures keep only those that differ from the test town's (the frames): the
+  # rest (fitness, loss, settings, ...) come from training and are the same files, linked there.
+  if [ -n "$tag" ] && [ -d "$dest/figures" ]; then
+    for f in "$dest/figures$tag"/*; do
+      b=$(basename "$f")
+      cmp -s "$f" "$dest/figures/$b" || continue
+      rm "$f"
+      sed -i "s#figures$tag/$b)#figures/$b)#g; s#figures$tag/$b\]#figures/$b]#g" \
+        "$dest/report$tag.md"
+    done
+  fi
 else
   sed "s#$tmp#$src#g" "$tmp/report.md" \
     | awk -v src="$src" -f docs/results/2026-11-27-panels/strip_figures.awk \
