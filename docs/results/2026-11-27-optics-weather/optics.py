@@ -9,7 +9,7 @@ where eval_town.sh made one), one experiment folder at a time:
   optics.py fog CELLS_DIR        the `fog` experiment (tacos/joca × clear/fog300): per method and
                                  weather the mAP over seeds; each seed's design and settings; fog
                                  minus clear per method and ours minus TaCOS per weather, paired
-                                 by seed.
+                                 by seed (mAP, settings, pitch, focal length, night frame).
 
 Intervals: mean ± t(0.975, n − 1)·s/√n over seeds (scipy's Student t), as table1.py. Every cell of a
 seed sees the same training frames and test scenes, so differences are paired by seed (the designs
@@ -81,7 +81,7 @@ def paired(cells, pairs):
     """Rows A − B for each (A, B) in PAIRS, per scenario, over the seeds both have."""
     header("scenario", "A − B", "seeds", "Δ mAP, test town", "ahead", "Δ mAP, town 2",
            *[f"Δ mAP {l}" for l in LIGHTS], "Δ day E (ms)", "Δ day G (dB)", "Δ night E (ms)",
-           "Δ night G (dB)", "Δ pitch (µm)")
+           "Δ night G (dB)", "Δ pitch (µm)", "Δ focal (mm)", "Δ night frame (DN)")
     for sc in keys(cells, 1):
         for a, b in pairs:
             seeds = sorted(s for (v, c, s) in cells if v == a and c == sc
@@ -98,7 +98,9 @@ def paired(cells, pairs):
                   + " | ".join(diff(lambda c, l=l: light_map(c, l)) for l in LIGHTS) + " | "
                   + " | ".join(diff(lambda c, l=l, i=i: c["r"]["settings_by_illumination"][l][i])
                                for l in ["day", "night"] for i in [0, 1]) + " | "
-                  + diff(lambda c: c["r"]["design"]["pixel_pitch_um"]) + " |")
+                  + " | ".join(diff(lambda c, k=k: c["r"]["design"][k])
+                               for k in ["pixel_pitch_um", "focal_length_mm"]) + " | "
+                  + diff(lambda c: c["r"]["mean_dn_by_illumination"]["night"]) + " |")
 
 PAIRS = {
     "aperture": [("aperture", "f16"), ("iris", "f16"), ("iris", "aperture")],
