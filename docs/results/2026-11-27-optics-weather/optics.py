@@ -5,7 +5,9 @@ where eval_town.sh made one), one experiment folder at a time:
   optics.py aperture CELLS_DIR   the `aperture` experiment (f16, aperture, iris × calibrated,
                                  noise20): per variant the mAP over seeds, overall and per
                                  illumination; each seed's design, f-number, exposure and gain by
-                                 day, night and tunnel; each variant minus f16 paired by seed.
+                                 day, night and tunnel; each variant minus f16 paired by seed
+                                 (mAP, exposure and gain per light, pitch, focal length, night
+                                 frame).
   optics.py fog CELLS_DIR        the `fog` experiment (tacos/joca × clear/fog300): per method and
                                  weather the mAP over seeds; each seed's design and settings; fog
                                  minus clear per method and ours minus TaCOS per weather, paired
@@ -44,13 +46,18 @@ def keys(cells, at):
 def light_map(c, light):
     return c["r"]["test_by_illumination"][light]["map"]
 
+# A design's f-number when results.json leaves it out: the calibration aperture (joca-camera's
+# design.rs writes `f_number` only where it differs from it).
+CALIBRATION_F_NUMBER = 16.0
+
 def f_number(r, light):
-    """The f-number a light was tested at: the iris's, else the design's (None: pinhole)."""
-    return r.get("f_number_by_illumination", {}).get(light, r["design"].get("f_number"))
+    """The f-number a light was tested at: the iris's, else the design's."""
+    return r.get("f_number_by_illumination", {}).get(
+        light, r["design"].get("f_number", CALIBRATION_F_NUMBER))
 
 def summary(cells):
     header("scenario", "variant", "seeds", "mAP, test town", "mAP, town 2",
-           *[f"mAP {l}" for l in LIGHTS])
+           *[f"mAP {l}" for l in LIGHTS], "f-number (day, night, tunnel)")
     for sc in keys(cells, 1):
         for v in keys(cells, 0):
             cs = [c for (cv, csc, _), c in sorted(cells.items()) if cv == v and csc == sc]
@@ -59,12 +66,19 @@ def summary(cells):
             t2 = [c["town2"] for c in cs if c["town2"] is not None]
             print(f"| {sc} | {v} | {len(cs)} | {interval([c['r']['test']['map'] for c in cs])} | "
                   f"{interval(t2) if t2 else '–'} | "
-                  + " | ".join(interval([light_map(c, l) for c in cs]) for l in LIGHTS) + " |")
+                  + " | ".join(interval([light_map(c, l) for c in cs]) for l in LIGHTS) + " | "
+                  + f_numbers(cs) + " |")
+
+def f_numbers(cs):
+    """Each light's f-number over the cells, mean ± interval (one value where all agree)."""
+    ns = {l: [f_number(c["r"], l) for c in cs] for l in ["day", "night", "tunnel"]}
+    if len({n for v in ns.values() for n in v}) == 1:
+        return f"f/{ns['day'][0]:.1f}"
+    return "; ".join(f"{l} {interval(v)}" for l, v in ns.items())
 
 def settings(r, light):
     e, g = r["settings_by_illumination"][light]
-    n = f_number(r, light)
-    return f"{e:.1f}, {g:.1f}" + (f", f/{n:.1f}" if n else "")
+    return f"{e:.1f}, {g:.1f}, f/{f_number(r, light):.1f}"
 
 def designs(cells):
     header("scenario", "variant", "seed", "design", "mAP", "day E (ms), G (dB), N",
@@ -80,8 +94,9 @@ def designs(cells):
 def paired(cells, pairs):
     """Rows A − B for each (A, B) in PAIRS, per scenario, over the seeds both have."""
     header("scenario", "A − B", "seeds", "Δ mAP, test town", "ahead", "Δ mAP, town 2",
-           *[f"Δ mAP {l}" for l in LIGHTS], "Δ day E (ms)", "Δ day G (dB)", "Δ night E (ms)",
-           "Δ night G (dB)", "Δ pitch (µm)", "Δ focal (mm)", "Δ night frame (DN)")
+           *[f"Δ mAP {l}" for l in LIGHTS],
+           *[f"Δ {l} {q}" for l in ["day", "night", "tunnel"] for q in ["E (ms)", "G (dB)"]],
+           "Δ pitch (µm)", "Δ focal (mm)", "Δ night frame (DN)")
     for sc in keys(cells, 1):
         for a, b in pairs:
             seeds = sorted(s for (v, c, s) in cells if v == a and c == sc
@@ -97,7 +112,7 @@ def paired(cells, pairs):
                   f"{sum(x > 0 for x in d1)} of {len(d1)} | {signed(d2) if d2 else '–'} | "
                   + " | ".join(diff(lambda c, l=l: light_map(c, l)) for l in LIGHTS) + " | "
                   + " | ".join(diff(lambda c, l=l, i=i: c["r"]["settings_by_illumination"][l][i])
-                               for l in ["day", "night"] for i in [0, 1]) + " | "
+                               for l in ["day", "night", "tunnel"] for i in [0, 1]) + " | "
                   + " | ".join(diff(lambda c, k=k: c["r"]["design"][k])
                                for k in ["pixel_pitch_um", "focal_length_mm"]) + " | "
                   + diff(lambda c: c["r"]["mean_dn_by_illumination"]["night"]) + " |")
