@@ -74,6 +74,8 @@ def f_numbers(cs):
     ns = {l: [f_number(c["r"], l) for c in cs] for l in ["day", "night", "tunnel"]}
     if len({n for v in ns.values() for n in v}) == 1:
         return f"f/{ns['day'][0]:.1f}"
+    if ns["day"] == ns["night"] == ns["tunnel"]:  # the design's, no iris: one value per cell
+        return f"{interval(ns['day'])} (" + ", ".join(f"f/{n:.1f}" for n in ns["day"]) + ")"
     return "; ".join(f"{l} {interval(v)}" for l, v in ns.items())
 
 def settings(r, light):
