@@ -6,22 +6,46 @@
 # docs/results/2026-11-27-panels/perturbation). With RESULTS (e.g. results-town2.json, written by
 # eval_town.sh), the report is of those tests instead, over the cells that have them:
 # DEST_DIR/report-town2.md and results-town2.csv. RESULTS `both`: results.json, then
-# results-town2.json where any cell has it.
+# results-town2.json where any cell has it. Without FIGURES, a landing with no new cell result
+# leaves the landed reports (and their committed figures) as they are.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../../.."
 bin=${1:-target/release/joca}
 src=${2:-runs/pert-panel}
 dest=${3:-docs/results/2026-11-27-panels/perturbation}
 results=${4:-results.json}
+# Whether every finished cell's RESULTS landed already, byte for byte, and without FIGURES: then
+# the landed report stays as it is, with any figures a FIGURES=1 landing committed beside it.
+landed_already() { # RESULTS
+  local tag=${1#results} r c
+  tag=${tag%.json}
+  [ -z "${FIGURES:-}" ] && [ -f "$dest/report$tag.md" ] || return 1
+  for r in "$src"/cells/*/"$1"; do
+    [ -f "$r" ] || continue
+    c=${r%/*}
+    cmp -s "$r" "$dest/cells/${c##*/}/$1" || return 1
+  done
+}
+town2() { ls "$src"/cells/*/results-town2.json > /dev/null 2>&1; }
 if [ "$results" = both ]; then # the test town, then town 2 over the cells that have it
+  # Decided for both before the first copies the cells (and their town-2 results) in.
+  if landed_already results.json && { ! town2 || landed_already results-town2.json; }; then
+    echo "nothing new: the reports in $dest left as landed"
+    exit
+  fi
+  export LANDING=1
   "$0" "$bin" "$src" "$dest" results.json
-  if ls "$src"/cells/*/results-town2.json > /dev/null 2>&1; then
+  if town2; then
     "$0" "$bin" "$src" "$dest" results-town2.json
   fi
   exit
 fi
 tag=${results#results}
 tag=${tag%.json}
+if [ -z "${LANDING:-}" ] && landed_already "$results"; then
+  echo "nothing new: $dest/report$tag.md left as landed"
+  exit
+fi
 python3 docs/results/2026-11-27-detector-input/compact.py "$src" "$dest"
 tmp=$(mktemp -d)
 cp "$src/experiment.json" "$src/.joca-output" "$tmp/" 2>/dev/null || cp "$src/experiment.json" "$tmp/"

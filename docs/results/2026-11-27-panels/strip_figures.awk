@@ -7,7 +7,7 @@ skip && /^\*/ { skip = 0; next }
 # A section heading waits for its first line: a heading or the end comes first when every line
 # of its section was a figure.
 /^## / { held = $0; skip = 0; next }
-/^$/ { if (held == "" && !blank) print; blank = (held == "") ? 1 : blank; next }
+/^$/ { if (held == "" && !blank) { print; blank = 1 }; next }
 {
   if (held != "") { if (!blank) print ""; print held; print ""; held = "" }
   skip = 0; blank = 0; print

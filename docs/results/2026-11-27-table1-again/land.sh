@@ -13,7 +13,7 @@ cells=(docs/results/2026-11-27-detector-input/standard/cells)
 for part in baselines tacos ours; do
   src=runs/table1-$part
   if ls "$src"/cells/*/results.json > /dev/null 2>&1; then
-    $panels/land.sh "$bin" "$src" "$dest/$part" both | grep "^landed"
+    $panels/land.sh "$bin" "$src" "$dest/$part" both | grep "^landed\|^nothing new"
   fi
   [ -d "$dest/$part/cells" ] && cells+=("$dest/$part/cells")
 done
