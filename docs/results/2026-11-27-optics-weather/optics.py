@@ -7,7 +7,8 @@ where eval_town.sh made one), one experiment folder at a time:
                                  illumination; each seed's design, f-number, exposure and gain by
                                  day, night and tunnel; each variant minus f16 paired by seed
                                  (mAP, exposure and gain per light, pitch, focal length, night
-                                 frame).
+                                 frame); each seed's difference beside both
+                                 f-numbers.
   optics.py fog CELLS_DIR        the `fog` experiment (tacos/joca × clear/fog300): per method and
                                  weather the mAP over seeds; each seed's design and settings; fog
                                  minus clear per method and ours minus TaCOS per weather, paired
@@ -119,6 +120,27 @@ def paired(cells, pairs):
                                for k in ["pixel_pitch_um", "focal_length_mm"]) + " | "
                   + diff(lambda c: c["r"]["mean_dn_by_illumination"]["night"]) + " |")
 
+def by_seed(cells, pairs):
+    """Each seed's A − B on its own, beside the f-numbers both ran at: whether a difference came
+    with an opened lens."""
+    header("scenario", "A − B", "seed", "A's f-number (day, night)", "B's", "Δ mAP, test town",
+           "Δ mAP, town 2", "Δ mAP night", "Δ mAP tunnel", "Δ day E (ms)", "Δ night E (ms)",
+           "Δ night G (dB)")
+    for sc in keys(cells, 1):
+        for a, b in pairs:
+            for s in sorted(s for (v, c, s) in cells if v == a and c == sc and (b, sc, s) in cells):
+                x, y = cells[(a, sc, s)], cells[(b, sc, s)]
+                n = lambda c: ", ".join(f"f/{f_number(c['r'], l):.1f}" for l in ["day", "night"])
+                e = lambda l, i: (x["r"]["settings_by_illumination"][l][i]
+                                  - y["r"]["settings_by_illumination"][l][i])
+                t2 = (f"{x['town2'] - y['town2']:+.3f}"
+                      if x["town2"] is not None and y["town2"] is not None else "–")
+                print(f"| {sc} | {a} − {b} | {s} | {n(x)} | {n(y)} | "
+                      f"{x['r']['test']['map'] - y['r']['test']['map']:+.3f} | {t2} | "
+                      f"{light_map(x, 'night') - light_map(y, 'night'):+.3f} | "
+                      f"{light_map(x, 'tunnel') - light_map(y, 'tunnel'):+.3f} | "
+                      f"{e('day', 0):+.1f} | {e('night', 0):+.1f} | {e('night', 1):+.1f} |")
+
 PAIRS = {
     "aperture": [("aperture", "f16"), ("iris", "f16"), ("iris", "aperture")],
     "fog": [("joca-fog300", "joca-clear"), ("tacos-fog300", "tacos-clear"),
@@ -130,6 +152,9 @@ if __name__ == "__main__":
         sys.exit(__doc__)
     cells = load(sys.argv[2])
     print(f"Cells: {sys.argv[2]} ({len(cells)} finished)")
-    for part in (summary, designs, lambda c: paired(c, PAIRS[sys.argv[1]])):
+    parts = [summary, designs, lambda c: paired(c, PAIRS[sys.argv[1]])]
+    if sys.argv[1] == "aperture":
+        parts.append(lambda c: by_seed(c, PAIRS["aperture"]))
+    for part in parts:
         print()
         part(cells)
