@@ -7,8 +7,8 @@ where eval_town.sh made one), one experiment folder at a time:
                                  illumination; each seed's design, f-number, exposure and gain by
                                  day, night and tunnel; each variant minus f16 paired by seed
                                  (mAP, exposure and gain per light, pitch, focal length, night
-                                 frame); each seed's difference beside both
-                                 f-numbers.
+                                 frame); each seed's difference beside the
+                                 f-numbers both cells ran at.
   optics.py fog CELLS_DIR        the `fog` experiment (tacos/joca × clear/fog300): per method and
                                  weather the mAP over seeds; each seed's design and settings; fog
                                  minus clear per method and ours minus TaCOS per weather, paired
