@@ -94,6 +94,10 @@ def designs(cells):
               + " | ".join(settings(r, l) for l in ["day", "night", "tunnel"])
               + f" | {light_map(c, 'night'):.4f} | {light_map(c, 'tunnel'):.4f} |")
 
+def common_seeds(cells, a, b, sc):
+    """The seeds at which variants A and B both finished in scenario SC."""
+    return sorted(s for (v, c, s) in cells if v == a and c == sc and (b, sc, s) in cells)
+
 def paired(cells, pairs):
     """Rows A − B for each (A, B) in PAIRS, per scenario, over the seeds both have."""
     header("scenario", "A − B", "seeds", "Δ mAP, test town", "ahead", "Δ mAP, town 2",
@@ -102,8 +106,7 @@ def paired(cells, pairs):
            "Δ pitch (µm)", "Δ focal (mm)", "Δ night frame (DN)")
     for sc in keys(cells, 1):
         for a, b in pairs:
-            seeds = sorted(s for (v, c, s) in cells if v == a and c == sc
-                           and (b, sc, s) in cells)
+            seeds = common_seeds(cells, a, b, sc)
             if not seeds:
                 continue
             ps = [(cells[(a, sc, s)], cells[(b, sc, s)]) for s in seeds]
@@ -128,7 +131,7 @@ def by_seed(cells, pairs):
            "Δ night G (dB)")
     for sc in keys(cells, 1):
         for a, b in pairs:
-            for s in sorted(s for (v, c, s) in cells if v == a and c == sc and (b, sc, s) in cells):
+            for s in common_seeds(cells, a, b, sc):
                 x, y = cells[(a, sc, s)], cells[(b, sc, s)]
                 n = lambda c: ", ".join(f"f/{f_number(c['r'], l):.1f}" for l in ["day", "night"])
                 e = lambda l, i: (x["r"]["settings_by_illumination"][l][i]
