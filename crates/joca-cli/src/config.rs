@@ -54,6 +54,16 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
 
 /// Preset `name` with `user_file` merged over it, and a description of that source for errors.
 pub fn load_table(name: &str, user_file: Option<&Path>) -> Result<(toml::Table, String)> {
+    load_table_with(name, user_file, &[])
+}
+
+/// [`load_table`] for a command that also reads the top-level tables `extra` of the user's file
+/// (`joca headroom`'s `[ladder]`).
+pub fn load_table_with(
+    name: &str,
+    user_file: Option<&Path>,
+    extra: &[&str],
+) -> Result<(toml::Table, String)> {
     let mut table: toml::Table =
         toml::from_str(preset(name)?).with_context(|| format!("preset {name} is invalid"))?;
     let mut source = format!("preset {name}");
@@ -63,12 +73,13 @@ pub fn load_table(name: &str, user_file: Option<&Path>) -> Result<(toml::Table, 
         let user: toml::Table = toml::from_str(&text)
             .with_context(|| format!("invalid config file {}", path.display()))?;
         // Within a table serde refuses unknown fields; a misspelt table would go unread.
-        if let Some(unknown) = user.keys().find(|k| !TABLES.contains(&k.as_str())) {
+        let allowed: Vec<&str> = TABLES.iter().chain(extra).copied().collect();
+        if let Some(unknown) = user.keys().find(|k| !allowed.contains(&k.as_str())) {
             bail!(
                 "config file {}: unknown table or field `{unknown}` at the top level; allowed: \
                  [{}]",
                 path.display(),
-                TABLES.join("], [")
+                allowed.join("], [")
             );
         }
         merge(&mut table, user);

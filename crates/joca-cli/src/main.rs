@@ -30,6 +30,9 @@ enum Command {
     Run(commands::run::Args),
     /// Test a run's best design again (trained detector and NeuralAE) on the test town.
     Eval(commands::eval::Args),
+    /// The room any exposure controller has: a settings ladder, AverageAE targets and the
+    /// per-frame oracle scored on one design and detector (or tabulate several, paired).
+    Headroom(commands::headroom::Args),
     /// List the 43-sensor catalogue (pitch, grid, size; field of view for a focal length).
     Sensors(commands::sensors::Args),
     /// Apply image formation (exposure, gain, pixel size, noise, clipping) to a linear image.
@@ -141,6 +144,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run(args) => commands::run::run(&args),
         Command::Eval(args) => commands::eval::run(&args),
+        Command::Headroom(args) => commands::headroom::run(&args),
         Command::Sensors(args) => commands::sensors::run(&args),
         Command::Form(args) => commands::form::run(&args),
         Command::CalibrateNoise(args) => commands::calibrate::run(&args),

@@ -15,7 +15,7 @@
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 
-mod image;
+pub(crate) mod image;
 use image::{ImageEval, accumulate, counts_at_50, evaluate_image};
 
 /// Names of the 12 summary numbers, in pycocotools' order.
@@ -43,7 +43,7 @@ const RECALL_POINTS: usize = 101;
 
 /// IoU thresholds 0.50:0.05:0.95 computed as `numpy.linspace(.5, .95, 10)` does, so that
 /// comparisons at exactly a threshold break the same way.
-fn iou_thresholds() -> [f64; 10] {
+pub(crate) fn iou_thresholds() -> [f64; 10] {
     let step = (0.95 - 0.5) / 9.0;
     let mut t: [f64; 10] = std::array::from_fn(|i| i as f64 * step + 0.5);
     t[9] = 0.95;

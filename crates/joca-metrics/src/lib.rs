@@ -23,7 +23,9 @@
 #![deny(missing_docs)]
 
 mod coco;
+mod frame;
 mod task;
 
 pub use coco::{CocoEvaluator, CocoSummary, GroundTruth, STAT_NAMES, ScoredBox, iou_xywh};
-pub use task::{BandScores, DISTANCE_BANDS_M, TaskMetrics, TaskScores};
+pub use frame::frame_utility;
+pub use task::{BandScores, DISTANCE_BANDS_M, TaskMetrics, TaskScores, frame_utility_of};

@@ -97,27 +97,7 @@ impl TaskMetrics {
         detections: &[Detection],
         visible_180: u32,
     ) {
-        let gts =
-            truth
-                .iter()
-                .map(|a| {
-                    GroundTruth::new(a.bbox.to_xywh().map(f64::from), a.class.coco_id())
-                        .at_distance(a.distance_m.map(f64::from))
-                })
-                .chain(ignore.iter().map(|a| {
-                    GroundTruth::crowd(a.bbox.to_xywh().map(f64::from), a.class.coco_id())
-                }))
-                .collect();
-        let dts = detections
-            .iter()
-            .map(|d| {
-                ScoredBox::new(
-                    d.bbox.to_xywh().map(f64::from),
-                    d.class.coco_id(),
-                    f64::from(d.score),
-                )
-            })
-            .collect();
+        let (gts, dts) = coco_frame(truth, ignore, detections);
         for a in truth {
             self.class_objects[a.class.index()] += 1;
             self.objects.push((a.class.index(), a.distance_m));
@@ -179,6 +159,44 @@ impl TaskMetrics {
     pub fn reset(&mut self) {
         *self = Self::default();
     }
+}
+
+/// One frame's ground truth (its ignore regions as COCO crowd regions) and detections as the
+/// COCO evaluation reads them.
+fn coco_frame(
+    truth: &[Annotation],
+    ignore: &[Annotation],
+    detections: &[Detection],
+) -> (Vec<GroundTruth>, Vec<ScoredBox>) {
+    let gts = truth
+        .iter()
+        .map(|a| {
+            GroundTruth::new(a.bbox.to_xywh().map(f64::from), a.class.coco_id())
+                .at_distance(a.distance_m.map(f64::from))
+        })
+        .chain(
+            ignore
+                .iter()
+                .map(|a| GroundTruth::crowd(a.bbox.to_xywh().map(f64::from), a.class.coco_id())),
+        )
+        .collect();
+    let dts = detections
+        .iter()
+        .map(|d| {
+            ScoredBox::new(d.bbox.to_xywh().map(f64::from), d.class.coco_id(), f64::from(d.score))
+        })
+        .collect();
+    (gts, dts)
+}
+
+/// [`crate::frame_utility`] of one frame given as the task measures take it.
+pub fn frame_utility_of(
+    truth: &[Annotation],
+    ignore: &[Annotation],
+    detections: &[Detection],
+) -> f64 {
+    let (gts, dts) = coco_frame(truth, ignore, detections);
+    crate::frame_utility(&gts, &dts)
 }
 
 #[cfg(test)]

@@ -5,6 +5,8 @@
 //! - [`Event`] — the lines of `events.jsonl` ([`StepRecord`], [`CandidateRecord`],
 //!   [`GenerationRecord`]); [`TraceRecord`] — the lines of `test/trace.jsonl`;
 //! - [`Showcase`] — `test/showcase.json`;
+//! - [`HeadroomRecord`] — `headroom.json` (`joca headroom`);
+//! - [`Provenance`] — which joca, commit and configuration made a record;
 //! - [`Method`], [`Scenario`], [`Source`], [`TestController`] — the vocabulary the records use
 //!   (with joca-core's [`compute`](joca_core::compute) names).
 //!
@@ -19,7 +21,9 @@
 
 mod by_light;
 mod events;
+mod headroom;
 mod method;
+mod provenance;
 mod results;
 mod settings;
 mod showcase;
@@ -31,7 +35,9 @@ pub use joca_metrics::{BandScores, TaskScores};
 
 pub use by_light::{ByLight, LightResults};
 pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
+pub use headroom::{HEADROOM_FORMAT_VERSION, HeadroomRecord, PolicyLight, PolicyScores};
 pub use method::{Method, Scenario};
+pub use provenance::{BUILD_COMMIT, Provenance, config_sha256};
 pub use results::{DesignSummary, RESULTS_FORMAT_VERSION, RunResults, SearchTies, Validated};
 pub use settings::Settings;
 pub use showcase::{LightStep, Showcase, ShowcaseFrame};

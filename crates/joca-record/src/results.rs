@@ -1,6 +1,6 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
-use crate::{ByLight, Method, Scenario, Source, TestController};
+use crate::{ByLight, Method, Provenance, Scenario, Source, TestController};
 use joca_camera::{ApertureControl, DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
 use joca_core::weather::Weather;
@@ -102,6 +102,9 @@ pub struct RunResults {
     /// first (empty when there was only one design to choose, or for recordings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub validation: Vec<Validated>,
+    /// Which joca, commit and configuration computed this record (absent in older runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
 }
 
 fn is_pinhole(lens: &LensModel) -> bool {

@@ -22,6 +22,7 @@ mod data;
 mod experiment;
 mod figures;
 mod frames;
+mod headroom;
 mod html;
 mod paired;
 mod plot;
@@ -32,7 +33,10 @@ pub use data::{GenerationFitness, RunData, StepLog};
 pub use experiment::{CellSpec, CellState, Manifest, write_experiment_report};
 pub use figures::write_figures;
 pub use frames::DRAW_MIN_SCORE;
-pub use joca_record::{DesignSummary, RunResults, Showcase, ShowcaseFrame};
+pub use headroom::{REFERENCE_POLICY, headroom_markdown, headroom_summary_markdown};
+pub use joca_record::{
+    DesignSummary, HEADROOM_FORMAT_VERSION, HeadroomRecord, RunResults, Showcase, ShowcaseFrame,
+};
 pub use seeds::{mean_interval, t_975};
 pub use table::{Row, Table};
 

@@ -31,5 +31,5 @@ pub use run::{
     MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, Method, PerturbationMutation, PerturbationScore,
     PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario,
     SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step,
-    cpu_description, evaluate_run, run,
+    cpu_description, evaluate_run, headroom, run,
 };

@@ -7,6 +7,7 @@ pub mod eval;
 pub mod experiment;
 pub mod flow;
 pub mod form;
+pub mod headroom;
 pub mod import;
 pub mod metrics;
 pub mod render;

@@ -4,17 +4,17 @@
 use super::*;
 
 /// Matching result of one image and category at one area range.
-pub(super) struct ImageEval {
-    pub(super) scores: Vec<f64>,
+pub(crate) struct ImageEval {
+    pub(crate) scores: Vec<f64>,
     /// `[threshold][detection]`: matched to a ground truth.
-    pub(super) matched: Vec<Vec<bool>>,
+    pub(crate) matched: Vec<Vec<bool>>,
     /// `[threshold][detection]`: ignored.
-    pub(super) ignored: Vec<Vec<bool>>,
-    pub(super) gt_ignored: Vec<bool>,
+    pub(crate) ignored: Vec<Vec<bool>>,
+    pub(crate) gt_ignored: Vec<bool>,
 }
 
 /// pycocotools' `evaluateImg` for one image and category (maxDets 100).
-pub(super) fn evaluate_image(
+pub(crate) fn evaluate_image(
     gts: &[&GroundTruth],
     dts: &[&ScoredBox],
     range: (f64, f64),
@@ -83,7 +83,7 @@ pub(super) fn evaluate_image(
 
 /// Ground-truth objects not ignored, and true positives at IoU 0.5 among each image's first 100
 /// detections (area "all").
-pub(super) fn counts_at_50(evals: &[ImageEval]) -> (usize, usize) {
+pub(crate) fn counts_at_50(evals: &[ImageEval]) -> (usize, usize) {
     let ground_truths = evals.iter().flat_map(|e| &e.gt_ignored).filter(|&&i| !i).count();
     let true_positives = evals
         .iter()
@@ -97,7 +97,7 @@ pub(super) fn counts_at_50(evals: &[ImageEval]) -> (usize, usize) {
 /// pycocotools' accumulate for one category, area range, detection cap and IoU threshold `t`:
 /// the precision–recall curve over the merged detections (`(score, image, detection)`, by
 /// score), its final recall, and its interpolated precision at each of `recall_points`.
-pub(super) fn accumulate(
+pub(crate) fn accumulate(
     evals: &[ImageEval],
     merged: &[(f64, usize, usize)],
     t: usize,

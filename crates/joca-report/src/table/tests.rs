@@ -34,6 +34,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         by_illumination: Default::default(),
         best_fitness: 0.0,
         validation: Vec::new(),
+        provenance: None,
         input: None,
         render_scale: Some(0.08),
         source: joca_record::Source::Sim,

@@ -28,14 +28,14 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// Frames the controller runs before scoring starts (it starts at E0, G0).
-const WARMUP_FRAMES: usize = 3;
+pub(super) const WARMUP_FRAMES: usize = 3;
 /// Frames of the tunnel showcase (10 Hz): 5 s around an abrupt change of illumination.
 const TUNNEL_FRAMES: usize = 50;
 /// Frames of the day and night showcases; the last one is saved.
 const STEADY_FRAMES: usize = 20;
 
 /// The controller state of one closed-loop sequence.
-struct Driver {
+pub(super) struct Driver {
     control: Box<dyn ExposureControl>,
     /// Settings the sensor uses for the next frame.
     applied: DynamicSettings,
@@ -46,17 +46,18 @@ struct Driver {
 }
 
 /// What one closed-loop frame produced.
-struct Step {
-    frame: Frame,
-    detections: Vec<Detection>,
+pub(super) struct Step {
+    pub(super) frame: Frame,
+    pub(super) detections: Vec<Detection>,
     /// Exposure and gain, and the f-number where the controller sets the iris.
-    settings: Settings,
+    pub(super) settings: Settings,
     /// Mean of the formed 8-bit frame, DN.
-    mean_dn: f64,
+    pub(super) mean_dn: f64,
 }
 
 impl Driver {
-    fn new(
+    /// Starts a sequence of `design` with the context's test controller.
+    pub(super) fn new(
         cx: &Context,
         model: &mut JointModel,
         design: &CameraDesign,
@@ -76,9 +77,19 @@ impl Driver {
         Self { control, applied, previous: None, pixel_pitch_um, formation }
     }
 
+    /// The 8-bit frame last captured.
+    pub(super) fn last_image(&self) -> Option<&Rgb8Image> {
+        self.previous.as_ref()
+    }
+
+    /// The settings the last frame was captured with.
+    pub(super) fn applied(&self) -> DynamicSettings {
+        self.applied
+    }
+
     /// Sets this frame's exposure and gain from the previous frame, captures and detects.
     #[allow(clippy::too_many_arguments)]
-    fn step(
+    pub(super) fn step(
         &mut self,
         cx: &Context,
         model: &mut JointModel,

@@ -12,7 +12,7 @@ use joca_camera::CameraDesign;
 use joca_core::output::{self, DirLock, OutputKind};
 use joca_nn::detector::PrecisionExt;
 use joca_nn::joint::JointModel;
-use joca_record::Validated;
+use joca_record::{Provenance, Validated};
 use std::path::{Path, PathBuf};
 
 /// What `joca eval` changes about a run's test (the default: nothing — the same test again).
@@ -43,18 +43,53 @@ const MAX_TEST_TOWN: u64 = 9_999;
 impl EvalOptions {
     /// Refuses the validation town and an index past [`MAX_TEST_TOWN`].
     fn check(&self) -> Result<(), TrainError> {
-        if self.town == 1 || self.town > MAX_TEST_TOWN {
-            return Err(TrainError::Config {
-                field: "--town".into(),
-                value: self.town.to_string(),
-                allowed: format!(
-                    "0 (the test town) or 2 to {MAX_TEST_TOWN} (fresh towns of the test family); \
-                     1 is the validation town that chose among the designs"
-                ),
-            });
-        }
-        Ok(())
+        check_town(self.town)
     }
+}
+
+/// Refuses the validation town and an index past [`MAX_TEST_TOWN`] as a test town.
+pub(super) fn check_town(town: u64) -> Result<(), TrainError> {
+    if town == 1 || town > MAX_TEST_TOWN {
+        return Err(TrainError::Config {
+            field: "--town".into(),
+            value: town.to_string(),
+            allowed: format!(
+                "0 (the test town) or 2 to {MAX_TEST_TOWN} (fresh towns of the test family); \
+                 1 is the validation town that chose among the designs"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// A finished (or interrupted) run directory opened for reading: its configuration, its loop
+/// state and checkpoint folder, and the directory's lock (held while the caller works, so it
+/// never reads a checkpoint a run is writing).
+pub(super) fn load_run(
+    run_dir: &Path,
+) -> Result<(super::RunConfig, RunState, PathBuf, DirLock), TrainError> {
+    if output::check(run_dir, OutputKind::Run)? != Some(output::Claimed::Earlier) {
+        return Err(TrainError::Corrupt {
+            path: run_dir.display().to_string(),
+            reason: "not a run directory of joca's (it does not exist or is empty)".into(),
+        });
+    }
+    let lock = DirLock::acquire(run_dir, "joca eval")?;
+    let config_path = run_dir.join("config.toml");
+    let text =
+        std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
+    let file: ConfigFile = toml::from_str(&text).map_err(|e| TrainError::Corrupt {
+        path: config_path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let dir = CheckpointDir::new(run_dir.join("checkpoint")).existing().ok_or_else(|| {
+        TrainError::Corrupt {
+            path: run_dir.join("checkpoint").display().to_string(),
+            reason: "no checkpoint: the run has not finished a single candidate".into(),
+        }
+    })?;
+    let state: RunState = read_json(&dir.join("state.json"))?;
+    Ok((file.run, state, dir, lock))
 }
 
 /// Tests the best design of a finished (or interrupted) run again, from its checkpoint: the
@@ -74,21 +109,7 @@ pub fn evaluate_run(
     options.check()?;
     let EvalOptions { scenario, frames_per_episode, episodes, town, controller, start_detector } =
         *options;
-    if output::check(run_dir, OutputKind::Run)? != Some(output::Claimed::Earlier) {
-        return Err(TrainError::Corrupt {
-            path: run_dir.display().to_string(),
-            reason: "not a run directory of joca's (it does not exist or is empty)".into(),
-        });
-    }
-    let _lock = DirLock::acquire(run_dir, "joca eval")?;
-    let config_path = run_dir.join("config.toml");
-    let text =
-        std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
-    let file: ConfigFile = toml::from_str(&text).map_err(|e| TrainError::Corrupt {
-        path: config_path.display().to_string(),
-        reason: e.to_string(),
-    })?;
-    let mut config = file.run;
+    let (mut config, state, dir, _lock) = load_run(run_dir)?;
     if let Some(s) = scenario {
         config.scenario = s;
     }
@@ -100,6 +121,7 @@ pub fn evaluate_run(
         config.test_episodes = n;
     }
     config.validate()?;
+    let config_path = run_dir.join("config.toml");
     let start_weights = if start_detector {
         Some(config.detector_weights.clone().ok_or_else(|| TrainError::Config {
             field: "--detector".into(),
@@ -113,13 +135,6 @@ pub fn evaluate_run(
     } else {
         None
     };
-    let dir = CheckpointDir::new(run_dir.join("checkpoint")).existing().ok_or_else(|| {
-        TrainError::Corrupt {
-            path: run_dir.join("checkpoint").display().to_string(),
-            reason: "no checkpoint: the run has not finished a single candidate".into(),
-        }
-    })?;
-    let state: RunState = read_json(&dir.join("state.json"))?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     if town != 0 && cx.real.is_some() {
         return Err(TrainError::Config {
@@ -251,6 +266,7 @@ pub(super) fn test_design(
         weather: config.weather,
         aperture: config.aperture,
         validation,
+        provenance: Some(Provenance::of_this_build(&config.as_read())),
     };
     results.format_version = results.layout_version();
     Ok(results)

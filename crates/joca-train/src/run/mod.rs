@@ -19,6 +19,7 @@ mod config;
 mod evaluate;
 mod hardware;
 pub use hardware::HardwareMutation;
+pub mod headroom;
 mod method;
 mod perturbation;
 mod reference;

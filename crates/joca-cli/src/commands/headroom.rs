@@ -1,0 +1,184 @@
+//! `joca headroom`: the room any exposure controller has on a design and detector — a run's
+//! (from its checkpoint) or a fixed design's with detector weights — and the table of several
+//! such measurements paired by design.
+
+use crate::config;
+use anyhow::{Context, Result, anyhow, bail};
+use joca_train::headroom::ladder::LadderConfig;
+use joca_train::headroom::{HeadroomOptions, Subject, headroom, write_headroom};
+use joca_train::{DesignSpec, RunConfig, Scenario};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `joca headroom`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A run directory (its best design, trained detector and controller); or, with `--table`,
+    /// the folders (or `headroom.json` files) of earlier measurements to tabulate.
+    paths: Vec<PathBuf>,
+    /// Tabulate earlier measurements: each policy minus AverageAE at mid-grey, paired over them.
+    #[arg(long)]
+    table: bool,
+    /// Without a run directory: the preset whose `[run]` the design is measured with.
+    #[arg(long, default_value = "standard")]
+    preset: String,
+    /// A TOML file: `[run]` fields over the preset's (a fixed `design`, `detector_weights`) and
+    /// the `[ladder]` table (`top_exposure_gain_ms`, `steps`, `step_stops`, `split`,
+    /// `targets_dn`).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Without a run directory: the design, `SENSOR:FOCAL_MM:X_M:Z_M` (e.g. `IMX287:10:2.14:1.7`).
+    #[arg(long)]
+    design: Option<String>,
+    /// Form the frames under another scenario: calibrated, noise10, noise20, blur2, blur4.
+    #[arg(long)]
+    scenario: Option<String>,
+    /// The test family's town: 0 (the test town) or 2 to 9999.
+    #[arg(long, default_value_t = 0)]
+    town: u64,
+    /// Test episodes (stratified by light) [default: the configuration's].
+    #[arg(long)]
+    episodes: Option<u64>,
+    /// Scored frames per episode [default: the configuration's].
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Where `headroom.json` and `headroom.md` go [default: RUN_DIR/headroom-<scenario>-town<K>;
+    /// required without a run directory]; with `--table`, the Markdown file to write.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// Runs `joca headroom`.
+pub fn run(args: &Args) -> Result<()> {
+    if args.table {
+        return table(args);
+    }
+    let (ladder, ladder_file) = ladder(args.config.as_deref())?;
+    let scenario =
+        args.scenario.as_deref().map(Scenario::from_name).transpose().map_err(|e| anyhow!(e))?;
+    let options = HeadroomOptions {
+        ladder,
+        ladder_file,
+        scenario,
+        town: args.town,
+        episodes: args.episodes,
+        frames_per_episode: args.frames,
+    };
+    let (subject, out) = match args.paths.as_slice() {
+        [run_dir] => {
+            if args.design.is_some() {
+                bail!("--design: give a design or a run directory, not both");
+            }
+            if let Some(path) = &args.config {
+                let (table, _) = config::load_table_with(&args.preset, Some(path), &["ladder"])?;
+                let user: toml::Table = toml::from_str(&std::fs::read_to_string(path)?)?;
+                if user.contains_key("run") || user.contains_key("pretrain") {
+                    bail!(
+                        "config file {}: with a run directory only [ladder] is read (the run's \
+                         own config.toml sets the rest); remove its other tables",
+                        path.display()
+                    );
+                }
+                drop(table);
+            }
+            let out = args.out.clone().unwrap_or_else(|| {
+                let s = scenario.map_or("run".to_owned(), |s| s.name().to_owned());
+                run_dir.join(format!("headroom-{s}-town{}", args.town))
+            });
+            (Subject::Run(run_dir.clone()), out)
+        }
+        [] => {
+            let (mut table, source) =
+                config::load_table_with(&args.preset, args.config.as_deref(), &["ladder"])?;
+            let run =
+                table.remove("run").with_context(|| format!("{source} has no [run] table"))?;
+            let mut cfg: RunConfig =
+                run.try_into().with_context(|| format!("invalid [run] in {source}"))?;
+            if let Some(d) = &args.design {
+                cfg.design = Some(parse_design(d)?);
+            }
+            crate::commands::run::resolve_weights(&mut cfg);
+            let Some(out) = args.out.clone() else {
+                bail!("--out: required when measuring a design without a run directory");
+            };
+            (Subject::Design(Box::new(cfg)), out)
+        }
+        _ => bail!("give one run directory, or none with --design (several only with --table)"),
+    };
+    let record = headroom(&subject, &options).context("cannot measure the headroom")?;
+    let markdown = joca_report::headroom_markdown(&record);
+    write_headroom(&out, &record, &markdown)
+        .with_context(|| format!("cannot write {}", out.display()))?;
+    print!("{markdown}");
+    println!("\nwritten: {}", out.join("headroom.json").display());
+    Ok(())
+}
+
+/// The `[ladder]` table of the configuration file (defaults without one), and the file's name.
+fn ladder(file: Option<&Path>) -> Result<(LadderConfig, String)> {
+    let Some(path) = file else {
+        return Ok((LadderConfig::default(), "(defaults)".into()));
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read config file {}", path.display()))?;
+    let table: toml::Table =
+        toml::from_str(&text).with_context(|| format!("invalid config file {}", path.display()))?;
+    let ladder = match table.get("ladder") {
+        None => LadderConfig::default(),
+        Some(v) => v
+            .clone()
+            .try_into()
+            .with_context(|| format!("invalid [ladder] in {}", path.display()))?,
+    };
+    Ok((ladder, path.display().to_string()))
+}
+
+/// `SENSOR:FOCAL_MM:X_M:Z_M`.
+fn parse_design(text: &str) -> Result<DesignSpec> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let number = |s: &str, what: &str| {
+        s.parse::<f64>().map_err(|_| anyhow!("--design: {what} {s:?} is not a number"))
+    };
+    match parts.as_slice() {
+        [sensor, f, x, z] => Ok(DesignSpec {
+            sensor: (*sensor).to_owned(),
+            focal_length_mm: number(f, "focal length (mm)")?,
+            x_m: number(x, "x (m)")?,
+            z_m: number(z, "z (m)")?,
+            f_number: None,
+        }),
+        _ => bail!(
+            "--design: expected SENSOR:FOCAL_MM:X_M:Z_M (e.g. IMX287:10:2.14:1.7), got {text:?}"
+        ),
+    }
+}
+
+/// `--table`: the paired summary of earlier measurements.
+fn table(args: &Args) -> Result<()> {
+    if args.paths.is_empty() {
+        bail!("--table: give the folders (or headroom.json files) of earlier measurements");
+    }
+    let mut records = Vec::new();
+    for p in &args.paths {
+        let file = if p.is_dir() { p.join("headroom.json") } else { p.clone() };
+        let text = std::fs::read_to_string(&file)
+            .with_context(|| format!("cannot read {}", file.display()))?;
+        let record: joca_report::HeadroomRecord = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a headroom record", file.display()))?;
+        if record.format_version > joca_report::HEADROOM_FORMAT_VERSION {
+            bail!(
+                "{}: format_version {} is newer than this joca reads ({})",
+                file.display(),
+                record.format_version,
+                joca_report::HEADROOM_FORMAT_VERSION
+            );
+        }
+        records.push(record);
+    }
+    let text = joca_report::headroom_summary_markdown(&records);
+    if let Some(out) = &args.out {
+        joca_core::fs::write_atomic(out, text.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
+    }
+    print!("{text}");
+    Ok(())
+}

@@ -1,0 +1,108 @@
+//! `joca headroom`: a fixed design with the shipped detector measured on a few test frames —
+//! every policy scored on the same frames, the hindsight rows at least what they choose from —
+//! the paired table over records, and bad ladders refused naming the field, range and file.
+#![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
+
+mod common;
+use common::{cli, stderr};
+
+const DESIGN: &str = "--design IMX287:10:2.14:1.7 --preset quick";
+
+#[test]
+fn a_design_is_measured_and_tabulated() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("ladder.toml");
+    // A short ladder keeps the test in seconds: 4 rungs, 2 stops apart, two targets.
+    std::fs::write(&cfg, "[ladder]\nsteps = 4\nstep_stops = 2.0\ntop_exposure_gain_ms = 400.0\ntargets_dn = [60.0]\n").unwrap();
+    let out = dir.path().join("h");
+    let o = cli!("headroom", DESIGN, "--episodes 4 --frames 2 --config", cfg, "--out", out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(out.join("headroom.json")).unwrap();
+    let r: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(r["frames"], 8);
+    assert_eq!(r["ladder"].as_array().unwrap().len(), 4);
+    let map = |name: &str| {
+        let p = r["policies"].as_array().unwrap().iter().find(|p| p["policy"] == name).unwrap();
+        (p["scores"]["map"].as_f64().unwrap(), p["hindsight"].as_bool().unwrap())
+    };
+    let rungs: Vec<f64> = (0..4).map(|i| map(&format!("rung-{i}")).0).collect();
+    let best_rung = rungs.iter().copied().fold(f64::MIN, f64::max);
+    assert_eq!(map("best-constant"), (best_rung, true));
+    let targets = [map("average-127.5").0, map("average-60").0];
+    assert_eq!(map("best-target").0, targets[0].max(targets[1]));
+    assert!(!map("average-127.5").1 && map("oracle").1);
+    // Chosen light by light among the same frames, the oracle starts from the best constant
+    // of each light and never goes below it.
+    assert!(map("oracle").0 >= map("constant-by-light").0 - 1e-12);
+    assert!(r["provenance"]["commit"].as_str().unwrap().len() >= 7);
+    // Two records tabulated: each difference paired.
+    let o = cli!("headroom --table", out, out);
+    let table = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(o.status.success() && table.contains("| oracle † |"), "{table}");
+    assert!(table.contains("2/2") || table.contains("0/2"), "{table}");
+}
+
+#[test]
+fn bad_ladders_and_subjects_are_refused_naming_field_range_and_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("mine.toml");
+    let out = dir.path().join("never");
+    for (ladder, words) in [
+        ("steps = 0", vec!["ladder.steps", "1 to 64"]),
+        ("step_stops = 0.0", vec!["ladder.step_stops", "above 0"]),
+        ("step_stops = -1.0", vec!["ladder.step_stops", "above 0"]),
+        ("top_exposure_gain_ms = 5000.0", vec!["ladder.top_exposure_gain_ms", "1581.1"]),
+        ("steps = 30", vec!["ladder.steps", "under the ACC's"]),
+        ("split = \"magic\"", vec!["unknown variant `magic`", "exposure-first"]),
+        ("rungs = 3", vec!["unknown field `rungs`"]),
+        ("targets_dn = [0.0]", vec!["ladder.targets_dn", "below 255"]),
+    ] {
+        std::fs::write(&cfg, format!("[ladder]\n{ladder}\n")).unwrap();
+        let o = cli!("headroom", DESIGN, "--config", cfg, "--out", out);
+        let e = stderr(&o);
+        assert!(!o.status.success() && e.contains("mine.toml"), "{ladder}: {e}");
+        for w in words {
+            assert!(e.contains(w), "{ladder}: {e}");
+        }
+        assert!(!out.exists());
+    }
+    // An unknown clipping mode in [run] is refused by the run table's own reader.
+    std::fs::write(&cfg, "[run]\nclip_gradient = \"soft\"\n").unwrap();
+    let o = cli!("headroom", DESIGN, "--config", cfg, "--out", out);
+    let e = stderr(&o);
+    assert!(e.contains("mine.toml") && e.contains("unknown variant `soft`"), "{e}");
+    // No design and no run directory; the validation town; a malformed design.
+    let o = cli!("headroom --preset quick --out", out);
+    assert!(stderr(&o).contains("run.design"), "{}", stderr(&o));
+    let o = cli!("headroom", DESIGN, "--town 1 --out", out);
+    assert!(stderr(&o).contains("--town = 1 is invalid"), "{}", stderr(&o));
+    let o = cli!("headroom --design IMX287:ten:2:1.7 --out", out);
+    assert!(stderr(&o).contains("focal length (mm) \"ten\""), "{}", stderr(&o));
+    let o = cli!("headroom --table", out);
+    assert!(stderr(&o).contains("cannot read"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_run_directory_adds_its_trained_controller() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("tiny.toml");
+    std::fs::write(&cfg, common::TINY_RUN).unwrap();
+    let run = dir.path().join("run");
+    let o = cli!("run --config", cfg, "--out", run);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let ladder = dir.path().join("ladder.toml");
+    std::fs::write(&ladder, "[ladder]\nsteps = 2\nstep_stops = 4.0\ntargets_dn = []\n").unwrap();
+    let o = cli!("headroom", run, "--episodes 4 --frames 1 --config", ladder);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = run.join("headroom-run-town0");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("headroom.json")).unwrap()).unwrap();
+    let names: Vec<&str> =
+        r["policies"].as_array().unwrap().iter().map(|p| p["policy"].as_str().unwrap()).collect();
+    assert!(names.contains(&"trained") && names.contains(&"average-127.5"), "{names:?}");
+    assert_eq!(r["detector"], "trained");
+    // With a run directory the file may hold only [ladder].
+    std::fs::write(&ladder, "[run]\nseed = 3\n").unwrap();
+    let o = cli!("headroom", run, "--config", ladder);
+    assert!(stderr(&o).contains("only [ladder] is read"), "{}", stderr(&o));
+}

@@ -1,0 +1,34 @@
+//! Embeds the git commit this joca was built from, and whether the working tree differed from
+//! it, so that every record a run writes names the code that made it (`provenance`).
+
+use std::path::Path;
+use std::process::Command;
+
+fn git(root: &Path, args: &[&str]) -> Option<String> {
+    let out = Command::new("git").arg("-C").arg(root).args(args).output().ok()?;
+    out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_owned())
+}
+
+fn main() {
+    let manifest = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default();
+    let root = Path::new(&manifest).join("../..");
+    // Any change to the sources, presets, lock file or the checked-out commit rebuilds the
+    // record (cargo scans a directory named here for any file that changed).
+    for path in ["crates", "presets", "weights", "Cargo.lock", ".git/HEAD", ".git/index"] {
+        println!("cargo:rerun-if-changed={}", root.join(path).display());
+    }
+    let commit = git(&root, &["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
+    // Tracked files only: an untracked scratch file does not change what the binary runs.
+    let dirty = match git(&root, &["status", "--porcelain", "--untracked-files=no"]) {
+        Some(s) => {
+            if s.is_empty() {
+                "false"
+            } else {
+                "true"
+            }
+        }
+        None => "unknown",
+    };
+    println!("cargo:rustc-env=JOCA_GIT_COMMIT={commit}");
+    println!("cargo:rustc-env=JOCA_GIT_DIRTY={dirty}");
+}

@@ -1,0 +1,84 @@
+//! `headroom.json`: the room any exposure controller has on one design and detector (`joca
+//! headroom`): the same test frames captured at a ladder of settings and under closed-loop
+//! controllers, each scored, and what the best choices in hindsight would score.
+
+use crate::{DesignSummary, Light, Provenance, Scenario, Settings};
+use joca_metrics::TaskScores;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The layout version of `headroom.json` this joca writes and reads.
+pub const HEADROOM_FORMAT_VERSION: u32 = 1;
+
+/// What one design and detector leave to a controller (`headroom.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeadroomRecord {
+    /// Layout version ([`HEADROOM_FORMAT_VERSION`]).
+    pub format_version: u32,
+    /// The scenario the frames were formed under.
+    pub scenario: Scenario,
+    /// The test family's town driven (0: the test town).
+    pub town: u64,
+    /// The design.
+    pub design: DesignSummary,
+    /// The detector: `trained` (a run's own, from its checkpoint) or the weights file.
+    pub detector: String,
+    /// The run directory the design and detector came from, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub run: Option<String>,
+    /// Scored frames (every policy scores the same instants).
+    pub frames: u64,
+    /// The ladder's settings, as the sensor applied them, rung by rung.
+    pub ladder: Vec<Settings>,
+    /// Every policy's scores: the ladder's rungs (`rung-<i>`), the closed-loop controllers
+    /// (`average-<DN>`, `trained`) and the choices in hindsight (`best-constant`,
+    /// `best-target`, `target-by-light`, `constant-by-light`, `oracle`).
+    pub policies: Vec<PolicyScores>,
+    /// The CPU the numbers were computed on.
+    pub cpu: String,
+    /// Which joca, commit and configuration computed the record.
+    pub provenance: Provenance,
+}
+
+/// One policy's scores over the frames, overall and by light.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PolicyScores {
+    /// Its name (see [`HeadroomRecord::policies`]).
+    pub policy: String,
+    /// What it is, for a reader (e.g. `AverageAE holding 170 DN`, `per-frame oracle over the
+    /// ladder, chosen in hindsight`).
+    pub label: String,
+    /// Whether it was chosen with knowledge of the test frames' scores (an upper bound or an
+    /// estimate of one, not a controller).
+    pub hindsight: bool,
+    /// Scores over every frame.
+    pub scores: TaskScores,
+    /// Scores and frames by light.
+    pub by_light: BTreeMap<Light, PolicyLight>,
+}
+
+/// A policy's frames of one light.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PolicyLight {
+    /// mAP@[.5:.95] of these frames.
+    pub map: f64,
+    /// AP50 of these frames.
+    pub ap50: f64,
+    /// Mean settings.
+    pub settings: Settings,
+    /// Mean exposure × linear gain, ms.
+    pub exposure_gain_ms: f64,
+    /// Mean frame level, DN.
+    pub mean_dn: f64,
+    /// Mean share of pixels with a channel at 255.
+    pub clipped_share: f64,
+    /// Frames.
+    pub frames: u64,
+}
+
+impl HeadroomRecord {
+    /// The policy named `name`.
+    pub fn policy(&self, name: &str) -> Option<&PolicyScores> {
+        self.policies.iter().find(|p| p.policy == name)
+    }
+}

@@ -1,0 +1,167 @@
+//! Tables of `joca headroom`: one design's policies ([`headroom_markdown`]) and, over several
+//! designs measured alike, each policy's difference to AverageAE at mid-grey paired by design
+//! ([`headroom_summary_markdown`]), overall and per light, with a 95 % Student t interval.
+
+use crate::seeds::{interval_text, mean_interval};
+use joca_record::{HeadroomRecord, Light, PolicyScores};
+use std::fmt::Write as _;
+
+/// The reference every difference is taken to: AverageAE holding mid-grey.
+pub const REFERENCE_POLICY: &str = "average-127.5";
+
+/// The policies the tables show, in order: the reference, the controllers, the choices in
+/// hindsight (the ladder's rungs only through them).
+fn shown(record: &HeadroomRecord) -> Vec<&PolicyScores> {
+    let mut shown: Vec<&PolicyScores> =
+        record.policies.iter().filter(|p| !p.policy.starts_with("rung-") && !p.hindsight).collect();
+    shown.extend(record.policies.iter().filter(|p| p.hindsight));
+    shown
+}
+
+fn lights(record: &HeadroomRecord) -> Vec<Light> {
+    record.policy(REFERENCE_POLICY).map_or_else(Vec::new, |p| p.by_light.keys().copied().collect())
+}
+
+/// One design's headroom: each policy's mAP overall and by light, its difference to the
+/// reference, and what it does to the frames (exposure × gain, level, clipped share) by light.
+pub fn headroom_markdown(r: &HeadroomRecord) -> String {
+    let mut s = String::new();
+    let d = &r.design;
+    let _ = writeln!(
+        s,
+        "# Headroom: {} behind {:.2} mm at x {:.2} m, z {:.2} m; {}, town {}, detector {}\n",
+        d.sensor,
+        d.focal_length_mm,
+        d.x_m,
+        d.z_m,
+        r.scenario.name(),
+        r.town,
+        r.detector
+    );
+    let _ = writeln!(
+        s,
+        "{} frames; ladder of {} rungs from {:.3} to {:.1} ms × gain; computed on {}, joca {} \
+         ({}).\nRows marked † are chosen in hindsight from the test frames' scores: bounds on \
+         what a controller could reach in this world, not controllers.\n",
+        r.frames,
+        r.ladder.len(),
+        r.ladder.first().map_or(f64::NAN, |s| s.exposure_gain_ms()),
+        r.ladder.last().map_or(f64::NAN, |s| s.exposure_gain_ms()),
+        r.cpu,
+        r.provenance.joca_version,
+        r.provenance.commit_label()
+    );
+    let lights = lights(r);
+    let reference = r.policy(REFERENCE_POLICY);
+    let header: Vec<String> = lights.iter().map(|l| format!("{} mAP", l.name())).collect();
+    let _ = writeln!(s, "| policy | mAP | Δ mAP | {} |", header.join(" | "));
+    let _ = writeln!(s, "|---|---|---|{}", "---|".repeat(lights.len()));
+    for p in shown(r) {
+        let delta = reference.map_or(f64::NAN, |q| p.scores.map - q.scores.map);
+        let per: Vec<String> = lights
+            .iter()
+            .map(|l| p.by_light.get(l).map_or("–".into(), |x| format!("{:.3}", x.map)))
+            .collect();
+        let mark = if p.hindsight { " †" } else { "" };
+        let _ = writeln!(
+            s,
+            "| {}{mark} | {:.3} | {:+.3} | {} |",
+            p.label,
+            p.scores.map,
+            delta,
+            per.join(" | ")
+        );
+    }
+    let _ = writeln!(s, "\n## What each policy does to the frames\n");
+    let _ =
+        writeln!(s, "| policy | light | E (ms) | G (dB) | E × gain (ms) | frame (DN) | clipped |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    for p in shown(r) {
+        for (l, x) in &p.by_light {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.2} | {:.1} | {:.2} | {:.0} | {:.1} % |",
+                p.policy,
+                l.name(),
+                x.settings.exposure_ms,
+                x.settings.gain_db,
+                x.exposure_gain_ms,
+                x.mean_dn,
+                100.0 * x.clipped_share
+            );
+        }
+    }
+    s
+}
+
+/// Each policy minus the reference, paired by record (design, scenario and town measured alike),
+/// mean ± 95 % t over records, overall and by light; with the number of records ahead.
+pub fn headroom_summary_markdown(records: &[HeadroomRecord]) -> String {
+    let mut s = String::new();
+    let Some(first) = records.first() else {
+        return "no headroom records\n".into();
+    };
+    let lights = lights(first);
+    let mut names: Vec<&str> = Vec::new();
+    for p in records.iter().flat_map(shown) {
+        if p.policy != REFERENCE_POLICY && !names.contains(&p.policy.as_str()) {
+            names.push(&p.policy);
+        }
+    }
+    let _ = writeln!(
+        s,
+        "Each policy's mAP@[.5:.95] minus AverageAE at mid-grey on the same design, detector and \
+         frames; mean ± 95 % Student t over {} records (paired); ahead: records where the \
+         difference is above 0. † chosen in hindsight.\n",
+        records.len()
+    );
+    let header: Vec<String> = lights.iter().map(|l| l.name().to_owned()).collect();
+    let _ = writeln!(s, "| policy | overall | ahead | {} |", header.join(" | "));
+    let _ = writeln!(s, "|---|---|---|{}", "---|".repeat(lights.len()));
+    let reference_level: Vec<f64> =
+        records.iter().filter_map(|r| r.policy(REFERENCE_POLICY).map(|p| p.scores.map)).collect();
+    let _ = writeln!(
+        s,
+        "| AverageAE mid-grey (level, not a difference) | {} | – | {} |",
+        interval_text(mean_interval(&reference_level), 3),
+        lights
+            .iter()
+            .map(|l| {
+                let v: Vec<f64> = records
+                    .iter()
+                    .filter_map(|r| r.policy(REFERENCE_POLICY)?.by_light.get(l).map(|x| x.map))
+                    .collect();
+                interval_text(mean_interval(&v), 3)
+            })
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    for name in names {
+        let diffs = |light: Option<Light>| -> Vec<f64> {
+            records
+                .iter()
+                .filter_map(|r| {
+                    let (p, q) = (r.policy(name)?, r.policy(REFERENCE_POLICY)?);
+                    match light {
+                        None => Some(p.scores.map - q.scores.map),
+                        Some(l) => Some(p.by_light.get(&l)?.map - q.by_light.get(&l)?.map),
+                    }
+                })
+                .collect()
+        };
+        let overall = diffs(None);
+        let ahead = overall.iter().filter(|d| **d > 0.0).count();
+        let hindsight = records.iter().filter_map(|r| r.policy(name)).any(|p| p.hindsight);
+        let label = format!("{name}{}", if hindsight { " †" } else { "" });
+        let per: Vec<String> =
+            lights.iter().map(|l| interval_text(mean_interval(&diffs(Some(*l))), 3)).collect();
+        let _ = writeln!(
+            s,
+            "| {label} | {} | {ahead}/{} | {} |",
+            interval_text(mean_interval(&overall), 3),
+            overall.len(),
+            per.join(" | ")
+        );
+    }
+    s
+}
