@@ -2,7 +2,8 @@
 //!
 //! `results.json` keeps the layout it has had since these measurements were added: one map per
 //! quantity, keyed by light (`test_by_illumination`, `settings_by_illumination` as `[ms, dB]`,
-//! `f_number_by_illumination`, `exposure_gain_by_illumination`, `mean_dn_by_illumination`), so
+//! `f_number_by_illumination`, `exposure_gain_by_illumination`, `mean_dn_by_illumination`,
+//! `clipped_share_by_illumination`), so
 //! files written before and after read alike. In memory the maps are one record per light, so
 //! no reader pairs up maps by key and no writer can fill one map and forget another.
 
@@ -23,6 +24,8 @@ pub struct LightResults {
     pub exposure_gain_ms: Option<f64>,
     /// Mean 8-bit value of the formed frames, DN.
     pub mean_dn: Option<f64>,
+    /// Mean share of each frame's pixels with a channel at 255 (absent in older runs).
+    pub clipped_share: Option<f64>,
 }
 
 /// One [`LightResults`] per light, written as `results.json`'s per-quantity maps.
@@ -77,6 +80,8 @@ struct Maps {
     exposure_gain_by_illumination: BTreeMap<Light, f64>,
     #[serde(default)]
     mean_dn_by_illumination: BTreeMap<Light, f64>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    clipped_share_by_illumination: BTreeMap<Light, f64>,
 }
 
 impl Serialize for ByLight {
@@ -90,6 +95,7 @@ impl Serialize for ByLight {
             f_number_by_illumination: self.f_numbers().collect(),
             exposure_gain_by_illumination: pick(|r| r.exposure_gain_ms),
             mean_dn_by_illumination: pick(|r| r.mean_dn),
+            clipped_share_by_illumination: pick(|r| r.clipped_share),
         }
         .serialize(s)
     }
@@ -111,6 +117,9 @@ impl<'de> Deserialize<'de> for ByLight {
         }
         for (l, v) in maps.mean_dn_by_illumination {
             by.entry(l).or_default().mean_dn = Some(v);
+        }
+        for (l, v) in maps.clipped_share_by_illumination {
+            by.entry(l).or_default().clipped_share = Some(v);
         }
         Ok(Self(by))
     }
@@ -139,6 +148,7 @@ mod tests {
             settings: settings(s, 10.0, f),
             exposure_gain_ms: Some(s * 3.0),
             mean_dn: Some(100.0),
+            clipped_share: Some(0.25),
         };
         let mut by = ByLight::default();
         by.insert(Light::Night, light(40.0, None));
@@ -161,6 +171,7 @@ mod tests {
                 "settings_by_illumination",
                 "exposure_gain_by_illumination",
                 "mean_dn_by_illumination",
+                "clipped_share_by_illumination",
                 "after"
             ],
             "{text}"

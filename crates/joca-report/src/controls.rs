@@ -103,6 +103,7 @@ mod tests {
                 settings: Some(settings),
                 exposure_gain_ms: Some(e * 10f64.powf(g / 20.0)),
                 mean_dn: Some(if light == Light::Day { 120.0 } else { 20.0 }),
+                clipped_share: None,
             };
             results.by_illumination.insert(light, lr);
         }

@@ -36,6 +36,9 @@ pub struct StepLog {
 pub struct RunData {
     /// The run directory.
     pub dir: PathBuf,
+    /// The folder of the test the showcases come from, inside `dir` (`test`, or a re-test's
+    /// `test-<tags>`).
+    pub test_dir: String,
     /// `results.json`.
     pub results: RunResults,
     /// Hardware GA fitness per generation.
@@ -68,7 +71,40 @@ impl RunData {
         let show_path = dir.join("test").join("showcase.json");
         let showcases =
             if show_path.exists() { parse(&show_path, &read(&show_path)?)? } else { Vec::new() };
-        Ok(Self { dir: dir.to_owned(), results, generations, steps, showcases, skipped_events })
+        Ok(Self {
+            dir: dir.to_owned(),
+            test_dir: "test".into(),
+            results,
+            generations,
+            steps,
+            showcases,
+            skipped_events,
+        })
+    }
+
+    /// The run's test repeated with another controller on the same design and detector
+    /// (`results-<tag>.json` and `test-<tag>/`, as `joca eval --controller` and a NeuralAE run's
+    /// own end write them), without training records; `None` where the run has none.
+    pub fn retest(dir: &Path, tag: &str) -> Result<Option<Self>, ReportError> {
+        let results_path = dir.join(format!("results-{tag}.json"));
+        let show_path = dir.join(format!("test-{tag}")).join("showcase.json");
+        if !results_path.exists() || !show_path.exists() {
+            return Ok(None);
+        }
+        let results: RunResults = parse(&results_path, &read(&results_path)?)?;
+        results.check_version().map_err(|reason| ReportError::Format {
+            path: results_path.display().to_string(),
+            reason,
+        })?;
+        Ok(Some(Self {
+            dir: dir.to_owned(),
+            test_dir: format!("test-{tag}"),
+            results,
+            generations: Vec::new(),
+            steps: Vec::new(),
+            showcases: parse(&show_path, &read(&show_path)?)?,
+            skipped_events: Vec::new(),
+        }))
     }
 
     /// A sentence naming the `events.jsonl` lines left out, if any.
@@ -96,7 +132,7 @@ impl RunData {
 
     /// Path of a saved showcase frame.
     pub fn frame_path(&self, image: &str) -> PathBuf {
-        self.dir.join("test").join(image)
+        self.dir.join(&self.test_dir).join(image)
     }
 }
 

@@ -35,7 +35,8 @@ pub use figures::write_figures;
 pub use frames::DRAW_MIN_SCORE;
 pub use headroom::{REFERENCE_POLICY, headroom_markdown, headroom_summary_markdown};
 pub use joca_record::{
-    DesignSummary, HEADROOM_FORMAT_VERSION, HeadroomRecord, RunResults, Showcase, ShowcaseFrame,
+    DesignSummary, HEADROOM_FORMAT_VERSION, HeadroomRecord, Light, RunResults, Showcase,
+    ShowcaseFrame,
 };
 pub use seeds::{mean_interval, t_975};
 pub use table::{Row, Table};
@@ -90,28 +91,41 @@ fn io_err(path: &Path, source: std::io::Error) -> ReportError {
     ReportError::Io { path: path.display().to_string(), source }
 }
 
+/// The re-test a NeuralAE run ends with: AverageAE at mid-grey on its design and detector.
+pub const SWAP_TAG: &str = "average-127.5";
+const SWAP_LABEL: &str = "AverageAE, same design and detector";
+
 /// Writes `report.md`, `report.html` and `figures/` into the run directory `run_dir` and
 /// returns the Markdown.
 pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     let run = RunData::load(run_dir)?;
     let r = &run.results;
     let title = format!("joca run: {} / {}", r.method.name(), r.scenario.name());
-    let table = Table {
-        label_header: "Method".into(),
-        rows: vec![Row {
+    // Does the learned controller earn its place? AverageAE at mid-grey driving the same
+    // design with the same detector, where the run (or `joca eval --controller average`) tested it.
+    let swap = RunData::retest(run_dir, SWAP_TAG)?;
+    let cell = run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut rows = vec![Row {
+        group: r.scenario.name().to_owned(),
+        label: r.method.name().to_owned(),
+        cell: cell.clone(),
+        design: String::new(),
+        results: r.clone(),
+    }];
+    let mut runs = vec![(r.method.name().to_owned(), &run)];
+    if let Some(s) = &swap {
+        rows.push(Row {
             group: r.scenario.name().to_owned(),
-            label: r.method.name().to_owned(),
-            cell: run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            label: SWAP_LABEL.to_owned(),
+            cell,
             design: String::new(),
-            results: r.clone(),
-        }],
-    };
-    let figures = write_figures(
-        run_dir,
-        "",
-        &format!("{} / {}", r.method.name(), r.scenario.name()),
-        &[(r.method.name().to_owned(), &run)],
-    )?;
+            results: s.results.clone(),
+        });
+        runs.push((SWAP_LABEL.to_owned(), s));
+    }
+    let table = Table { label_header: "Method".into(), rows };
+    let figures =
+        write_figures(run_dir, "", &format!("{} / {}", r.method.name(), r.scenario.name()), &runs)?;
     let mut md = format!("# {title}\n\n");
     let tested_on = if r.real_images() {
         format!(
@@ -139,6 +153,15 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     let _ = writeln!(md, "\nAP50 {:.3}.\n", r.test.ap50);
     md.push_str(&settings_markdown(r));
     md.push_str(&light_step_markdown(&run.showcases));
+    if let Some(s) = &swap {
+        let _ = writeln!(
+            md,
+            "The same design and detector driven by AverageAE at mid-grey (`{}`):\n",
+            s.test_dir
+        );
+        md.push_str(&settings_markdown(&s.results).replacen("## ", "### ", 1));
+        md.push_str(&light_step_markdown(&s.showcases));
+    }
     md.push_str(&objects_markdown(r));
     md.push_str(&fitness_markdown(&run));
     md.push_str(&ties_markdown(r));
@@ -184,11 +207,11 @@ fn machine_line(r: &RunResults) -> String {
 pub fn settings_markdown(r: &RunResults) -> String {
     let mut md = String::from(
         "## Exposure and gain during the closed-loop test\n\n| illumination | mean E (ms) | mean \
-            G (dB) | mean E × gain (ms) | relative to night | mean frame (DN) |\n\
-            |---|---|---|---|---|---|\n",
+            G (dB) | mean E × gain (ms) | relative to night | mean frame (DN) | clipped pixels \
+            |\n|---|---|---|---|---|---|---|\n",
     );
     let by = &r.by_illumination;
-    let night = by.light(joca_record::Light::Night).and_then(|l| l.exposure_gain_ms);
+    let night = by.light(Light::Night).and_then(|l| l.exposure_gain_ms);
     for (light, s) in by.settings() {
         let (e, g) = (s.exposure_ms, s.gain_db);
         let record = by.light(light);
@@ -200,7 +223,13 @@ pub fn settings_markdown(r: &RunResults) -> String {
         };
         let mean =
             record.and_then(|l| l.mean_dn).map_or_else(|| "-".to_owned(), |v| format!("{v:.0}"));
-        let _ = writeln!(md, "| {light} | {e:.2} | {g:.1} | {cell} | {relative} | {mean} |");
+        let clipped = record
+            .and_then(|l| l.clipped_share)
+            .map_or_else(|| "-".to_owned(), |v| format!("{:.1} %", 100.0 * v));
+        let _ = writeln!(
+            md,
+            "| {light} | {e:.2} | {g:.1} | {cell} | {relative} | {mean} | {clipped} |"
+        );
     }
     md.push('\n');
     let stops: Vec<String> = by.f_numbers().map(|(l, n)| format!("{l} f/{n:.1}")).collect();

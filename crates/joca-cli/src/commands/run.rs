@@ -3,6 +3,7 @@
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
 use joca_nn::detector::PrecisionExt;
+use joca_report::Light;
 use joca_train::{Method, RunConfig, RunEvent, RunResults, Scenario, Source, run as run_loop};
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -182,10 +183,44 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
     let results = run_loop(&cfg, out, resume, &mut progress)
         .with_context(|| format!("run in {} failed", out.display()))?;
     print_results(&results, started.elapsed().as_secs_f64());
+    print_swap(&results, out);
     joca_report::write_run_report(out)
         .with_context(|| format!("cannot write the report of {}", out.display()))?;
     println!("\nreport: {} (and report.html, figures/)", out.join("report.md").display());
     Ok(())
+}
+
+/// NeuralAE's test beside AverageAE's on the same design, detector and scenes (the re-test a
+/// NeuralAE run ends with), per light: does the learned controller earn its place?
+fn print_swap(r: &RunResults, out: &Path) {
+    let path = out.join(format!("results-{}.json", joca_report::SWAP_TAG));
+    let Ok(text) = std::fs::read_to_string(&path) else { return };
+    let Ok(swap) = serde_json::from_str::<RunResults>(&text) else { return };
+    println!(
+        "## The learned controller against AverageAE (mid-grey) on this design and detector\n\n\
+         | controller | mAP@[.5:.95] | day | night | tunnel | cycle | day frame (DN) | night frame \
+         (DN) | day clipped |\n|---|---|---|---|---|---|---|---|---|"
+    );
+    for (name, x) in [("NeuralAE (trained)", r), ("AverageAE mid-grey", &swap)] {
+        let by = &x.by_illumination;
+        let light = |l: Light| by.light(l);
+        let map = |l| light(l).and_then(|v| v.scores.map(|s| format!("{:.3}", s.map)));
+        let dn = |l| light(l).and_then(|v| v.mean_dn.map(|d| format!("{d:.0}")));
+        let clip =
+            light(Light::Day).and_then(|v| v.clipped_share.map(|c| format!("{:.1} %", 100.0 * c)));
+        let cells = [
+            map(Light::Day),
+            map(Light::Night),
+            map(Light::Tunnel),
+            map(Light::Cycle),
+            dn(Light::Day),
+            dn(Light::Night),
+            clip,
+        ]
+        .map(|c| c.unwrap_or_else(|| "-".into()));
+        println!("| {name} | {:.3} | {} |", x.test.map, cells.join(" | "));
+    }
+    println!();
 }
 
 /// Seconds as `1h02m`, `12m05s` or `42s`.

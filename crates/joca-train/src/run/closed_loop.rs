@@ -53,6 +53,8 @@ pub(super) struct Step {
     pub(super) settings: Settings,
     /// Mean of the formed 8-bit frame, DN.
     pub(super) mean_dn: f64,
+    /// Share of the frame's pixels with a channel at 255.
+    pub(super) clipped: f64,
 }
 
 impl Driver {
@@ -123,10 +125,10 @@ impl Driver {
             noise,
         )?;
         let detections = model.observe(&image);
-        let data = image.data();
-        let mean_dn = data.iter().map(|&v| f64::from(v)).sum::<f64>() / data.len().max(1) as f64;
+        let (mean_dn, clipped) = super::headroom::levels(&image);
         self.previous = Some(image);
-        Ok(Step { frame, detections, settings: Settings::from(self.applied).at(f_number), mean_dn })
+        let settings = Settings::from(self.applied).at(f_number);
+        Ok(Step { frame, detections, settings, mean_dn, clipped })
     }
 }
 
@@ -223,7 +225,7 @@ pub(super) fn test(
                 ),
                 _ => (Light::Recorded, None),
             };
-            sums.entry(light).or_default().add(s.settings, s.mean_dn);
+            sums.entry(light).or_default().add(s.settings, s.mean_dn, s.clipped);
             metrics_by_light.entry(light).or_default().update(
                 &s.frame.boxes,
                 &s.frame.ignore,
@@ -263,6 +265,7 @@ pub(super) fn test(
                     settings: Some(settings),
                     exposure_gain_ms: Some(v.exposure_gain_ms / v.frames),
                     mean_dn: Some(v.mean_dn / v.frames),
+                    clipped_share: Some(v.clipped / v.frames),
                 };
                 (*light, record)
             })
@@ -290,6 +293,8 @@ struct LightSums {
     /// Exposure (ms) × linear gain.
     exposure_gain_ms: f64,
     mean_dn: f64,
+    /// Share of clipped pixels.
+    clipped: f64,
     frames: f64,
     /// Sum of ln f-number over the frames whose iris the controller set, and their count.
     log_f_number: f64,
@@ -297,7 +302,7 @@ struct LightSums {
 }
 
 impl LightSums {
-    fn add(&mut self, settings: Settings, mean_dn: f64) {
+    fn add(&mut self, settings: Settings, mean_dn: f64, clipped: f64) {
         if let Some(n) = settings.f_number {
             self.log_f_number += n.ln();
             self.iris_frames += 1.0;
@@ -306,6 +311,7 @@ impl LightSums {
         self.gain_db += settings.gain_db;
         self.exposure_gain_ms += settings.exposure_gain_ms();
         self.mean_dn += mean_dn;
+        self.clipped += clipped;
         self.frames += 1.0;
     }
 }

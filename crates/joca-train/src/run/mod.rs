@@ -206,7 +206,22 @@ pub fn run(
             .unwrap_or_default(),
     )?;
     let out = run_dir.join("test");
-    let results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
+    let results =
+        test_design(&mut cx, &mut model, &state, (&design, validation.clone()), Some(&out))?;
+    if config.method.neural() {
+        // Does the learned controller earn its place? The same design, detector and test
+        // scenes driven by AverageAE at mid-grey (what `joca eval --controller average` writes).
+        let swap = TestController::Average { target_dn: joca_camera::MID_GREY_DN };
+        cx.test_controller = swap;
+        let out = run_dir.join(format!("test-{}", swap.name()));
+        let mut r = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
+        r.test_controller = Some(swap);
+        write_atomic(
+            &run_dir.join(format!("results-{}.json", swap.name())),
+            &serde_json::to_string_pretty(&r).unwrap_or_default(),
+        )?;
+        cx.test_controller = TestController::Trained;
+    }
     write_atomic(
         &run_dir.join("results.json"),
         &serde_json::to_string_pretty(&results).unwrap_or_default(),
