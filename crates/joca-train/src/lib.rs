@@ -30,6 +30,6 @@ pub use run::{
     DesignSpec, DesignSummary, EvalOptions, FNumberRange, FixedCamera, HardwareMutation,
     MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, Method, PerturbationMutation, PerturbationScore,
     PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario,
-    SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, bench_step,
-    cpu_description, evaluate_run, headroom, run,
+    SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, TrainingScenes,
+    bench_step, cpu_description, evaluate_run, headroom, run,
 };

@@ -5,6 +5,8 @@
 //! together.
 
 use super::RunConfig;
+use super::closed_loop::Driver;
+use super::config::TrainingScenes;
 use super::perturbation::{self, Probe};
 use super::{Context, RealSources, simulator};
 use crate::TrainError;
@@ -22,6 +24,15 @@ use joca_record::{Event, LossRecord, Settings, StepRecord};
 use joca_sim::{Illumination, Simulator, train_map_seed};
 use rand::Rng;
 use std::sync::Arc;
+
+/// Which scenes a stretch list is drawn for.
+#[derive(Debug, Clone, Copy)]
+enum Scenes {
+    /// Generation g's, shared by its candidates.
+    Common(u64),
+    /// One candidate's own (its global index), no other candidate's.
+    Own(u64),
+}
 
 /// A stretch of a candidate's frames driven in one scene.
 struct Stretch {
@@ -42,9 +53,13 @@ struct Stretch {
 /// time. The controller carries its settings from one stretch into the next, as through a
 /// tunnel portal, so it meets 100–1000× changes of light within every candidate, and every
 /// candidate's fitness covers all four lights. A recording is one stretch.
-fn stretches(cx: &mut Context, scenes: u64) -> Vec<Stretch> {
+fn stretches(cx: &mut Context, scenes: Scenes) -> Vec<Stretch> {
     let c = cx.config.clone();
-    let mut rng = cx.streams.indexed("scenes", scenes);
+    let (stream, scenes) = match scenes {
+        Scenes::Common(g) => ("scenes", g),
+        Scenes::Own(candidate) => ("candidate-scenes", candidate),
+    };
+    let mut rng = cx.streams.indexed(stream, scenes);
     let k = c.steps_per_candidate;
     if let Some(r) = cx.real.clone() {
         let episode: u64 = rng.random_range(0..1_000_000);
@@ -100,7 +115,8 @@ pub(super) fn train(
     on_step: &mut dyn FnMut(usize, usize),
 ) -> Result<TaskScores, TrainError> {
     let c = cx.config.clone();
-    let stretches = stretches(cx, scenes);
+    let fresh = c.training_scenes == TrainingScenes::Fresh;
+    let stretches = stretches(cx, if fresh { Scenes::Own(index) } else { Scenes::Common(scenes) });
     let real = cx.real.clone();
     let camera = design.view(&c.input, c.lens);
     let formation = cx.formation.for_design(design);
@@ -119,7 +135,13 @@ pub(super) fn train(
     let mut previous_frame = None;
     for step in 0..c.steps_per_candidate {
         let global = index * c.steps_per_candidate as u64 + step as u64;
-        let common = scenes * c.steps_per_candidate as u64 + step as u64;
+        // The noise of the frame: the scene's (shared by the generation's candidates, or this
+        // candidate's own, in a range no generation index reaches).
+        let common = if fresh {
+            FRESH_NOISE_OFFSET + global
+        } else {
+            scenes * c.steps_per_candidate as u64 + step as u64
+        };
         cx.watch.restart();
         // 1. Exposure and gain for this frame, from the previous one.
         let decision = match &previous_frame {
@@ -215,6 +237,42 @@ pub(super) fn train(
         }
         previous_frame = Some(report.frame);
         on_step(step + 1, c.steps_per_candidate);
+    }
+    if fresh {
+        return judge(cx, model, design, scenes);
+    }
+    Ok(metrics.compute())
+}
+
+/// Noise indices of candidates' own scenes start here, far above any generation's.
+const FRESH_NOISE_OFFSET: u64 = 1 << 40;
+
+/// The candidate's fitness with `training_scenes = "fresh"`: the generation's common scenes
+/// (the stretches and noise every candidate of it is judged on) driven in closed loop by the
+/// controller and detector as they are after its training, without any update.
+fn judge(
+    cx: &mut Context,
+    model: &mut JointModel,
+    design: &CameraDesign,
+    scenes: u64,
+) -> Result<TaskScores, TrainError> {
+    let c = cx.config.clone();
+    let stretches = stretches(cx, Scenes::Common(scenes));
+    let real = cx.real.clone();
+    let camera = design.view(&c.input, c.lens);
+    let dt = source(&real, &stretches[0]).frame_interval_s();
+    // The controller carries its settings across stretches, as in training.
+    let mut driver = Driver::new(cx, model, design, dt);
+    let mut metrics = TaskMetrics::default();
+    for step in 0..c.steps_per_candidate {
+        let stretch =
+            stretches.iter().rev().find(|s| s.first_step <= step).unwrap_or(&stretches[0]);
+        let sim = source(&real, stretch);
+        let time_s = stretch.t0 + (step - stretch.first_step) as f64 * sim.frame_interval_s();
+        let mut noise =
+            cx.streams.indexed("judge-noise", scenes * c.steps_per_candidate as u64 + step as u64);
+        let s = driver.step(cx, model, sim, &camera, stretch.episode, time_s, &mut noise)?;
+        metrics.update(&s.frame.boxes, &s.frame.ignore, &s.detections, s.frame.visible_180);
     }
     Ok(metrics.compute())
 }

@@ -14,7 +14,9 @@ use joca_record::{Method, Scenario};
 use joca_sim::Weather;
 use serde::{Deserialize, Deserializer, Serialize};
 
-pub use search::{PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak};
+pub use search::{
+    PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak, TrainingScenes,
+};
 use std::path::PathBuf;
 
 /// The highest ego top speed, m/s (144 km/h).
@@ -100,6 +102,11 @@ pub struct RunConfig {
     /// milliseconds) or `relative` (a share of the log-exposure range: a factor).
     #[serde(default)]
     pub perturbation_steps: PerturbationSteps,
+    /// Which scenes a candidate learns from and is judged on: `shared` (default: the
+    /// generation's, for training and fitness alike) or `fresh` (its own training scenes, and a
+    /// fitness from the generation's common scenes, inference only).
+    #[serde(default, skip_serializing_if = "TrainingScenes::is_shared")]
+    pub training_scenes: TrainingScenes,
     /// The gradient of the differentiable formation's clip: `clamp` (none where a pixel
     /// saturates) or `straight-through`.
     #[serde(default)]

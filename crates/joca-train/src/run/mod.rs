@@ -35,7 +35,7 @@ pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub use config::{
     FNumberRange, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, PerturbationScore,
-    PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, Source, TieBreak,
+    PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, Source, TieBreak, TrainingScenes,
 };
 pub(crate) use config::{check_detector, check_input};
 pub use evaluate::{EvalOptions, cpu_description, evaluate_run};

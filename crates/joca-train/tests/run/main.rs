@@ -42,6 +42,7 @@ fn tiny(method: Method) -> RunConfig {
         scoring_precision: Precision::Bf16,
         acc_lr: 1e-5,
         clip_gradient: Default::default(),
+        training_scenes: Default::default(),
         ga_every: 2,
         task_weight: 7.0,
         // Small frames for a fast test: 120 × 90 for a 4:3 sensor.

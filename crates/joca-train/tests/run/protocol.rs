@@ -96,3 +96,35 @@ fn the_results_count_the_perturbation_searches_and_their_ties() {
     .unwrap();
     assert_eq!(avg.perturbation_ties, None);
 }
+
+/// `training_scenes = "fresh"`: each candidate learns from its own scenes (candidate c's four
+/// stretches start at light c mod 4, where shared scenes start every candidate of generation g
+/// at light g mod 4), is judged on the generation's common scenes (k frames, inference only),
+/// and the run repeats exactly.
+#[test]
+fn fresh_scenes_give_each_candidate_its_own_training_frames() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let cfg = RunConfig {
+        steps_per_candidate: 8,
+        training_scenes: joca_train::TrainingScenes::Fresh,
+        ..tiny(Method::Joca)
+    };
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let r = run(&cfg, a.path(), false, &mut go).unwrap();
+    let steps: Vec<serde_json::Value> =
+        events(a.path()).into_iter().filter(|v| v.get("step").is_some()).collect();
+    let lights: Vec<&str> = steps.iter().map(|v| v["illumination"].as_str().unwrap()).collect();
+    assert_eq!(
+        lights,
+        ["day", "tunnel", "night", "cycle", "tunnel", "day", "cycle", "night"],
+        "candidates 0-3 start at lights 0-3"
+    );
+    let fitness: Vec<u64> = events(a.path())
+        .into_iter()
+        .filter_map(|v| v.get("scores").map(|s| s["frames"].as_u64().unwrap()))
+        .collect();
+    assert!(fitness.iter().all(|&f| f == 8), "{fitness:?}");
+    let again = run(&cfg, b.path(), false, &mut go).unwrap();
+    assert_eq!(r.test, again.test);
+    assert_eq!(r.design, again.design);
+}

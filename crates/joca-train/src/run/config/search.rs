@@ -63,3 +63,27 @@ joca_core::named_enum! {
         Relative = "relative",
     }
 }
+
+joca_core::named_enum! {
+    /// Which scenes a hardware candidate learns from and is judged on.
+    #[derive(Default)]
+    pub enum TrainingScenes("training scenes") {
+        /// Every candidate of a generation trains on the generation's scenes and is scored on the
+        /// frames it trained on (common random numbers): with population P the detector and
+        /// NeuralAE see each instant P times. What a configuration without the field ran.
+        #[default]
+        Shared = "shared",
+        /// Each candidate trains on scenes no other candidate trains on (as in the paper's loop,
+        /// where every training frame is new); its fitness comes from the generation's common
+        /// scenes driven in closed loop after its training, inference only, so designs are still
+        /// compared on identical scenes.
+        Fresh = "fresh",
+    }
+}
+
+impl TrainingScenes {
+    /// Whether this is the default (the field is then left out of saved configurations).
+    pub fn is_shared(&self) -> bool {
+        *self == Self::Shared
+    }
+}
