@@ -36,7 +36,7 @@ pub struct RgbImage<T> {
 
 /// Linear RGB radiometry in calibrated digital numbers (DN): the `I0` of the paper's Eq. 2.
 ///
-/// A value is what the calibration camera (pixel pitch p0, exposure E0, gain G0 of DESIGN.md)
+/// A value is what the calibration camera (pixel pitch p0, exposure E0, gain G0 of docs/design.md)
 /// would record at that pixel before clipping, so daylight white paper reads about 200–230 and
 /// values above 255 (a lamp, the sun) are legal: clipping happens in image formation.
 pub type HdrImage = RgbImage<f32>;

@@ -3,7 +3,7 @@
 //!
 //! Gain is expressed in decibels of *amplitude*: a gain of `g` dB multiplies pixel values by
 //! `10^(g/20)` (so +6.02 dB doubles them). This is how machine-vision camera vendors specify
-//! analogue gain, and it is the convention of DESIGN.md.
+//! analogue gain, and it is the convention of docs/design.md.
 
 /// Linear amplitude factor of a gain in decibels: `10^(dB/20)`.
 pub fn linear_from_db(gain_db: f64) -> f64 {

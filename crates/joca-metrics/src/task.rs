@@ -1,7 +1,7 @@
 //! The paper's task measures over a set of frames (Sec. 6.1): mAP@[.5:.95], AP50, and the ratio
 //! of true positives at IoU 0.5 to all objects visible in a 180° field around the vehicle.
 //!
-//! The k frames of a hardware candidate are scored together (DESIGN.md): their detections and
+//! The k frames of a hardware candidate are scored together (docs/design.md): their detections and
 //! ground truth form one COCO evaluation, and the TP ratio sums true positives and visible
 //! objects over the frames. Per-frame AP would be undefined on frames without objects.
 

@@ -1,4 +1,4 @@
-//! The run directory's record formats (DESIGN.md, "Run directory"): `joca-train` writes them,
+//! The run directory's record formats (docs/design.md, "Run directory"): `joca-train` writes them,
 //! `joca-report` reads them, so the two cannot disagree about a field.
 //!
 //! - [`RunResults`], [`DesignSummary`] — `results.json`, `best_design.json`;

@@ -1,5 +1,5 @@
 //! What a report reads from a run directory: `results.json`, `events.jsonl` and
-//! `test/showcase.json` (DESIGN.md's run directory), in the record types `joca-train` writes
+//! `test/showcase.json` (docs/design.md's run directory), in the record types `joca-train` writes
 //! them with (`joca_record`).
 
 use crate::ReportError;

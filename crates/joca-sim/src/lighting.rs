@@ -5,7 +5,7 @@
 //! of a horizontal surface lit by the sun alone) has radiance `K·ρ·E` DN, with `K` =
 //! [`RADIANCE_SCALE_DN`] chosen so that white paper (ρ = 0.85) on the ground in full daylight
 //! (sun 45–55° high plus sky) reads 203–225 DN — what the calibration camera records at E0, G0
-//! (DESIGN.md: daylight white ≈ 200–230 DN). Night lowers the sun-and-sky term by three orders of
+//! (docs/design.md: daylight white ≈ 200–230 DN). Night lowers the sun-and-sky term by three orders of
 //! magnitude; street lamps, lit windows and vehicle lights then dominate, giving the high dynamic
 //! range of real night scenes.
 

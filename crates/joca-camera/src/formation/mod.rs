@@ -11,7 +11,7 @@
 //!
 //! `E0, G0, p0` and the per-channel `σp², σr²` come from a [`Calibration`]. Noise is the Gaussian
 //! approximation of the Poisson–Gaussian model that Eq. 3 describes. The scenario "noise ×N"
-//! multiplies σp² and σr² by N ([`ImageFormation::with_noise_scale`]); DESIGN.md explains why the
+//! multiplies σp² and σr² by N ([`ImageFormation::with_noise_scale`]); docs/design.md explains why the
 //! variances and not σ.
 //!
 //! The normal samples come from per-tile generators seeded from one draw of the caller's stream,
@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 
 pub use kernels::TILE_ROWS;
 
-/// The physical camera that calibrated brightness and noise (DESIGN.md reference values).
+/// The physical camera that calibrated brightness and noise (docs/design.md reference values).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Calibration {

@@ -70,7 +70,7 @@ pub fn run(args: &Args) -> Result<()> {
     let r2: Vec<f64> =
         fits.iter().zip(channels).map(|(f, c)| clamp("σr²", c, f.sigma_r2)).collect();
     let c = Calibration::DEFAULT;
-    println!("\n# TOML for --calibration (brightness reference as in DESIGN.md):");
+    println!("\n# TOML for --calibration (brightness reference as in docs/design.md):");
     for note in &notes {
         println!("{note}");
     }

@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// TOML file with a `[calibration]` table (as printed by `joca calibrate-noise`);
-    /// defaults to the reference calibration of DESIGN.md.
+    /// defaults to the reference calibration of docs/design.md.
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
     /// Output 8-bit PNG.

@@ -73,7 +73,7 @@ pub struct EvalReport {
 }
 
 /// The fixed camera every pre-training evaluation uses: a FLIR-like IMX172 behind 3.6 mm at the
-/// nuScenes-like mount (DESIGN.md's baseline camera).
+/// nuScenes-like mount (docs/design.md's baseline camera).
 pub fn reference_design() -> CameraDesign {
     let sensor_index = sensor_by_name("IMX172").map(|s| s.index).unwrap_or(19);
     CameraDesign {

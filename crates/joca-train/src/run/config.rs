@@ -207,7 +207,7 @@ fn paper_acc_lr() -> f64 {
 }
 
 impl RunConfig {
-    /// Checks every field against a finite range that fits a workstation (DESIGN.md: a user's
+    /// Checks every field against a finite range that fits a workstation (docs/design.md: a user's
     /// mistake is refused naming the field and the range); the error names the field and what
     /// is allowed.
     pub fn validate(&self) -> Result<(), TrainError> {

@@ -1,4 +1,4 @@
-//! The joint optimisation loop of the paper (Sec. 5, DESIGN.md's data flow), one loop for every
+//! The joint optimisation loop of the paper (Sec. 5, docs/design.md's data flow), one loop for every
 //! method: what differs between methods is which parts are optimised (hardware GA or a fixed
 //! camera; NeuralAE or AverageAE; GA supervision, fixed perturbations or none; detector trained
 //! or frozen).

@@ -1,4 +1,4 @@
-//! `joca headroom`: the room any exposure controller has on one design and detector (DESIGN.md,
+//! `joca headroom`: the room any exposure controller has on one design and detector (docs/design.md,
 //! "Evaluation protocol"). The test's frames — the same episodes, instants and noise draws as
 //! `joca run`'s test — are captured at every rung of a settings [`ladder`] (each rung with its
 //! own motion blur, noise and clipping) and under closed-loop controllers (AverageAE at several
