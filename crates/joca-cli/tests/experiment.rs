@@ -144,6 +144,30 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
     assert!(exp.join("figures/calibrated-frames.png").is_file());
 
+    // Every cell names the commit that computed it; a cell of another commit makes the table
+    // refuse, naming both commits and their cells, unless told to mix them.
+    let md = std::fs::read_to_string(exp.join("report.md")).unwrap();
+    assert!(md.contains("joca commit "), "{md}");
+    let path = exp.join("cells/joca-blur4/results.json");
+    let mut r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(r["provenance"]["config_sha256"].as_str().unwrap().len(), 64);
+    r["provenance"]["commit"] = "0123456789abcdef0123456789abcdef01234567".into();
+    r["provenance"]["dirty"] = false.into();
+    std::fs::write(&path, serde_json::to_string_pretty(&r).unwrap()).unwrap();
+    let o = joca(&["report", exp.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert!(
+        !o.status.success()
+            && e.contains("different joca commits")
+            && e.contains("0123456789: joca-blur4"),
+        "{e}"
+    );
+    let o = joca(&["report", exp.to_str().unwrap(), "--mixed-commits"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(exp.join("report.md")).unwrap();
+    assert!(md.contains("Cells of different joca commits, reported together"), "{md}");
+
     // The same directory with another configuration is refused, naming the field.
     std::fs::write(&cfg, TINY_RUN.replace("steps_per_candidate = 3", "steps_per_candidate = 4"))
         .unwrap();

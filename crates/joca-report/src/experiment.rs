@@ -141,6 +141,29 @@ const CONTROLS_NOTE: &str = "Closed-loop test, mean over each variant's cells ±
 /// Writes `report.md`, `report.html`, `results.csv` and `figures/` into the experiment
 /// directory from its finished cells, and returns the Markdown.
 pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
+    write_experiment_report_with(exp_dir, false)
+}
+
+/// The commit (with `-dirty`, or `unrecorded` for cells written before provenance existed) of
+/// each finished cell, grouped: `commit: cell, cell; commit: cell`.
+fn commits(rows: &[Row]) -> Vec<(String, Vec<String>)> {
+    let mut by: Vec<(String, Vec<String>)> = Vec::new();
+    for r in rows {
+        let label = r.results.provenance.as_ref().map_or("unrecorded".into(), |p| p.commit_label());
+        match by.iter_mut().find(|(c, _)| *c == label) {
+            Some((_, cells)) => cells.push(r.cell.clone()),
+            None => by.push((label, vec![r.cell.clone()])),
+        }
+    }
+    by
+}
+
+/// [`write_experiment_report`], refusing cells of different joca commits unless `mixed_commits`
+/// (then the report names each commit and its cells).
+pub fn write_experiment_report_with(
+    exp_dir: &Path,
+    mixed_commits: bool,
+) -> Result<String, ReportError> {
     let manifest = Manifest::load(exp_dir)?;
     let mut rows = Vec::new();
     let mut runs = Vec::new();
@@ -160,6 +183,18 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
         });
         runs.push((cell.clone(), run));
     }
+    let commits = commits(&rows);
+    let commit_text = commits
+        .iter()
+        .map(|(c, cells)| format!("{c}: {}", cells.join(", ")))
+        .collect::<Vec<_>>()
+        .join("; ");
+    if commits.len() > 1 && !mixed_commits {
+        return Err(ReportError::MixedCommits {
+            experiment: exp_dir.display().to_string(),
+            cells: commit_text,
+        });
+    }
     let table = Table { label_header: manifest.label_header.clone(), rows };
     let done = runs.len();
     let total = manifest.cells.len();
@@ -173,6 +208,16 @@ pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
     );
     if !pending.is_empty() {
         let _ = write!(meta, " Not finished: {}.", pending.join(", "));
+    }
+    match commits.as_slice() {
+        [] => {}
+        [(c, _)] => {
+            let _ = write!(meta, " joca commit {c}.");
+        }
+        _ => {
+            let _ =
+                write!(meta, " Cells of different joca commits, reported together: {commit_text}.");
+        }
     }
     let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
     let (mut seeds_md, mut seeds_html) = crate::seeds::seeds_sections(&table.rows);

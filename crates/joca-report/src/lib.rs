@@ -30,7 +30,9 @@ mod seeds;
 mod table;
 
 pub use data::{GenerationFitness, RunData, StepLog};
-pub use experiment::{CellSpec, CellState, Manifest, write_experiment_report};
+pub use experiment::{
+    CellSpec, CellState, Manifest, write_experiment_report, write_experiment_report_with,
+};
 pub use figures::write_figures;
 pub use frames::DRAW_MIN_SCORE;
 pub use headroom::{REFERENCE_POLICY, headroom_markdown, headroom_summary_markdown};
@@ -65,6 +67,18 @@ pub enum ReportError {
         path: String,
         /// What is wrong.
         reason: String,
+    },
+    /// An experiment's finished cells were computed by different joca commits.
+    #[error(
+        "the cells of {experiment} were computed by different joca commits ({cells}): a table \
+         mixing them compares code as well as methods; re-run the stale cells, or pass \
+         --mixed-commits to report them together anyway"
+    )]
+    MixedCommits {
+        /// The experiment directory.
+        experiment: String,
+        /// Each commit and the cells it computed.
+        cells: String,
     },
     /// A figure could not be drawn or encoded.
     #[error("cannot draw {path}: {reason}")]

@@ -40,6 +40,9 @@ pub struct Args {
     /// Print where each cell stands (and the Slurm job's, if one was submitted); run nothing.
     #[arg(long, conflicts_with = "prepare")]
     status: bool,
+    /// Report cells computed by different joca commits together (refused otherwise).
+    #[arg(long)]
+    mixed_commits: bool,
     /// Write every cell's configuration (cells/<id>/cell.toml) and the manifest, check the
     /// finished cells against the grid, and run nothing: for `joca cell DIR` run by hand or by
     /// another scheduler.
@@ -133,7 +136,7 @@ pub fn run(args: &Args) -> Result<()> {
         .filter(|c| Manifest::state(&dir, &c.spec) != joca_report::CellState::Done)
         .map(|c| c.spec.id.as_str())
         .collect();
-    joca_report::write_experiment_report(&dir)
+    joca_report::write_experiment_report_with(&dir, args.mixed_commits)
         .with_context(|| format!("cannot write the report of {}", dir.display()))?;
     println!(
         "\n{}",

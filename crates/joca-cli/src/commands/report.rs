@@ -9,6 +9,10 @@ use std::path::PathBuf;
 pub struct Args {
     /// A finished run directory or an experiment directory (joca's marker names which).
     dir: PathBuf,
+    /// Report an experiment whose cells were computed by different joca commits (refused
+    /// otherwise, naming each commit's cells).
+    #[arg(long)]
+    mixed_commits: bool,
 }
 
 /// Runs `joca report`.
@@ -17,7 +21,7 @@ pub fn run(args: &Args) -> Result<()> {
     // Reports are written only into folders joca marked as its own (joca_core::output).
     match output::marked_kind(dir) {
         Some(OutputKind::Experiment) => {
-            joca_report::write_experiment_report(dir)
+            joca_report::write_experiment_report_with(dir, args.mixed_commits)
                 .with_context(|| format!("cannot write the report of {}", dir.display()))?;
         }
         Some(OutputKind::Run) if dir.join("results.json").is_file() => {
