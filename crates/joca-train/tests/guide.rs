@@ -59,6 +59,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     run.weather = joca_sim::Weather::Fog { visibility_m: 300.0 };
     run.f_number = joca_train::FNumberRange { min: 1.4, max: 16.0 };
     run.aperture = joca_camera::ApertureControl::Dynamic;
+    run.training_scenes = joca_train::TrainingScenes::Fresh;
     let pretrain: PretrainConfig =
         table["pretrain"].clone().try_into().expect("the standard [pretrain] parses");
     let run = serde_json::to_value(&run).expect("serialisable");
