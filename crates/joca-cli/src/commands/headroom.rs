@@ -68,17 +68,14 @@ pub fn run(args: &Args) -> Result<()> {
             if args.design.is_some() {
                 bail!("--design: give a design or a run directory, not both");
             }
-            if let Some(path) = &args.config {
-                let (table, _) = config::load_table_with(&args.preset, Some(path), &["ladder"])?;
-                let user: toml::Table = toml::from_str(&std::fs::read_to_string(path)?)?;
-                if user.contains_key("run") || user.contains_key("pretrain") {
-                    bail!(
-                        "config file {}: with a run directory only [ladder] is read (the run's \
-                         own config.toml sets the rest); remove its other tables",
-                        path.display()
-                    );
-                }
-                drop(table);
+            if let Some(path) = &args.config
+                && ladder_only(path)?.is_some()
+            {
+                bail!(
+                    "config file {}: with a run directory only [ladder] is read (the run's own \
+                     config.toml sets the rest); remove its other tables",
+                    path.display()
+                );
             }
             let out = args.out.clone().unwrap_or_else(|| {
                 let s = scenario.map_or("run".to_owned(), |s| s.name().to_owned());
@@ -120,8 +117,7 @@ fn ladder(file: Option<&Path>) -> Result<(LadderConfig, String)> {
     };
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read config file {}", path.display()))?;
-    let table: toml::Table =
-        toml::from_str(&text).with_context(|| format!("invalid config file {}", path.display()))?;
+    let table = read_table(path, &text)?;
     let ladder = match table.get("ladder") {
         None => LadderConfig::default(),
         Some(v) => v
@@ -130,6 +126,17 @@ fn ladder(file: Option<&Path>) -> Result<(LadderConfig, String)> {
             .with_context(|| format!("invalid [ladder] in {}", path.display()))?,
     };
     Ok((ladder, path.display().to_string()))
+}
+
+fn read_table(path: &Path, text: &str) -> Result<toml::Table> {
+    toml::from_str(text).with_context(|| format!("invalid config file {}", path.display()))
+}
+
+/// The first top-level table of `path` other than `[ladder]`, if any.
+fn ladder_only(path: &Path) -> Result<Option<String>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read config file {}", path.display()))?;
+    Ok(read_table(path, &text)?.keys().find(|k| *k != "ladder").cloned())
 }
 
 /// `SENSOR:FOCAL_MM:X_M:Z_M`.

@@ -5,8 +5,8 @@
 //! together.
 
 use super::RunConfig;
-use super::closed_loop::Driver;
 use super::config::TrainingScenes;
+use super::driver::Driver;
 use super::perturbation::{self, Probe};
 use super::{Context, RealSources, simulator};
 use crate::TrainError;

@@ -11,12 +11,13 @@
 //!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
 //! - `<sequence>/NNN.png` — those frames.
 
+use super::driver::Driver;
+pub(super) use super::driver::WARMUP_FRAMES;
 use super::{Context, light_of, simulator};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
-use crate::control::{ExposureControl, SensorLimits, test_control};
-use joca_camera::{CameraDesign, Capture, DynamicSettings, ImageFormation};
-use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
+use joca_camera::CameraDesign;
+use joca_core::{FrameSource, PinholeCamera, Rgb8Image};
 use joca_metrics::{BandScores, TaskMetrics, TaskScores};
 use joca_nn::joint::JointModel;
 use joca_record::{ByLight, Light, LightResults, Settings, TraceRecord};
@@ -27,110 +28,10 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::sync::Arc;
 
-/// Frames the controller runs before scoring starts (it starts at E0, G0).
-pub(super) const WARMUP_FRAMES: usize = 3;
 /// Frames of the tunnel showcase (10 Hz): 5 s around an abrupt change of illumination.
 const TUNNEL_FRAMES: usize = 50;
 /// Frames of the day and night showcases; the last one is saved.
 const STEADY_FRAMES: usize = 20;
-
-/// The controller state of one closed-loop sequence.
-pub(super) struct Driver {
-    control: Box<dyn ExposureControl>,
-    /// Settings the sensor uses for the next frame.
-    applied: DynamicSettings,
-    previous: Option<Rgb8Image>,
-    pixel_pitch_um: f64,
-    /// The run's formation on the design's native grid.
-    formation: ImageFormation,
-}
-
-/// What one closed-loop frame produced.
-pub(super) struct Step {
-    pub(super) frame: Frame,
-    pub(super) detections: Vec<Detection>,
-    /// Exposure and gain, and the f-number where the controller sets the iris.
-    pub(super) settings: Settings,
-    /// Mean of the formed 8-bit frame, DN.
-    pub(super) mean_dn: f64,
-    /// Share of the frame's pixels with a channel at 255.
-    pub(super) clipped: f64,
-}
-
-impl Driver {
-    /// Starts a sequence of `design` with the context's test controller.
-    pub(super) fn new(
-        cx: &Context,
-        model: &mut JointModel,
-        design: &CameraDesign,
-        frame_interval_s: f64,
-    ) -> Self {
-        model.reset_sequence();
-        // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
-        // controller's whole range stays the camera's at every f-number).
-        let pixel_pitch_um = design.sensor().pixel_pitch_um;
-        let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s)
-            .with_iris(super::candidate::iris(&cx.config, design));
-        model.set_max_exposure(sensor.max_exposure_s);
-        let mut control =
-            test_control(cx.test_controller, cx.config.method.neural(), sensor, cx.ranges);
-        let applied = control.start();
-        let formation = cx.formation.for_design(design);
-        Self { control, applied, previous: None, pixel_pitch_um, formation }
-    }
-
-    /// The 8-bit frame last captured.
-    pub(super) fn last_image(&self) -> Option<&Rgb8Image> {
-        self.previous.as_ref()
-    }
-
-    /// The settings the last frame was captured with.
-    pub(super) fn applied(&self) -> DynamicSettings {
-        self.applied
-    }
-
-    /// Sets this frame's exposure and gain from the previous frame, captures and detects.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn step(
-        &mut self,
-        cx: &Context,
-        model: &mut JointModel,
-        sim: &dyn FrameSource,
-        camera: &PinholeCamera,
-        episode: u64,
-        time_s: f64,
-        noise: &mut impl rand::Rng,
-    ) -> Result<Step, TrainError> {
-        if let Some(prev) = &self.previous {
-            self.applied = self.control.next(model, prev).applied;
-        }
-        let request = FrameRequest {
-            episode,
-            time_s,
-            exposure_s: self.applied.exposure_s,
-            motion_scale: cx.config.scenario.motion_scale(),
-        };
-        // Where the controller sets the iris, the frame is seen and formed at its f-number.
-        let f_number = self.control.f_number();
-        let formation = match f_number {
-            Some(n) => self.formation.with_f_number(n)?,
-            None => self.formation,
-        };
-        let Capture { frame, image } = formation.capture(
-            sim,
-            &camera.stopped_to(f_number)?,
-            &request,
-            self.applied,
-            self.pixel_pitch_um,
-            noise,
-        )?;
-        let detections = model.observe(&image);
-        let (mean_dn, clipped) = super::headroom::levels(&image);
-        self.previous = Some(image);
-        let settings = Settings::from(self.applied).at(f_number);
-        Ok(Step { frame, detections, settings, mean_dn, clipped })
-    }
-}
 
 fn ambient(sim: &Simulator, episode: u64, time_s: f64) -> f32 {
     let e = sim.episode(episode);
@@ -169,6 +70,16 @@ impl Plan {
     }
 }
 
+/// When a test town's scored sequences start, seconds into the episode (before the warm-up).
+pub(super) const TOWN_START_S: f64 = 1.0;
+
+/// The towns of `plan`, one per illumination: episode e drives `Illumination::ALL[e % 4]`, so
+/// every light gets the same number of episodes (within one). Built once per run.
+pub(super) fn towns(cx: &mut Context, plan: Plan) -> Vec<Arc<Simulator>> {
+    let c = cx.config.clone();
+    Illumination::ALL.iter().map(|&il| simulator(&mut cx.sims, plan.town, &c, Some(il))).collect()
+}
+
 /// Closed-loop evaluation of `design` with the trained controller (`plan`: the test, or the
 /// validation). With `out`, also writes the per-frame trace and the showcase sequences there.
 pub(super) fn test(
@@ -192,16 +103,9 @@ pub(super) fn test(
     // number of episodes (within one), whatever the episodes' own draws would have been.
     // Recordings have their own light, and no towns are built for them.
     // Built once per run (the validation re-scores several designs on the same towns).
-    let towns: Vec<Arc<Simulator>> = if real.is_some() {
-        Vec::new()
-    } else {
-        Illumination::ALL
-            .iter()
-            .map(|&il| simulator(&mut cx.sims, plan.town, &c, Some(il)))
-            .collect()
-    };
-    // Recorded sequences are played from their start; the test town from t = 1 s.
-    let start_s = if real.is_some() { 0.0 } else { 1.0 };
+    let towns: Vec<Arc<Simulator>> = if real.is_some() { Vec::new() } else { towns(cx, plan) };
+    // Recorded sequences are played from their start; the test town from TOWN_START_S.
+    let start_s = if real.is_some() { 0.0 } else { TOWN_START_S };
     for episode in 0..plan.episodes {
         let town = towns.get(episode as usize % Illumination::ALL.len());
         let source: &dyn FrameSource = match (&real, town) {
@@ -375,7 +279,7 @@ fn showcases(
             let save = illumination == Illumination::Tunnel || k + 1 == frames;
             let image = if save {
                 let rel = format!("{name}/{k:03}.png");
-                if let Some(image) = &driver.previous {
+                if let Some(image) = driver.last_image() {
                     write_png(&dir.join(&rel), image)?;
                 }
                 Some(rel)

@@ -9,13 +9,15 @@
 //! resume, a generation's members, one candidate trained and checkpointed), [`candidate`] (one candidate's k steps of joint training on its
 //! generation's scenes), [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
 //! (choosing the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop
-//! driving: the test, the validation, the showcases), [`results`] (what a run reports),
+//! driving: the test, the validation, the showcases; [`driver`] one sequence's controller and
+//! captures), [`headroom`] (`joca headroom`), [`results`] (what a run reports),
 //! [`timing`] (`joca bench step`).
 
 mod aperture;
 mod candidate;
 mod closed_loop;
 mod config;
+mod driver;
 mod evaluate;
 mod hardware;
 pub use hardware::HardwareMutation;

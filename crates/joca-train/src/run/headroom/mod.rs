@@ -12,20 +12,19 @@
 pub mod ladder;
 mod policies;
 
-use super::closed_loop::{Driver, Plan, WARMUP_FRAMES};
+use super::closed_loop::{Plan, TOWN_START_S, towns};
+use super::driver::{Driver, WARMUP_FRAMES, levels};
 use super::evaluate::{best_design, load_run};
 use super::results::summary;
-use super::{Context, RunConfig, Scenario, cpu_description, light_of, setup, simulator};
+use super::{Context, RunConfig, Scenario, cpu_description, light_of, setup};
 use crate::TrainError;
 use crate::control::TestController;
 use joca_camera::{CameraDesign, DynamicSettings};
 use joca_core::{Annotation, Detection, FrameRequest, FrameSource, Rgb8Image};
 use joca_nn::joint::JointModel;
 use joca_record::{HEADROOM_FORMAT_VERSION, HeadroomRecord, Light, Provenance, Settings};
-use joca_sim::Illumination;
 use ladder::LadderConfig;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 /// Where the design and detector come from.
 #[derive(Debug, Clone)]
@@ -159,13 +158,6 @@ pub fn headroom(
     })
 }
 
-/// The towns of `plan`, one per illumination (episode e drives `Illumination::ALL[e % 4]`, as
-/// the test does).
-fn towns(cx: &mut Context, plan: Plan) -> Vec<Arc<joca_sim::Simulator>> {
-    let c = cx.config.clone();
-    Illumination::ALL.iter().map(|&il| simulator(&mut cx.sims, plan.town, &c, Some(il))).collect()
-}
-
 /// Every scored test instant captured at every rung: `[rung][frame]`. An instant is rendered
 /// once per distinct exposure (the simulator shares its sub-frames between them); every rung
 /// draws the same noise (the test's stream for that instant), so rungs differ only by their
@@ -188,7 +180,7 @@ fn ladder_outcomes(
         let town = &towns[episode as usize % towns.len()];
         let light = light_of(Some(town.episode(episode).illumination));
         for k in WARMUP_FRAMES..WARMUP_FRAMES + plan.frames_per_episode {
-            let time_s = 1.0 + k as f64 * town.frame_interval_s();
+            let time_s = TOWN_START_S + k as f64 * town.frame_interval_s();
             let request = FrameRequest {
                 episode,
                 time_s,
@@ -201,7 +193,6 @@ fn ladder_outcomes(
                 let frame = &frames[i.unwrap_or(0)];
                 let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
                 let image = formation.form(&frame.hdr, *rung, pitch, &mut noise);
-                model.reset_sequence();
                 let detections = model.observe(&image);
                 out[r].push(outcome(light, frame, detections, *rung, &image));
             }
@@ -229,7 +220,7 @@ fn closed_loop_outcomes(
         let source: &dyn FrameSource = &**town;
         let mut driver = Driver::new(cx, model, design, source.frame_interval_s());
         for k in 0..WARMUP_FRAMES + plan.frames_per_episode {
-            let time_s = 1.0 + k as f64 * source.frame_interval_s();
+            let time_s = TOWN_START_S + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
             let s = driver.step(cx, model, source, &camera, episode, time_s, &mut noise)?;
             if k >= WARMUP_FRAMES
@@ -264,15 +255,6 @@ fn outcome(
         clipped,
         utility,
     }
-}
-
-/// The frame's mean level, DN, and the share of its pixels with a channel at 255.
-pub(crate) fn levels(image: &Rgb8Image) -> (f64, f64) {
-    let data = image.data();
-    let mean = data.iter().map(|&v| f64::from(v)).sum::<f64>() / data.len().max(1) as f64;
-    let pixels = data.len() / 3;
-    let clipped = data.chunks_exact(3).filter(|p| p.contains(&255)).count();
-    (mean, clipped as f64 / pixels.max(1) as f64)
 }
 
 /// Writes `headroom.json` and `headroom.md` into `dir` (created if needed).

@@ -1,0 +1,122 @@
+//! One closed-loop sequence: a controller sets the exposure and gain of frame t from frame
+//! t − 1 (its own output), the frame is captured and the detector runs on it, exactly as at
+//! training time but without any update. The test, the validation, the showcases, a fresh-scenes
+//! candidate's judging and `joca headroom` all drive their sequences through [`Driver`].
+
+use super::Context;
+use crate::TrainError;
+use crate::control::{ExposureControl, SensorLimits, test_control};
+use joca_camera::{CameraDesign, Capture, DynamicSettings, ImageFormation};
+use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
+use joca_nn::joint::JointModel;
+use joca_record::Settings;
+
+/// Frames the controller runs before scoring starts (it starts at E0, G0).
+pub(super) const WARMUP_FRAMES: usize = 3;
+
+/// The controller state of one closed-loop sequence.
+pub(super) struct Driver {
+    control: Box<dyn ExposureControl>,
+    /// Settings the sensor uses for the next frame.
+    applied: DynamicSettings,
+    previous: Option<Rgb8Image>,
+    pixel_pitch_um: f64,
+    /// The run's formation on the design's native grid.
+    formation: ImageFormation,
+}
+
+/// What one closed-loop frame produced.
+pub(super) struct Step {
+    pub(super) frame: Frame,
+    pub(super) detections: Vec<Detection>,
+    /// Exposure and gain, and the f-number where the controller sets the iris.
+    pub(super) settings: Settings,
+    /// Mean of the formed 8-bit frame, DN.
+    pub(super) mean_dn: f64,
+    /// Share of the frame's pixels with a channel at 255.
+    pub(super) clipped: f64,
+}
+
+impl Driver {
+    /// Starts a sequence of `design` with the context's test controller.
+    pub(super) fn new(
+        cx: &Context,
+        model: &mut JointModel,
+        design: &CameraDesign,
+        frame_interval_s: f64,
+    ) -> Self {
+        model.reset_sequence();
+        // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
+        // controller's whole range stays the camera's at every f-number).
+        let pixel_pitch_um = design.sensor().pixel_pitch_um;
+        let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s)
+            .with_iris(super::candidate::iris(&cx.config, design));
+        model.set_max_exposure(sensor.max_exposure_s);
+        let mut control =
+            test_control(cx.test_controller, cx.config.method.neural(), sensor, cx.ranges);
+        let applied = control.start();
+        let formation = cx.formation.for_design(design);
+        Self { control, applied, previous: None, pixel_pitch_um, formation }
+    }
+
+    /// The 8-bit frame last captured.
+    pub(super) fn last_image(&self) -> Option<&Rgb8Image> {
+        self.previous.as_ref()
+    }
+
+    /// The settings the last frame was captured with.
+    pub(super) fn applied(&self) -> DynamicSettings {
+        self.applied
+    }
+
+    /// Sets this frame's exposure and gain from the previous frame, captures and detects.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn step(
+        &mut self,
+        cx: &Context,
+        model: &mut JointModel,
+        sim: &dyn FrameSource,
+        camera: &PinholeCamera,
+        episode: u64,
+        time_s: f64,
+        noise: &mut impl rand::Rng,
+    ) -> Result<Step, TrainError> {
+        if let Some(prev) = &self.previous {
+            self.applied = self.control.next(model, prev).applied;
+        }
+        let request = FrameRequest {
+            episode,
+            time_s,
+            exposure_s: self.applied.exposure_s,
+            motion_scale: cx.config.scenario.motion_scale(),
+        };
+        // Where the controller sets the iris, the frame is seen and formed at its f-number.
+        let f_number = self.control.f_number();
+        let formation = match f_number {
+            Some(n) => self.formation.with_f_number(n)?,
+            None => self.formation,
+        };
+        let Capture { frame, image } = formation.capture(
+            sim,
+            &camera.stopped_to(f_number)?,
+            &request,
+            self.applied,
+            self.pixel_pitch_um,
+            noise,
+        )?;
+        let detections = model.observe(&image);
+        let (mean_dn, clipped) = levels(&image);
+        self.previous = Some(image);
+        let settings = Settings::from(self.applied).at(f_number);
+        Ok(Step { frame, detections, settings, mean_dn, clipped })
+    }
+}
+
+/// The frame's mean level, DN, and the share of its pixels with a channel at 255.
+pub(super) fn levels(image: &Rgb8Image) -> (f64, f64) {
+    let data = image.data();
+    let mean = data.iter().map(|&v| f64::from(v)).sum::<f64>() / data.len().max(1) as f64;
+    let pixels = data.len() / 3;
+    let clipped = data.chunks_exact(3).filter(|p| p.contains(&255)).count();
+    (mean, clipped as f64 / pixels.max(1) as f64)
+}
