@@ -50,13 +50,41 @@ pub struct AccBounds {
     pub gain_db: (f64, f64),
     /// Whether NeuralAE also sets the iris (a third output, its unit position).
     pub iris: bool,
+    /// How exposure and gain are output ([`AccOutputForm`]).
+    pub form: AccOutputForm,
+}
+
+/// How NeuralAE's head gives exposure and gain.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum AccOutputForm {
+    /// The paper's: absolute settings, a sigmoid over each range (log exposure, gain in dB).
+    #[default]
+    Absolute,
+    /// A step from the previous frame's settings (the form AverageAE's factor has): exposure
+    /// and linear gain each × 2^(s·tanh(o)), at most `s` stops a frame, then held inside the
+    /// ranges (the value clamped, the gradient passed as if it were not, so a step past a bound
+    /// is still pulled back). An untrained NeuralAE holds its settings.
+    Relative {
+        /// The largest step of each of exposure and gain, stops.
+        max_stops: f64,
+    },
 }
 
 impl AccBounds {
     /// The network's view of `ranges`.
     pub fn new(ranges: AccRanges) -> Self {
         let (e, g) = (ranges.exposure_s, ranges.gain_db);
-        Self { log_exposure: (e.min.ln(), e.max.ln()), gain_db: (g.min, g.max), iris: false }
+        Self {
+            log_exposure: (e.min.ln(), e.max.ln()),
+            gain_db: (g.min, g.max),
+            iris: false,
+            form: AccOutputForm::Absolute,
+        }
+    }
+
+    /// The same, with exposure and gain output in `form`.
+    pub fn with_form(self, form: AccOutputForm) -> Self {
+        Self { form, ..self }
     }
 
     /// The same, with NeuralAE setting the iris too.
@@ -116,6 +144,15 @@ pub fn histograms(frame: &Rgb8Image) -> Vec<f32> {
     out
 }
 
+/// Decibels of gain in one stop (a factor of 2).
+const DB_PER_STOP: f64 = 6.020_599_913_279_624;
+
+/// `x` clamped to `[lo, hi]` in value, with the gradient of `x` itself.
+fn held(x: Tensor, lo: f64, hi: f64) -> Tensor {
+    let clamped = x.clamp(lo, hi).detach();
+    &x + (clamped - x.detach())
+}
+
 /// The NeuralAE network.
 #[derive(Debug)]
 pub struct NeuralAe {
@@ -141,7 +178,8 @@ pub struct AccOutput {
 }
 
 /// The output layer, initialised so that an untrained NeuralAE predicts the calibration settings
-/// (E0 = 5 ms, G0 = 10 dB, and the iris at [`joca_camera::Iris::START_UNIT`]): small
+/// (E0 = 5 ms, G0 = 10 dB, and the iris at [`joca_camera::Iris::START_UNIT`]; with a relative
+/// output, a zero step): small
 /// weights, and biases at the logits of those settings. A random start would put the first
 /// predictions anywhere in the ranges, often at an extreme where the task gradient is weak.
 fn start_at_calibration(vs: &nn::Path<'_>, bounds: AccBounds) -> nn::Linear {
@@ -163,6 +201,10 @@ fn start_at_calibration(vs: &nn::Path<'_>, bounds: AccBounds) -> nn::Linear {
     if let Some(bias) = layer.bs.as_mut() {
         let _guard = tch::no_grad_guard();
         bias.copy_(&Tensor::from_slice(&unit));
+        if let AccOutputForm::Relative { .. } = bounds.form {
+            // A zero step: the settings are held.
+            let _ = bias.narrow(0, 0, 2).fill_(0.0);
+        }
     }
     layer
 }
@@ -199,6 +241,25 @@ impl NeuralAe {
         }
     }
 
+    /// Switches the head to `form`, its exposure and gain biases at the start `form` has (the
+    /// calibration settings, or a zero step). Meant for a fresh network: trained weights of one
+    /// form do not mean the same in the other.
+    pub fn set_form(&mut self, form: AccOutputForm) {
+        self.bounds = self.bounds.with_form(form);
+        let logit = |u: f64| (u / (1.0 - u)).ln() as f32;
+        let start: [f32; 2] = match form {
+            AccOutputForm::Absolute => {
+                let u = self.bounds.unit(5e-3, 10.0);
+                [logit(f64::from(u[0])), logit(f64::from(u[1]))]
+            }
+            AccOutputForm::Relative { .. } => [0.0, 0.0],
+        };
+        if let Some(bias) = self.out.bs.as_mut() {
+            let _guard = tch::no_grad_guard();
+            bias.narrow(0, 0, 2).copy_(&Tensor::from_slice(&start));
+        }
+    }
+
     /// Predicts the next frame's settings from the last frame's histograms (`[59·256]`), the
     /// detector's stride-4 features of that frame (detached here) and the last settings
     /// ([`AccBounds::previous`]).
@@ -223,13 +284,25 @@ impl NeuralAe {
         let pooled = Tensor::cat(&[avg(&parts[0]), max(&parts[1]), max(&parts[2]), avg(&f), e], 1);
         let s = pooled.apply(&self.semantic[0]).relu().apply(&self.semantic[1]); // [1, 256]
 
-        let o = (g + s).apply(&self.out).sigmoid(); // [1, 2] (or [1, 3] with the iris)
+        let raw = (g + s).apply(&self.out); // [1, 2] (or [1, 3] with the iris)
+        let o = raw.sigmoid();
         let (a, b) = self.bounds.log_exposure;
         let (c, d) = self.bounds.gain_db;
-        AccOutput {
-            exposure_s: (o.select(1, 0) * (b - a) + a).exp(),
-            gain_db: o.select(1, 1) * (d - c) + c,
-            iris: self.bounds.iris.then(|| o.select(1, 2)),
+        let iris = self.bounds.iris.then(|| o.select(1, 2));
+        match self.bounds.form {
+            AccOutputForm::Absolute => AccOutput {
+                exposure_s: (o.select(1, 0) * (b - a) + a).exp(),
+                gain_db: o.select(1, 1) * (d - c) + c,
+                iris,
+            },
+            AccOutputForm::Relative { max_stops } => {
+                let step = raw.narrow(1, 0, 2).tanh() * max_stops; // stops, [1, 2]
+                let (log_e, g_db) =
+                    (a + f64::from(previous[0]) * (b - a), c + f64::from(previous[1]) * (d - c));
+                let log_e = held(step.select(1, 0) * std::f64::consts::LN_2 + log_e, a, b);
+                let g_db = held(step.select(1, 1) * DB_PER_STOP + g_db, c, d);
+                AccOutput { exposure_s: log_e.exp(), gain_db: g_db, iris }
+            }
         }
     }
 }

@@ -102,6 +102,18 @@ impl JointModel {
         self.acc_opt.set_lr(lr);
     }
 
+    /// How NeuralAE outputs exposure and gain (the paper's absolute settings by default); set
+    /// before training or loading.
+    pub fn set_acc_output(&mut self, form: crate::acc::AccOutputForm) {
+        self.bounds = self.bounds.with_form(form);
+        self.acc.set_form(form);
+    }
+
+    /// The detector's Adam learning rate during joint training (the paper's 1e-4 by default).
+    pub fn set_detector_lr(&mut self, lr: f64) {
+        self.det.set_lr(lr);
+    }
+
     /// How the differentiable formation's clip passes gradients.
     pub fn set_clip_gradient(&mut self, clip: ClipGradient) {
         self.clip = clip;
@@ -274,6 +286,43 @@ impl JointModel {
             timings,
             applied: DynamicSettings::new(e_t.double_value(&[0]), g_t.double_value(&[0])),
         })
+    }
+
+    /// One imitation step of NeuralAE alone (its warm start): `prediction` (made by
+    /// [`JointModel::predict`]) is pulled towards `target` by `l_GA`'s L1 in normalised units,
+    /// with learning rate `lr`; the detector does not change. Returns the loss before the step.
+    pub fn imitate(
+        &mut self,
+        prediction: &Prediction,
+        target: GaTarget,
+        lr: f64,
+    ) -> Result<f64, NnError> {
+        let iris = prediction.iris.as_ref().map(|(_, u)| u);
+        let loss = ga_supervision_loss(
+            &prediction.exposure_s,
+            &prediction.gain_db,
+            iris,
+            target,
+            &self.bounds,
+        );
+        let v = loss.double_value(&[]);
+        if !v.is_finite() {
+            return Err(NnError::NonFinite { what: "imitation", value: v });
+        }
+        let trained_lr = self.acc_opt.config().lr;
+        self.acc_opt.zero_grad();
+        loss.backward();
+        self.acc_opt.set_lr(lr);
+        self.acc_opt.step();
+        self.acc_opt.set_lr(trained_lr);
+        Ok(v)
+    }
+
+    /// Starts NeuralAE's optimiser afresh (zero moments, step 0) at its learning rate: DF-Grad
+    /// after a warm start begins as it would from initialised weights.
+    pub fn restart_acc_optimizer(&mut self) {
+        let lr = self.acc_opt.config().lr;
+        self.acc_opt = Adam::new(&self.acc_vs, AdamConfig { lr, ..AdamConfig::ACC });
     }
 
     /// Remembers the detector features of `frame` as "the previous frame" without training

@@ -15,6 +15,19 @@ pub enum Event {
     Candidate(Box<CandidateRecord>),
     /// A finished generation.
     Generation(GenerationRecord),
+    /// NeuralAE's warm start, before the first generation.
+    WarmStart(WarmStartRecord),
+}
+
+/// NeuralAE's warm start: how closely it imitated AverageAE, at the start and at the end.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WarmStartRecord {
+    /// Imitation frames.
+    pub warm_start_frames: usize,
+    /// Mean imitation loss (L1 in normalised units, as l_GA) over the first quarter of them.
+    pub imitation_loss_first: f64,
+    /// The same over the last quarter.
+    pub imitation_loss_last: f64,
 }
 
 /// A training step.

@@ -34,7 +34,9 @@ pub use joca_core::{Annotation, BBox, Class, Detection};
 pub use joca_metrics::{BandScores, TaskScores};
 
 pub use by_light::{ByLight, LightResults};
-pub use events::{CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord};
+pub use events::{
+    CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord, WarmStartRecord,
+};
 pub use headroom::{HEADROOM_FORMAT_VERSION, HeadroomRecord, PolicyLight, PolicyScores};
 pub use method::{Method, Scenario};
 pub use provenance::{BUILD_COMMIT, Provenance, config_sha256};

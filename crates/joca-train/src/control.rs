@@ -125,6 +125,24 @@ impl NeuralControl {
     }
 }
 
+impl NeuralControl {
+    /// NeuralAE driving `sensor` from a prediction of `predicted` (the settings of the
+    /// sequence's first frame, for the calibration pitch) instead of the calibration's.
+    pub fn starting_at(sensor: SensorLimits, predicted: DynamicSettings) -> Self {
+        Self { predicted, applied: for_sensor(predicted, &sensor), ..Self::new(sensor) }
+    }
+
+    /// The settings the sensor last used.
+    pub fn applied(&self) -> DynamicSettings {
+        self.applied
+    }
+
+    /// NeuralAE's last prediction, for the calibration pitch.
+    pub fn predicted(&self) -> DynamicSettings {
+        self.predicted
+    }
+}
+
 impl ExposureControl for NeuralControl {
     fn start(&mut self) -> DynamicSettings {
         *self = Self::new(self.sensor);

@@ -27,9 +27,9 @@ pub use pretrain::{
     PretrainEvent, differing_fields, evaluate_weights, pretrain, reference_design,
 };
 pub use run::{
-    DesignSpec, DesignSummary, EvalOptions, FNumberRange, FixedCamera, HardwareMutation,
+    AccOutput, DesignSpec, DesignSummary, EvalOptions, FNumberRange, FixedCamera, HardwareMutation,
     MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, Method, PerturbationMutation, PerturbationScore,
     PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario,
     SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, TrainingScenes,
-    bench_step, cpu_description, evaluate_run, headroom, run,
+    WarmStart, bench_step, cpu_description, evaluate_run, headroom, run,
 };

@@ -37,6 +37,12 @@ pub struct Args {
     /// Cells run at once, each in its own process (each uses the cell's `threads`), 1 to 64.
     #[arg(long, default_value_t = 1, value_parser = crate::config::count::<1, 64>)]
     jobs: usize,
+    /// The order cells run in: `grid` (the file's: variants, then scenarios, then designs),
+    /// `design` (a panel's designs in the file's order, each design's cells together, and seeds
+    /// in turn: an interrupted grid leaves whole designs to pair) or `seed` (every cell of seed s
+    /// before any of seed s + 1).
+    #[arg(long, default_value = "grid", value_parser = ["grid", "design", "seed"])]
+    order: String,
     /// Print where each cell stands (and the Slurm job's, if one was submitted); run nothing.
     #[arg(long, conflicts_with = "prepare")]
     status: bool,
@@ -89,11 +95,12 @@ pub fn run(args: &Args) -> Result<()> {
     if args.prepare {
         return print_status(&exp, &dir);
     }
-    let todo: Vec<&Cell> = exp
+    let mut todo: Vec<&Cell> = exp
         .cells
         .iter()
         .filter(|c| Manifest::state(&dir, &c.spec) != joca_report::CellState::Done)
         .collect();
+    order_cells(&mut todo, &exp, &args.order);
     println!(
         "experiment {} (preset {}): {} cells, {} to run, in {}",
         exp.manifest.name,
@@ -159,6 +166,20 @@ pub fn run(args: &Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Puts `todo` in the order `order` names (`grid`: as resolved). The sort is stable, so cells
+/// that tie keep the grid's order.
+fn order_cells(todo: &mut [&Cell], exp: &Experiment, order: &str) {
+    // A panel design's place in the file (its first cell's position in the grid).
+    let design_rank = |c: &Cell| {
+        exp.cells.iter().position(|o| o.spec.design == c.spec.design).unwrap_or(usize::MAX)
+    };
+    match order {
+        "design" => todo.sort_by_key(|c| (c.spec.seed, design_rank(c))),
+        "seed" => todo.sort_by_key(|c| c.spec.seed),
+        _ => {}
+    }
 }
 
 /// Runs the cells as child processes `joca cell DIR`, at most `jobs` at once; a cell's output

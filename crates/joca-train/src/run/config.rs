@@ -14,6 +14,8 @@ use joca_record::{Method, Scenario};
 use joca_sim::Weather;
 use serde::{Deserialize, Deserializer, Serialize};
 
+pub use learning::{AccOutput, WarmStart};
+use learning::{check_detector_lr, is_paper_detector_lr, paper_detector_lr};
 pub use search::{
     PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak, TrainingScenes,
 };
@@ -122,6 +124,15 @@ pub struct RunConfig {
     /// NeuralAE's Adam learning rate (paper: 1e-5).
     #[serde(default = "paper_acc_lr")]
     pub acc_lr: f64,
+    /// How NeuralAE outputs exposure and gain: `absolute` (the paper's) or `relative:S`.
+    #[serde(default, skip_serializing_if = "AccOutput::is_absolute")]
+    pub acc_output: AccOutput,
+    /// NeuralAE's warm start before DF-Grad (`warm_start = { frames, lr }`; default none).
+    #[serde(default, skip_serializing_if = "WarmStart::is_off")]
+    pub warm_start: WarmStart,
+    /// The detector's AdamW learning rate in joint training (paper: 1e-4).
+    #[serde(default = "paper_detector_lr", skip_serializing_if = "is_paper_detector_lr")]
+    pub detector_lr: f64,
     /// GA loss applied every i steps.
     pub ga_every: usize,
     /// Task-loss weight of the ACC loss (GA loss weight 1).
@@ -238,6 +249,8 @@ impl RunConfig {
         if !(self.acc_lr > 0.0 && self.acc_lr <= 0.1) {
             return bad("acc_lr", self.acc_lr.to_string(), "above 0, at most 0.1");
         }
+        self.warm_start.check(self.method.neural())?;
+        check_detector_lr(self.detector_lr)?;
         if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
             return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");
         }
@@ -371,6 +384,7 @@ fn empty_is_none<'de, D: Deserializer<'de>>(d: D) -> Result<Option<PathBuf>, D::
     Ok(text.filter(|t| !t.is_empty()).map(PathBuf::from))
 }
 
+mod learning;
 mod search;
 
 #[cfg(test)]

@@ -29,6 +29,7 @@ mod results;
 mod source;
 mod state;
 mod timing;
+mod warm_start;
 
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, write_atomic};
@@ -36,8 +37,9 @@ use crate::control::TestController;
 pub use closed_loop::{Showcase, ShowcaseFrame};
 use config::ConfigFile;
 pub use config::{
-    FNumberRange, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation, PerturbationScore,
-    PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, Source, TieBreak, TrainingScenes,
+    AccOutput, FNumberRange, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, PerturbationMutation,
+    PerturbationScore, PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, Source, TieBreak,
+    TrainingScenes, WarmStart,
 };
 pub(crate) use config::{check_detector, check_input};
 pub use evaluate::{EvalOptions, cpu_description, evaluate_run};
@@ -173,7 +175,16 @@ pub fn run(
         .map_err(|e| TrainError::io(&log_path, e))?;
     let (mut cx, mut model) = setup(config, Box::new(log), log_path)?;
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
+    let fresh = ckpt.existing().is_none();
     let mut state = RunState::start(&cx, &mut model, &ckpt, run_dir, resume)?;
+    if fresh && !config.warm_start.is_off() {
+        // NeuralAE's warm start on the first generation's designs, checkpointed so that a
+        // resumed run does not repeat it.
+        let members = state.members(&cx)?;
+        let designs = members.iter().map(|g| cx.codec.decode(g)).collect::<Result<Vec<_>, _>>()?;
+        warm_start::warm_start(&mut cx, &mut model, &designs)?;
+        state.checkpoint(&model, &ckpt)?;
+    }
     write_atomic(
         &run_dir.join("config.toml"),
         &toml::to_string(&ConfigFile { run: config.clone() }).unwrap_or_default(),
@@ -266,6 +277,8 @@ fn setup(
     model.set_detector_trainable(config.method != Method::FrozenDetector);
     model.set_clip_gradient(config.clip_gradient);
     model.set_acc_lr(config.acc_lr);
+    model.set_detector_lr(config.detector_lr);
+    model.set_acc_output(config.acc_output.0);
     let (real, space) = match source::open(&config.source, &config.real)? {
         None => {
             let f = config.f_number;

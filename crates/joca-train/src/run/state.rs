@@ -180,15 +180,24 @@ impl RunState {
         if self.candidate == members.len() {
             self.end_generation(cx)?;
         }
+        self.checkpoint(model, ckpt)?;
+        Ok(fitness)
+    }
+
+    /// Writes the model and this state as the run's checkpoint.
+    pub(super) fn checkpoint(
+        &self,
+        model: &JointModel,
+        ckpt: &CheckpointDir,
+    ) -> Result<(), TrainError> {
         ckpt.write(|dir| {
             model.save(dir)?;
-            let text = serde_json::to_string(&*self).map_err(|e| TrainError::Corrupt {
+            let text = serde_json::to_string(self).map_err(|e| TrainError::Corrupt {
                 path: "state.json".into(),
                 reason: e.to_string(),
             })?;
             write_atomic(&dir.join("state.json"), &text)
-        })?;
-        Ok(fitness)
+        })
     }
 
     /// Tells the hardware GA the generation's fitness (when it searches) and moves on.

@@ -41,6 +41,9 @@ fn tiny(method: Method) -> RunConfig {
         // The run's default: bfloat16 scoring where native (float32 elsewhere).
         scoring_precision: Precision::Bf16,
         acc_lr: 1e-5,
+        acc_output: Default::default(),
+        warm_start: Default::default(),
+        detector_lr: 1e-4,
         clip_gradient: Default::default(),
         training_scenes: Default::default(),
         ga_every: 2,

@@ -1,0 +1,163 @@
+//! How the controller and the detector learn in `[run]`, beyond the paper's recipe: NeuralAE's
+//! output form (`acc_output`), its warm start (`warm_start`) and the detector's learning rate
+//! (`detector_lr`).
+
+use crate::TrainError;
+use joca_nn::acc::AccOutputForm;
+use serde::{Deserialize, Serialize};
+
+/// The longest warm start, frames.
+pub const MAX_WARM_START_FRAMES: usize = 100_000;
+
+/// NeuralAE's warm start (`warm_start = { frames, lr }`): before DF-Grad, NeuralAE drives the
+/// first generation's designs through the training towns and learns, frame by frame, the
+/// settings AverageAE (mid-grey) would choose from where it stands (its previous prediction and
+/// frame), so DF-Grad starts from a controller that follows the light. Off (0 frames) by default:
+/// the paper starts DF-Grad from initialised weights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WarmStart {
+    /// Imitation frames (0: none).
+    pub frames: usize,
+    /// NeuralAE's Adam learning rate while it imitates.
+    #[serde(default = "default_warm_start_lr")]
+    pub lr: f64,
+}
+
+fn default_warm_start_lr() -> f64 {
+    1e-3
+}
+
+impl Default for WarmStart {
+    fn default() -> Self {
+        Self { frames: 0, lr: default_warm_start_lr() }
+    }
+}
+
+impl WarmStart {
+    /// Whether there is none (the field is then left out of saved configurations).
+    pub fn is_off(&self) -> bool {
+        self.frames == 0
+    }
+
+    /// Checks the ranges, naming `run.warm_start.<field>`.
+    pub(super) fn check(&self, neural: bool) -> Result<(), TrainError> {
+        let bad = |field: &str, value: String, allowed: &str| {
+            Err(TrainError::Config {
+                field: format!("run.warm_start.{field}"),
+                value,
+                allowed: allowed.into(),
+            })
+        };
+        if self.frames > MAX_WARM_START_FRAMES {
+            return bad(
+                "frames",
+                self.frames.to_string(),
+                &format!("0 to {MAX_WARM_START_FRAMES}"),
+            );
+        }
+        if self.frames > 0 && !neural {
+            return bad(
+                "frames",
+                self.frames.to_string(),
+                "0 for a method whose controller is AverageAE (there is no NeuralAE to warm)",
+            );
+        }
+        if !(self.lr > 0.0 && self.lr <= 0.1) {
+            return bad("lr", self.lr.to_string(), "above 0, at most 0.1");
+        }
+        Ok(())
+    }
+}
+
+/// The paper's detector learning rate in joint training (AdamW 1e-4).
+pub(super) fn paper_detector_lr() -> f64 {
+    joca_nn::AdamConfig::DETECTOR.lr
+}
+
+/// Whether `lr` is the paper's (the field is then left out of saved configurations).
+pub(super) fn is_paper_detector_lr(lr: &f64) -> bool {
+    *lr == paper_detector_lr()
+}
+
+/// Checks `run.detector_lr`: above 0 (a detector that must not learn is `frozen-detector`'s), at
+/// most 0.1.
+pub(super) fn check_detector_lr(lr: f64) -> Result<(), TrainError> {
+    if lr > 0.0 && lr <= 0.1 {
+        return Ok(());
+    }
+    Err(TrainError::Config {
+        field: "run.detector_lr".into(),
+        value: lr.to_string(),
+        allowed: "above 0, at most 0.1 (method = \"frozen-detector\" keeps it fixed)".into(),
+    })
+}
+
+/// The largest per-frame step `acc_output = "relative:S"` allows, stops.
+pub const MAX_RELATIVE_STOPS: f64 = 8.0;
+
+/// How NeuralAE outputs exposure and gain (`acc_output`): `"absolute"` (the paper's: settings
+/// within the ranges) or `"relative:S"` (a step from the previous frame's settings, at most S
+/// stops of each of exposure and gain a frame, S in (0, 8]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AccOutput(pub AccOutputForm);
+
+impl AccOutput {
+    /// Reads `absolute` or `relative:S`, naming what is allowed.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let allowed = format!(
+            "\"absolute\" or \"relative:S\" with S the largest step a frame, above 0 and at most \
+             {MAX_RELATIVE_STOPS} stops"
+        );
+        if text == "absolute" {
+            return Ok(Self(AccOutputForm::Absolute));
+        }
+        let stops = text
+            .strip_prefix("relative:")
+            .and_then(|s| s.parse::<f64>().ok())
+            .filter(|s| *s > 0.0 && *s <= MAX_RELATIVE_STOPS)
+            .ok_or_else(|| format!("\"{text}\": expected {allowed}"))?;
+        Ok(Self(AccOutputForm::Relative { max_stops: stops }))
+    }
+
+    /// Whether this is the paper's (the field is then left out of saved configurations).
+    pub fn is_absolute(&self) -> bool {
+        self.0 == AccOutputForm::Absolute
+    }
+}
+
+impl std::fmt::Display for AccOutput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            AccOutputForm::Absolute => f.write_str("absolute"),
+            AccOutputForm::Relative { max_stops } => write!(f, "relative:{max_stops}"),
+        }
+    }
+}
+
+joca_core::serde_as_text!(AccOutput, AccOutput::parse);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn acc_output_reads_both_forms_and_refuses_others_naming_the_range() {
+        assert!(AccOutput::parse("absolute").unwrap().is_absolute());
+        let r = AccOutput::parse("relative:3").unwrap();
+        assert_eq!(r.0, AccOutputForm::Relative { max_stops: 3.0 });
+        assert_eq!(r.to_string(), "relative:3");
+        for bad in ["relative", "relative:0", "relative:9", "relative:x", "stops"] {
+            let e = AccOutput::parse(bad).unwrap_err();
+            assert!(e.contains("at most 8 stops") && e.contains(bad), "{e}");
+        }
+        let w = WarmStart { frames: 10, lr: 1e-3 };
+        assert!(w.check(true).is_ok());
+        let e = w.check(false).unwrap_err().to_string();
+        assert!(e.contains("run.warm_start.frames") && e.contains("AverageAE"), "{e}");
+        let e = WarmStart { frames: 10, lr: 0.0 }.check(true).unwrap_err().to_string();
+        assert!(e.contains("run.warm_start.lr") && e.contains("at most 0.1"), "{e}");
+        let e = check_detector_lr(0.0).unwrap_err().to_string();
+        assert!(e.contains("run.detector_lr") && e.contains("frozen-detector"), "{e}");
+    }
+}
