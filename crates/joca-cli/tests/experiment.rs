@@ -105,6 +105,16 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     }
     let html = std::fs::read_to_string(exp.join("report.html")).unwrap();
     assert!(html.matches("src=\"").count() == html.matches("src=\"data:image/").count());
+    // Every NeuralAE cell is paired with its own AverageAE re-test (one unit per cell here).
+    let map = |file: &str| -> f64 {
+        let text = std::fs::read_to_string(exp.join("cells/joca-calibrated").join(file)).unwrap();
+        serde_json::from_str::<serde_json::Value>(&text).unwrap()["test"]["map"].as_f64().unwrap()
+    };
+    let d = map("results.json") - map("results-average-127.5.json");
+    let row = format!("| {} of 1 | {d:.3} |", usize::from(d > 0.0));
+    assert!(md.contains("## The learned controller against AverageAE on its own detector"), "{md}");
+    assert!(md.lines().any(|l| l.contains("| Ours | 1 ") && l.contains(&row)), "{row}\n{md}");
+    assert!(md.contains("| AverageAE mid-grey |"), "{md}");
 
     // A killed cell: results gone, checkpoint kept -> "partial", and the next invocation
     // resumes it (its checkpoint is newer than the first three cells' results) and reports all.

@@ -227,6 +227,23 @@ pub fn write_experiment_report_with(
         crate::seeds::titled_table(md, html, 2, CONTROLS, CONTROLS_NOTE, &controls);
         seeds_md.push('\n');
     }
+    let swaps = swap_cells(exp_dir, &runs)?;
+    if !swaps.is_empty() {
+        let (md, html) = (&mut seeds_md, &mut seeds_html);
+        let paired = crate::swap::swap_table(&swaps);
+        crate::seeds::titled_table(md, html, 2, crate::swap::SWAP, crate::swap::SWAP_NOTE, &paired);
+        md.push('\n');
+        let behaviour = crate::swap::behaviour_table(&swaps);
+        crate::seeds::titled_table(
+            md,
+            html,
+            3,
+            "What the controllers did",
+            crate::swap::BEHAVIOUR_NOTE,
+            &behaviour,
+        );
+        md.push('\n');
+    }
     md.push_str(&seeds_md);
     if !seeds_md.is_empty() {
         md.push_str("## Every cell\n\n");
@@ -256,6 +273,27 @@ pub fn write_experiment_report_with(
     let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
     write_text(&exp_dir.join("report.html"), &page)?;
     Ok(md)
+}
+
+/// The finished NeuralAE cells that carry an AverageAE re-test, with it.
+fn swap_cells<'a>(
+    exp_dir: &Path,
+    runs: &'a [(CellSpec, RunData)],
+) -> Result<Vec<crate::swap::SwapCell<'a>>, ReportError> {
+    let mut out = Vec::new();
+    for (cell, run) in runs {
+        let dir = Manifest::cell_dir(exp_dir, cell);
+        if let Some(average) = RunData::retest(&dir, crate::SWAP_TAG)? {
+            out.push(crate::swap::SwapCell {
+                group: &cell.group,
+                label: &cell.label,
+                design: &cell.design,
+                neural: run,
+                average,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// A file-name-safe form of a label.

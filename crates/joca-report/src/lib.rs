@@ -27,6 +27,7 @@ mod html;
 mod paired;
 mod plot;
 mod seeds;
+mod swap;
 mod table;
 
 pub use data::{GenerationFitness, RunData, StepLog};

@@ -60,6 +60,9 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     run.f_number = joca_train::FNumberRange { min: 1.4, max: 16.0 };
     run.aperture = joca_camera::ApertureControl::Dynamic;
     run.training_scenes = joca_train::TrainingScenes::Fresh;
+    run.acc_output = joca_train::AccOutput::parse("relative:3").expect("a valid form");
+    run.warm_start = joca_train::WarmStart { frames: 600, lr: 1e-4 };
+    run.detector_lr = 1e-5;
     let pretrain: PretrainConfig =
         table["pretrain"].clone().try_into().expect("the standard [pretrain] parses");
     let run = serde_json::to_value(&run).expect("serialisable");
@@ -70,6 +73,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
         ("[run.reference]", keys(&run["reference"])),
         ("detector", keys(&run["detector"])),
         ("input", keys(&run["input"])),
+        ("warm_start", keys(&run["warm_start"])),
         ("[pretrain]", keys(&pretrain)),
         ("[pretrain.optimizer]", keys(&pretrain["optimizer"])),
         ("[pretrain.data]", keys(&pretrain["data"])),

@@ -98,3 +98,34 @@ fn the_cap_passes_the_gradient_of_the_uncapped_light() {
         assert!((dg - std::f64::consts::LN_10 / 20.0).abs() < 1e-5, "{e0}: {dg}");
     }
 }
+
+/// NeuralAE's warm start: repeated imitation steps on one frame bring its prediction to the
+/// target (the L1 distance in normalised units falls), the detector's weights stay as they were,
+/// and a restarted optimiser keeps the ACC's learning rate.
+#[test]
+fn imitation_moves_neural_ae_to_its_target_and_leaves_the_detector() {
+    let _serial = crate::torch_serial();
+    tch::manual_seed(4);
+    let engine = Engine::cpu(1);
+    let detector = DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false };
+    let formation = ImageFormation::new(joca_camera::Calibration::DEFAULT).unwrap();
+    let mut model = JointModel::new(&engine, detector, AccRanges::PAPER, formation, false);
+    model.set_acc_output(crate::acc::AccOutputForm::Relative { max_stops: 3.0 });
+    let frame =
+        Rgb8Image::from_vec(32, 24, (0..32 * 24 * 3).map(|i| (i % 251) as u8).collect()).unwrap();
+    let _ = model.observe(&frame);
+    let before = model.det.net.forward(&image_tensor(&frame, Device::Cpu));
+    let target = GaTarget { settings: DynamicSettings::new(2e-3, 20.0), iris: None };
+    let previous = DynamicSettings::new(8e-3, 10.0);
+    let mut losses = Vec::new();
+    for _ in 0..60 {
+        let p = model.predict(&frame, previous, None).unwrap();
+        losses.push(model.imitate(&p, target, 1e-3).unwrap());
+    }
+    assert!(losses[59] < 0.2 * losses[0], "{:?}", (losses[0], losses[59]));
+    let after = model.det.net.forward(&image_tensor(&frame, Device::Cpu));
+    assert!(before.heatmap.equal(&after.heatmap), "the detector changed");
+    model.set_acc_lr(3e-5);
+    model.restart_acc_optimizer();
+    assert_eq!((model.acc_opt.config().lr, model.acc_opt.steps()), (3e-5, 0));
+}

@@ -2,7 +2,8 @@
 //! share, the validation that picks the tested design, and the perturbation searches counted.
 
 use super::{SERIAL, events, go, tiny};
-use joca_train::{Method, PerturbationScore, PerturbationSteps, RunConfig, run};
+use joca_train::{Method, PerturbationScore, PerturbationSteps, RunConfig, RunEvent, run};
+use std::ops::ControlFlow;
 
 /// The test is stratified by illumination: four episodes are one day, one night, one tunnel and
 /// one cycle episode, in that order, and the settings table has a row for each.
@@ -127,4 +128,38 @@ fn fresh_scenes_give_each_candidate_its_own_training_frames() {
     let again = run(&cfg, b.path(), false, &mut go).unwrap();
     assert_eq!(r.test, again.test);
     assert_eq!(r.design, again.design);
+}
+
+/// NeuralAE's warm start runs once, before the first generation: its record is logged, the
+/// checkpoint written after it lets a run stopped after its first candidate resume without
+/// repeating it, to the results of a run never stopped.
+#[test]
+fn a_warm_start_runs_once_and_a_resumed_run_does_not_repeat_it() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let cfg = RunConfig {
+        acc_output: joca_train::AccOutput::parse("relative:3").unwrap(),
+        warm_start: joca_train::WarmStart { frames: 20, lr: 1e-3 },
+        ..tiny(Method::Joca)
+    };
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let whole = run(&cfg, a.path(), false, &mut go).unwrap();
+    let warm = |dir: &std::path::Path| -> Vec<serde_json::Value> {
+        events(dir).into_iter().filter(|v| v.get("warm_start_frames").is_some()).collect()
+    };
+    let records = warm(a.path());
+    assert_eq!(records.len(), 1, "{records:?}");
+    assert_eq!(records[0]["warm_start_frames"], 20);
+    assert!(records[0]["imitation_loss_last"].as_f64().unwrap().is_finite());
+    let mut stop = |e: &RunEvent| match e {
+        RunEvent::Candidate { done: 1, .. } => ControlFlow::Break(()),
+        _ => ControlFlow::Continue(()),
+    };
+    assert!(run(&cfg, b.path(), false, &mut stop).is_err());
+    let resumed = run(&cfg, b.path(), true, &mut go).unwrap();
+    assert_eq!(warm(b.path()).len(), 1, "the resumed run warmed NeuralAE again");
+    assert_eq!(whole.test, resumed.test);
+    // The saved configuration names the options, and one without them leaves them out.
+    let saved = std::fs::read_to_string(a.path().join("config.toml")).unwrap();
+    assert!(saved.contains("acc_output = \"relative:3\"") && saved.contains("frames = 20"));
+    assert!(!saved.contains("detector_lr"), "{saved}");
 }

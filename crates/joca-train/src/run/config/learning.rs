@@ -24,8 +24,10 @@ pub struct WarmStart {
     pub lr: f64,
 }
 
+/// NeuralAE's imitation learning rate: at 1e-3 its outputs saturated at a range's end within a
+/// few hundred frames; at 1e-4 it followed AverageAE (docs/results/2026-12-03-controller-training.md).
 fn default_warm_start_lr() -> f64 {
-    1e-3
+    1e-4
 }
 
 impl Default for WarmStart {
