@@ -37,6 +37,24 @@ use tch::{Device, Tensor};
 
 pub use step::{DfGradWeights, Exposure, GaTarget, Prediction, StepReport, StepTimings};
 
+/// The task loss's pull on NeuralAE's outputs in l_GA's units: `w_task · ∂l_task/∂u` for the
+/// exposure's and the gain's unit position `u` in its range, from the gradients by the frame's
+/// exposure (seconds, at `exposure_s`) and gain (dB). The exposure's unit is log-scaled, so
+/// `∂E/∂u = E · (ln E_max − ln E_min)`; the gain's is linear in dB. Eq. 4 scales the exposure by a
+/// constant and shifts the gain, which changes neither; where the exposure cap binds, the gain
+/// carries the pull instead. On a step where l_GA applies it pulls each unit by `w_ga / 2`.
+pub(crate) fn task_gradient_units(
+    by_exposure: f64,
+    by_gain_db: f64,
+    exposure_s: f64,
+    bounds: &AccBounds,
+    task_weight: f64,
+) -> [f64; 2] {
+    let (a, b) = bounds.log_exposure;
+    let (c, d) = bounds.gain_db;
+    [task_weight * by_exposure * exposure_s * (b - a), task_weight * by_gain_db * (d - c)]
+}
+
 /// Detector + NeuralAE + their optimisers.
 #[derive(Debug)]
 pub struct JointModel {
@@ -221,7 +239,18 @@ impl JointModel {
             *slot = clock.elapsed().as_secs_f64() * 1e3;
             clock = std::time::Instant::now();
         };
-        let frame_dn = form(scene, &e_form, &g_t, &self.formation, self.clip, self.device);
+        // Probes, zero in value: after the backward they hold the task loss's gradient by the
+        // frame's exposure and gain (l_GA does not pass through the frame).
+        let probes = pred.map(|_| {
+            let zero =
+                || Tensor::zeros([1], (tch::Kind::Float, self.device)).set_requires_grad(true);
+            (zero(), zero())
+        });
+        let (e_in, g_in) = match &probes {
+            Some((pe, pg)) => (&e_form + pe, &g_t + pg),
+            None => (e_form.shallow_clone(), g_t.shallow_clone()),
+        };
+        let frame_dn = form(scene, &e_in, &g_in, &self.formation, self.clip, self.device);
         lap(&mut timings.formation_ms);
         let out = self.det.net.forward(&to_detector_input(&frame_dn));
         let s = out.heatmap.size();
@@ -255,6 +284,18 @@ impl JointModel {
             objective.backward();
         }
         lap(&mut timings.backward_ms);
+        let task_gradient = probes.and_then(|(pe, pg)| {
+            let (ge, gg) = (pe.grad(), pg.grad());
+            (ge.defined() && gg.defined()).then(|| {
+                task_gradient_units(
+                    ge.double_value(&[0]),
+                    gg.double_value(&[0]),
+                    e_form.double_value(&[0]),
+                    &self.bounds,
+                    weights.task,
+                )
+            })
+        });
         if self.train_detector {
             self.det.optimizer.step();
         }
@@ -283,6 +324,7 @@ impl JointModel {
                 offset: loss.offset,
             },
             ga_loss,
+            task_gradient,
             timings,
             applied: DynamicSettings::new(e_t.double_value(&[0]), g_t.double_value(&[0])),
         })

@@ -43,6 +43,11 @@ pub struct StepRecord {
     /// Exposure (ms) and gain (dB) applied, written as two fields.
     #[serde(flatten)]
     pub settings: Settings,
+    /// The task loss's pull on NeuralAE's exposure and gain outputs, in l_GA's units
+    /// (`w_task · ∂l_task/∂u`, u each setting's unit position in its range; negative: more
+    /// light lowers the loss); absent where NeuralAE did not set the frame and in older runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task_gradient: Option<[f64; 2]>,
     /// The episode's illumination schedule (`recorded` for real frames; absent in older runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub illumination: Option<Light>,

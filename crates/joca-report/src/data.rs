@@ -29,6 +29,12 @@ pub struct StepLog {
     pub exposure_ms: f64,
     /// Gain used, dB.
     pub gain_db: f64,
+    /// The task loss's pull on NeuralAE's exposure and gain, in l_GA's units (where recorded).
+    pub task_gradient: Option<[f64; 2]>,
+    /// Whether l_GA applied at this step.
+    pub ga: bool,
+    /// The step's light (where recorded).
+    pub light: Option<joca_record::Light>,
 }
 
 /// Everything a report uses from one run directory.
@@ -184,6 +190,9 @@ fn parse_events(bytes: &[u8]) -> (Vec<GenerationFitness>, Vec<StepLog>, Vec<usiz
                         loss: s.loss.total,
                         exposure_ms: s.settings.exposure_ms,
                         gain_db: s.settings.gain_db,
+                        task_gradient: s.task_gradient,
+                        ga: s.ga_loss.is_some(),
+                        light: s.illumination,
                     },
                 );
             }

@@ -26,6 +26,7 @@ mod headroom;
 mod html;
 mod paired;
 mod plot;
+mod pulls;
 mod seeds;
 mod swap;
 mod table;
@@ -178,6 +179,7 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
         md.push_str(&light_step_markdown(&s.showcases));
     }
     md.push_str(&objects_markdown(r));
+    md.push_str(&pulls::pulls_markdown(&run.steps));
     md.push_str(&fitness_markdown(&run));
     md.push_str(&ties_markdown(r));
     md.push_str(&figures_markdown(&figures));

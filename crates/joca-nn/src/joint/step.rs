@@ -70,6 +70,10 @@ pub struct StepReport {
     pub loss: LossParts,
     /// GA supervision loss, when a target was given.
     pub ga_loss: Option<f64>,
+    /// The task loss's pull on NeuralAE's exposure and gain outputs in l_GA's units
+    /// (`w_task · ∂l_task/∂u`; negative: more light lowers the loss), where NeuralAE set the
+    /// frame.
+    pub task_gradient: Option<[f64; 2]>,
     /// Wall time of this step's parts, milliseconds.
     pub timings: StepTimings,
     /// Exposure and gain applied to the sensor.

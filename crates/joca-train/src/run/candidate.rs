@@ -231,6 +231,7 @@ pub(super) fn train(
                     offset: l.offset,
                 },
                 ga_loss: report.ga_loss,
+                task_gradient: report.task_gradient,
                 settings: Settings::from(report.applied).at(f_number),
                 illumination: Some(super::light_of(stretch.illumination)),
             }))?;
