@@ -13,6 +13,9 @@ title = "tiny"
 label_header = "Method"
 scenarios = ["calibrated", "blur4"]
 
+[follow_up]
+towns = [2]
+
 [[variant]]
 id = "tacos"
 label = "TaCOS + AverageAE"
@@ -45,6 +48,12 @@ fn experiment_files_with_unknown_methods_or_scenarios_name_them_and_the_valid_on
         e.contains("mine.toml: scenarios: unknown scenario \"fog\"") && e.contains("noise10"),
         "{e}"
     );
+    for (towns, says) in [("[1]", "1 is the validation town"), ("[0]", "0 is the test town")] {
+        std::fs::write(&file, TINY_EXPERIMENT.replace("towns = [2]", &format!("towns = {towns}")))
+            .unwrap();
+        let e = stderr(&cli!("experiment", file, "--out /tmp/joca-never"));
+        assert!(e.contains("mine.toml: [follow_up] towns") && e.contains(says), "{e}");
+    }
     let o = cli!("experiment table9 --out /tmp/joca-never");
     let e = stderr(&o);
     assert!(
@@ -113,8 +122,15 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     let d = map("results.json") - map("results-average-127.5.json");
     let row = format!("| {} of 1 | {d:.3} |", usize::from(d > 0.0));
     assert!(md.contains("## The learned controller against AverageAE on its own detector"), "{md}");
-    assert!(md.lines().any(|l| l.contains("| Ours | 1 ") && l.contains(&row)), "{row}\n{md}");
+    let line = |town: &str| md.lines().find(|l| l.contains(&format!("| Ours | {town} | 1 |")));
+    assert!(line("test town").is_some_and(|l| l.contains(&row)), "{row}\n{md}");
     assert!(md.contains("| AverageAE mid-grey |"), "{md}");
+    // The follow-up test on town 2: every cell tested there, a NeuralAE cell with AverageAE too.
+    assert!(line("town 2").is_some(), "{md}");
+    for f in ["tacos-blur4/results-town2.json", "joca-blur4/results-average-127.5-town2.json"] {
+        assert!(exp.join("cells").join(f).is_file(), "{f}");
+    }
+    assert!(!exp.join("cells/tacos-blur4/results-average-127.5-town2.json").exists());
 
     // A killed cell: results gone, checkpoint kept -> "partial", and the next invocation
     // resumes it (its checkpoint is newer than the first three cells' results) and reports all.

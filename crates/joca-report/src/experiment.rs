@@ -26,6 +26,10 @@ pub struct CellSpec {
     /// The panel design the cell's hardware is fixed to (its id); empty outside a panel.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub design: String,
+    /// Towns of the test family the cell is also tested on after its run (`[follow_up] towns`):
+    /// `results-town<K>.json`, and for a NeuralAE cell its AverageAE re-test there too.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub towns: Vec<u64>,
 }
 
 /// `experiment.json`: what an experiment directory contains.
@@ -120,7 +124,9 @@ impl Manifest {
     /// means the cell is complete.
     pub fn state(exp_dir: &Path, cell: &CellSpec) -> CellState {
         let dir = Self::cell_dir(exp_dir, cell);
-        if dir.join("results.json").is_file() {
+        let towns_done =
+            cell.towns.iter().all(|t| dir.join(format!("results-town{t}.json")).is_file());
+        if dir.join("results.json").is_file() && towns_done {
             CellState::Done
         } else if dir.join("checkpoint").exists() || dir.join("events.jsonl").exists() {
             CellState::Partial
@@ -169,7 +175,8 @@ pub fn write_experiment_report_with(
     let mut runs = Vec::new();
     let mut pending = Vec::new();
     for cell in &manifest.cells {
-        if Manifest::state(exp_dir, cell) != CellState::Done {
+        // A finished run is reported even where its follow-up tests are still to come.
+        if !Manifest::cell_dir(exp_dir, cell).join("results.json").is_file() {
             pending.push(cell.id.clone());
             continue;
         }
@@ -283,14 +290,23 @@ fn swap_cells<'a>(
     let mut out = Vec::new();
     for (cell, run) in runs {
         let dir = Manifest::cell_dir(exp_dir, cell);
-        if let Some(average) = RunData::retest(&dir, crate::SWAP_TAG)? {
-            out.push(crate::swap::SwapCell {
-                group: &cell.group,
-                label: &cell.label,
-                design: &cell.design,
-                neural: run,
-                average,
-            });
+        let mut push = |town: u64, neural: RunData, average: Option<RunData>| {
+            if let Some(average) = average {
+                out.push(crate::swap::SwapCell {
+                    group: &cell.group,
+                    label: &cell.label,
+                    design: &cell.design,
+                    town,
+                    neural,
+                    average,
+                });
+            }
+        };
+        push(0, run.clone(), RunData::retest(&dir, crate::SWAP_TAG)?);
+        for &t in &cell.towns {
+            if let Some(neural) = RunData::retest(&dir, &format!("town{t}"))? {
+                push(t, neural, RunData::retest(&dir, &format!("{}-town{t}", crate::SWAP_TAG))?);
+            }
         }
     }
     Ok(out)
@@ -316,6 +332,7 @@ mod tests {
             dir: id,
             seed,
             design: String::new(),
+            towns: Vec::new(),
         };
         (spec, seed)
     }

@@ -19,8 +19,10 @@ pub struct SwapCell<'a> {
     pub label: &'a str,
     /// Panel design id (empty outside a panel).
     pub design: &'a str,
-    /// The cell's run.
-    pub neural: &'a RunData,
+    /// The test family's town (0: the test town).
+    pub town: u64,
+    /// The cell's test there.
+    pub neural: RunData,
     /// Its re-test with AverageAE at mid-grey.
     pub average: RunData,
 }
@@ -68,15 +70,23 @@ fn text(values: &[f64], digits: usize) -> String {
     interval_text(mean_interval(values), digits)
 }
 
-/// The groups and labels of `cells`, in order.
-fn variants<'a>(cells: &'a [SwapCell<'a>]) -> Vec<(&'a str, &'a str, Vec<&'a SwapCell<'a>>)> {
-    let mut out: Vec<(&str, &str, Vec<&SwapCell<'_>>)> = Vec::new();
+/// The town's name in a table.
+fn town_name(town: u64) -> String {
+    if town == 0 { "test town".to_owned() } else { format!("town {town}") }
+}
+
+/// The groups, labels and towns of `cells`, in order (towns ascending within a variant).
+fn variants<'a>(cells: &'a [SwapCell<'a>]) -> Vec<(&'a str, &'a str, u64, Vec<&'a SwapCell<'a>>)> {
+    let mut out: Vec<(&str, &str, u64, Vec<&SwapCell<'_>>)> = Vec::new();
     for c in cells {
-        match out.iter_mut().find(|(g, l, _)| *g == c.group && *l == c.label) {
-            Some(v) => v.2.push(c),
-            None => out.push((c.group, c.label, vec![c])),
+        match out.iter_mut().find(|(g, l, t, _)| *g == c.group && *l == c.label && *t == c.town) {
+            Some(v) => v.3.push(c),
+            None => out.push((c.group, c.label, c.town, vec![c])),
         }
     }
+    out.sort_by_key(|(g, l, t, _)| {
+        (cells.iter().position(|c| c.group == *g && c.label == *l).unwrap_or(usize::MAX), *t)
+    });
     out
 }
 
@@ -84,19 +94,20 @@ fn variants<'a>(cells: &'a [SwapCell<'a>]) -> Vec<(&'a str, &'a str, Vec<&'a Swa
 /// with the units it rests on and on how many NeuralAE was ahead.
 pub fn swap_table(cells: &[SwapCell<'_>]) -> Vec<Vec<String>> {
     let mut table = vec![
-        ["scenario", "variant", "units", "NeuralAE ahead"]
+        ["scenario", "variant", "test on", "units", "NeuralAE ahead"]
             .iter()
             .map(|s| (*s).to_owned())
             .chain(std::iter::once("mAP".to_owned()))
             .chain(LIGHTS.iter().map(|l| l.name().to_owned()))
             .collect::<Vec<_>>(),
     ];
-    for (group, label, members) in variants(cells) {
+    for (group, label, town, members) in variants(cells) {
         let overall = units(&members, |r| Some(r.test.map));
         let ahead = overall.iter().filter(|d| **d > 0.0).count();
         let mut row = vec![
             group.to_owned(),
             label.to_owned(),
+            town_name(town),
             overall.len().to_string(),
             format!("{ahead} of {}", overall.len()),
             text(&overall, 3),
@@ -118,6 +129,7 @@ pub fn behaviour_table(cells: &[SwapCell<'_>]) -> Vec<Vec<String>> {
         [
             "scenario",
             "variant",
+            "test on",
             "controller",
             "tunnel exit: E × G fall in 1 s",
             "night / day E × G",
@@ -128,16 +140,17 @@ pub fn behaviour_table(cells: &[SwapCell<'_>]) -> Vec<Vec<String>> {
         .map(str::to_owned)
         .to_vec(),
     ];
-    for (group, label, members) in variants(cells) {
+    for (group, label, town, members) in variants(cells) {
         for (name, average) in [("NeuralAE", false), ("AverageAE mid-grey", true)] {
             let runs: Vec<&RunData> =
-                members.iter().map(|c| if average { &c.average } else { c.neural }).collect();
+                members.iter().map(|c| if average { &c.average } else { &c.neural }).collect();
             let of = |f: &dyn Fn(&RunData) -> Option<f64>| -> Vec<f64> {
                 runs.iter().filter_map(|r| f(r)).collect()
             };
             table.push(vec![
                 group.to_owned(),
                 label.to_owned(),
+                town_name(town),
                 name.to_owned(),
                 text(&of(&tunnel_fall), 1),
                 text(&of(&|r| night_over_day(&r.results)), 1),

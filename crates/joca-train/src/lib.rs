@@ -28,8 +28,9 @@ pub use pretrain::{
 };
 pub use run::{
     AccOutput, DesignSpec, DesignSummary, EvalOptions, FNumberRange, FixedCamera, HardwareMutation,
-    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, Method, PerturbationMutation, PerturbationScore,
-    PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent, RunResults, Scenario,
-    SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak, TrainingScenes,
-    WarmStart, bench_step, cpu_description, evaluate_run, headroom, run,
+    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MAX_TEST_TOWN, Method, PerturbationMutation,
+    PerturbationScore, PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent,
+    RunResults, Scenario, SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak,
+    TrainingScenes, WarmStart, bench_step, check_town, cpu_description, evaluate_run, headroom,
+    run,
 };

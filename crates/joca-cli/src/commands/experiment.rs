@@ -296,9 +296,39 @@ pub fn run_cell(args: &CellArgs) -> Result<()> {
         .with_context(|| format!("cannot read {}", path.display()))?;
     let cell: CellFile =
         toml::from_str(&text).with_context(|| format!("invalid {}", path.display()))?;
+    let neural = cell.run.method.neural();
     if dir.join("results.json").is_file() {
-        println!("{}: already finished", dir.display());
-        return Ok(());
+        println!("{}: run already finished", dir.display());
+    } else {
+        execute(cell.run, dir, true)?;
     }
-    execute(cell.run, dir, true)
+    follow_up(dir, &cell.follow_up, neural)
+}
+
+/// Runs the cell's follow-up tests it lacks: each town of `follow_up` with the cell's controller,
+/// and for a NeuralAE cell with AverageAE at mid-grey too (what `joca eval --town K [--controller
+/// average]` writes).
+fn follow_up(dir: &Path, follow_up: &crate::grid::FollowUp, neural: bool) -> Result<()> {
+    let average = joca_train::TestController::Average { target_dn: joca_camera::MID_GREY_DN };
+    for &town in &follow_up.towns {
+        let controllers = if neural {
+            vec![joca_train::TestController::Trained, average]
+        } else {
+            vec![joca_train::TestController::Trained]
+        };
+        for controller in controllers {
+            let tag = match controller {
+                joca_train::TestController::Trained => format!("town{town}"),
+                c => format!("{}-town{town}", c.name()),
+            };
+            if dir.join(format!("results-{tag}.json")).is_file() {
+                continue;
+            }
+            let options = joca_train::EvalOptions { town, controller, ..Default::default() };
+            let (r, _) = joca_train::evaluate_run(dir, &options)
+                .with_context(|| format!("follow-up test {tag} of {}", dir.display()))?;
+            println!("{}: {tag}: mAP {:.3}", dir.display(), r.test.map);
+        }
+    }
+    Ok(())
 }

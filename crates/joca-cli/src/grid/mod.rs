@@ -50,6 +50,9 @@ struct ExperimentFile {
     /// Designs every variant runs on, hardware held fixed.
     #[serde(default)]
     panel: Option<PanelFile>,
+    /// Tests run after each cell's run, kept beside its results.
+    #[serde(default)]
+    follow_up: FollowUp,
     variant: Vec<Variant>,
 }
 
@@ -62,10 +65,40 @@ struct Variant {
     run: toml::Table,
 }
 
-/// The `[run]` table a cell runs with (`cells/<id>/cell.toml`).
+/// Tests run after a cell's run (`[follow_up]` of an experiment file), kept beside its results.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FollowUp {
+    /// Towns of the test family every cell is also tested on, 2 to 9999 (`joca eval --town`):
+    /// its own controller, and a NeuralAE cell's AverageAE (mid-grey) too.
+    #[serde(default)]
+    pub towns: Vec<u64>,
+}
+
+impl FollowUp {
+    /// Refuses the test town, the validation town and towns past the family, naming `source`.
+    fn check(&self, source: &str) -> Result<()> {
+        for &t in &self.towns {
+            joca_train::check_town(t).map_err(|e| anyhow!("{source}: [follow_up] towns: {e}"))?;
+            if t == 0 {
+                bail!("{source}: [follow_up] towns: 0 is the test town every cell is tested on");
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether there is none (then `cell.toml` leaves the table out).
+    pub fn is_empty(&self) -> bool {
+        self.towns.is_empty()
+    }
+}
+
+/// The `[run]` table a cell runs with, and its follow-up tests (`cells/<id>/cell.toml`).
 #[derive(Debug, Serialize, Deserialize)]
 pub struct CellFile {
     pub run: RunConfig,
+    #[serde(default, skip_serializing_if = "FollowUp::is_empty")]
+    pub follow_up: FollowUp,
 }
 
 /// A resolved cell.
@@ -75,6 +108,8 @@ pub struct Cell {
     pub spec: CellSpec,
     /// Its full configuration.
     pub config: RunConfig,
+    /// Its follow-up tests.
+    pub follow_up: FollowUp,
 }
 
 /// A resolved experiment: its name, title and cells.
@@ -133,6 +168,7 @@ pub fn resolve(
         _ => bail!("{base_source} has no [run] table"),
     };
     check_method(&file.run, &source, "[run]")?;
+    file.follow_up.check(&source)?;
     let mut cells = Vec::new();
     for scenario in &file.scenarios {
         Scenario::from_name(scenario).map_err(|e| anyhow!("{source}: scenarios: {e}"))?;
@@ -200,8 +236,10 @@ pub fn resolve(
                             group: scenario_title(scenario),
                             seed: config.seed,
                             design: design.as_ref().map(|d| d.id.clone()).unwrap_or_default(),
+                            towns: file.follow_up.towns.clone(),
                         },
                         config,
+                        follow_up: file.follow_up.clone(),
                     });
                 }
             }
@@ -259,18 +297,22 @@ pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
             let old: CellFile = toml::from_str(&std::fs::read_to_string(&path)?)
                 .with_context(|| format!("cannot read {}", path.display()))?;
             // Fields the method does not read (AverageAE's perturbation search) may differ.
-            let (old, new) = (old.run.as_read(), cell.config.as_read());
-            if old != new {
+            let (old_run, new_run) = (old.run.as_read(), cell.config.as_read());
+            if old_run != new_run {
                 bail!(
                     "{} was made with another configuration (fields differ: {}); use another \
                         --out, or delete the cell to run it again",
                     path.display(),
-                    differing_fields(&old, &new).join(", ")
+                    differing_fields(&old_run, &new_run).join(", ")
                 );
             }
-            continue;
+            // The same run with other follow-up tests: they are added, the run kept.
+            if old.follow_up == cell.follow_up {
+                continue;
+            }
         }
-        let text = toml::to_string(&CellFile { run: cell.config.clone() })?;
+        let (run, follow_up) = (cell.config.clone(), cell.follow_up.clone());
+        let text = toml::to_string(&CellFile { run, follow_up })?;
         joca_train::write_atomic(&path, &text)?;
     }
     joca_train::write_atomic(

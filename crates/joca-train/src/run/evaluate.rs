@@ -38,7 +38,7 @@ pub struct EvalOptions {
 }
 
 /// The largest `--town` index accepted.
-const MAX_TEST_TOWN: u64 = 9_999;
+pub const MAX_TEST_TOWN: u64 = 9_999;
 
 impl EvalOptions {
     /// Refuses the validation town and an index past [`MAX_TEST_TOWN`].
@@ -48,7 +48,7 @@ impl EvalOptions {
 }
 
 /// Refuses the validation town and an index past [`MAX_TEST_TOWN`] as a test town.
-pub(super) fn check_town(town: u64) -> Result<(), TrainError> {
+pub fn check_town(town: u64) -> Result<(), TrainError> {
     if town == 1 || town > MAX_TEST_TOWN {
         return Err(TrainError::Config {
             field: "--town".into(),

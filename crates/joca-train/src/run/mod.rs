@@ -42,7 +42,7 @@ pub use config::{
     TrainingScenes, WarmStart,
 };
 pub(crate) use config::{check_detector, check_input};
-pub use evaluate::{EvalOptions, cpu_description, evaluate_run};
+pub use evaluate::{EvalOptions, MAX_TEST_TOWN, check_town, cpu_description, evaluate_run};
 use evaluate::{best_design, test_design};
 use joca_camera::{
     AccRanges, Calibration, DesignSpace, GenomeCodec, ImageFormation, SensorEncoding,
