@@ -28,6 +28,9 @@ pub struct WarmStartRecord {
     pub imitation_loss_first: f64,
     /// The same over the last quarter.
     pub imitation_loss_last: f64,
+    /// Its wall time, seconds (absent in older runs).
+    #[serde(default)]
+    pub warm_start_s: Option<f64>,
 }
 
 /// A training step.

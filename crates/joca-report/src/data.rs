@@ -55,6 +55,8 @@ pub struct RunData {
     pub showcases: Vec<Showcase>,
     /// `events.jsonl` lines (1-based) that could not be read and were left out.
     pub skipped_events: Vec<usize>,
+    /// NeuralAE's warm start, where the run had one.
+    pub warm_start: Option<joca_record::WarmStartRecord>,
 }
 
 impl RunData {
@@ -67,13 +69,15 @@ impl RunData {
             reason,
         })?;
         let events_path = dir.join("events.jsonl");
-        let (generations, steps, skipped_events) = match std::fs::read(&events_path) {
-            Ok(bytes) => parse_events(&bytes),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => (Vec::new(), Vec::new(), vec![]),
+        let bytes = match std::fs::read(&events_path) {
+            Ok(bytes) => bytes,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
             Err(source) => {
                 return Err(ReportError::Io { path: events_path.display().to_string(), source });
             }
         };
+        let (generations, steps, skipped_events) = parse_events(&bytes);
+        let warm_start = warm_start_of(&bytes);
         let show_path = dir.join("test").join("showcase.json");
         let showcases =
             if show_path.exists() { parse(&show_path, &read(&show_path)?)? } else { Vec::new() };
@@ -85,6 +89,7 @@ impl RunData {
             steps,
             showcases,
             skipped_events,
+            warm_start,
         })
     }
 
@@ -110,6 +115,7 @@ impl RunData {
             steps: Vec::new(),
             showcases: parse(&show_path, &read(&show_path)?)?,
             skipped_events: Vec::new(),
+            warm_start: None,
         }))
     }
 
@@ -161,6 +167,16 @@ pub(crate) fn parse<T: serde::de::DeserializeOwned>(
 /// could not be read. A resumed run repeats the candidate it was killed in, so a later record of
 /// the same step or generation replaces an earlier one; an unreadable line (one cut by a kill,
 /// bytes that are not UTF-8, JSON of no known event) is left out and named, the rest kept.
+/// The warm-start record of an `events.jsonl`, if it has one (the last, should there be more).
+fn warm_start_of(bytes: &[u8]) -> Option<joca_record::WarmStartRecord> {
+    bytes.split(|&b| b == b'\n').rev().filter_map(|l| std::str::from_utf8(l).ok()).find_map(|l| {
+        match serde_json::from_str(l) {
+            Ok(Event::WarmStart(w)) => Some(w),
+            _ => None,
+        }
+    })
+}
+
 fn parse_events(bytes: &[u8]) -> (Vec<GenerationFitness>, Vec<StepLog>, Vec<usize>) {
     let mut generations = BTreeMap::new();
     let mut steps = BTreeMap::new();

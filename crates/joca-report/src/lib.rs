@@ -169,6 +169,15 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
     let _ = writeln!(md, "\nAP50 {:.3}.\n", r.test.ap50);
     md.push_str(&settings_markdown(r));
     md.push_str(&light_step_markdown(&run.showcases));
+    if let Some(w) = &run.warm_start {
+        let time = w.warm_start_s.map_or_else(String::new, |s| format!(", {s:.0} s"));
+        let _ = writeln!(
+            md,
+            "Before DF-Grad NeuralAE imitated AverageAE for {} frames (imitation loss {:.3} in \
+                the first quarter, {:.3} in the last{time}).\n",
+            w.warm_start_frames, w.imitation_loss_first, w.imitation_loss_last
+        );
+    }
     if let Some(s) = &swap {
         let _ = writeln!(
             md,

@@ -40,6 +40,7 @@ pub(super) fn warm_start(
     if ws.is_off() || designs.is_empty() || cx.real.is_some() {
         return Ok(());
     }
+    let started = std::time::Instant::now();
     let c = cx.config.clone();
     let ae = AverageAe::new(cx.ranges);
     let mut rng = cx.streams.stream("warm-start");
@@ -106,6 +107,7 @@ pub(super) fn warm_start(
         warm_start_frames: ws.frames,
         imitation_loss_first: mean(&losses[..quarter.min(losses.len())]),
         imitation_loss_last: mean(&losses[losses.len().saturating_sub(quarter)..]),
+        warm_start_s: Some(started.elapsed().as_secs_f64()),
     };
     cx.log(&Event::WarmStart(record))
 }
