@@ -29,23 +29,13 @@ fn quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', "'\\''"))
 }
 
-/// The batch script for `todo`.
-fn script(dir: &Path, exp: &Experiment, todo: &[&Cell], options: &Options) -> Result<String> {
-    let exe = std::env::current_exe().context("cannot find the joca executable")?;
-    let threads = todo.iter().map(|c| c.config.threads).max().unwrap_or(1);
-    let mut s = String::from("#!/bin/bash\n");
-    s.push_str(&format!("#SBATCH --job-name=joca-{}\n", exp.manifest.name));
-    s.push_str(&format!("#SBATCH --cpus-per-task={threads}\n"));
-    s.push_str(&format!("#SBATCH --output={}/slurm/%A_%a.log\n", dir.display()));
-    if let Some(p) = &options.partition {
-        s.push_str(&format!("#SBATCH --partition={p}\n"));
-    }
-    if let Some(t) = &options.time {
-        s.push_str(&format!("#SBATCH --time={t}\n"));
-    }
-    s.push_str("#SBATCH --requeue\nset -euo pipefail\ncells=(");
-    for c in todo {
-        s.push_str(&quote(&c.spec.dir));
+/// The batch script: only bash, every value single-quoted. Slurm's options go on `sbatch`'s
+/// command line ([`sbatch_args`]), never into `#SBATCH` lines, where a newline in a value would
+/// start a command the compute node runs.
+fn script(dir: &Path, exe: &Path, cells: &[&str]) -> String {
+    let mut s = String::from("#!/bin/bash\nset -euo pipefail\ncells=(");
+    for c in cells {
+        s.push_str(&quote(c));
         s.push(' ');
     }
     s.push_str(")\n");
@@ -54,7 +44,79 @@ fn script(dir: &Path, exp: &Experiment, todo: &[&Cell], options: &Options) -> Re
         quote(&exe.display().to_string()),
         quote(&dir.display().to_string())
     ));
-    Ok(s)
+    s
+}
+
+/// Whether `time` is in one of Slurm's `--time` formats: minutes, minutes:seconds,
+/// hours:minutes:seconds, days-hours, days-hours:minutes, days-hours:minutes:seconds, or
+/// UNLIMITED / INFINITE.
+fn slurm_time(time: &str) -> bool {
+    if ["unlimited", "infinite"].contains(&time.to_ascii_lowercase().as_str()) {
+        return true;
+    }
+    let digits = |p: &str| !p.is_empty() && p.len() <= 6 && p.bytes().all(|b| b.is_ascii_digit());
+    let rest = match time.split_once('-') {
+        Some((days, rest)) if digits(days) => rest,
+        Some(_) => return false,
+        None => time,
+    };
+    let parts: Vec<&str> = rest.split(':').collect();
+    (1..=3).contains(&parts.len()) && parts.iter().all(|p| digits(p))
+}
+
+/// `sbatch`'s options for an array of `tasks` tasks of `threads` threads each, logging into
+/// `dir/slurm/`: each its own argument (no shell, no script line), the partition and the time
+/// checked against Slurm's formats first.
+fn sbatch_args(
+    name: &str,
+    threads: usize,
+    tasks: usize,
+    dir: &Path,
+    options: &Options,
+) -> Result<Vec<String>> {
+    let mut array = format!("0-{}", tasks - 1);
+    if let Some(k) = options.max_parallel {
+        if k == 0 {
+            bail!("--max-parallel must be at least 1");
+        }
+        array.push_str(&format!("%{k}"));
+    }
+    // The job's name is a label: anything but letters, digits, '.', '_' and '-' becomes '_'.
+    let label: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' })
+        .take(64)
+        .collect();
+    let mut args = vec![
+        "--parsable".to_owned(),
+        format!("--array={array}"),
+        format!("--job-name=joca-{label}"),
+        format!("--cpus-per-task={threads}"),
+        format!("--output={}/slurm/%A_%a.log", dir.display()),
+        "--requeue".to_owned(),
+    ];
+    if let Some(p) = &options.partition {
+        let ok =
+            !p.is_empty() && p.chars().all(|c| c.is_ascii_alphanumeric() || "_.,-".contains(c));
+        if !ok {
+            bail!(
+                "--partition {p:?} is invalid: one or more partition names of letters, digits, \
+                 '_', '.' and '-', separated by commas"
+            );
+        }
+        args.push(format!("--partition={p}"));
+    }
+    if let Some(t) = &options.time {
+        if !slurm_time(t) {
+            bail!(
+                "--time {t:?} is invalid: Slurm's formats are minutes, minutes:seconds, \
+                 hours:minutes:seconds, days-hours, days-hours:minutes, days-hours:minutes:seconds \
+                 (e.g. 02:00:00 or 1-12) or UNLIMITED"
+            );
+        }
+        args.push(format!("--time={t}"));
+    }
+    Ok(args)
 }
 
 /// Submits the cells in `todo` as one array job and returns its id (`None` if nothing to do).
@@ -70,22 +132,15 @@ pub fn submit(
     // Absolute paths: the tasks do not start in this directory on every cluster.
     let dir =
         std::fs::canonicalize(dir).with_context(|| format!("cannot resolve {}", dir.display()))?;
+    let threads = todo.iter().map(|c| c.config.threads).max().unwrap_or(1);
+    let args = sbatch_args(&exp.manifest.name, threads, todo.len(), &dir, options)?;
+    let exe = std::env::current_exe().context("cannot find the joca executable")?;
     let slurm_dir = dir.join("slurm");
     std::fs::create_dir_all(&slurm_dir)?;
     let script_path = slurm_dir.join("job.sh");
-    joca_train::write_atomic(&script_path, &script(&dir, exp, todo, options)?)?;
-    let mut array = format!("0-{}", todo.len() - 1);
-    if let Some(k) = options.max_parallel {
-        if k == 0 {
-            bail!("--max-parallel must be at least 1");
-        }
-        array.push_str(&format!("%{k}"));
-    }
-    let output = Command::new("sbatch")
-        .arg("--parsable")
-        .arg(format!("--array={array}"))
-        .arg(&script_path)
-        .output();
+    let cells: Vec<&str> = todo.iter().map(|c| c.spec.dir.as_str()).collect();
+    joca_train::write_atomic(&script_path, &script(&dir, &exe, &cells))?;
+    let output = Command::new("sbatch").args(&args).arg(&script_path).output();
     let output = match output {
         Ok(o) => o,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(
@@ -157,5 +212,64 @@ pub fn print_status(dir: &Path) {
         Some(0) => println!("Slurm job {id}: no task queued or running"),
         Some(n) => println!("Slurm job {id}: {n} task(s) pending or running"),
         None => println!("Slurm job {id}: squeue is not reachable from here"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hostile names, folders and cells reach bash as the very strings, never as commands.
+    #[test]
+    fn every_value_reaches_bash_as_itself_and_slurm_options_stay_out_of_the_script() {
+        let hostile = [
+            "plain",
+            "it's",
+            "a\n#SBATCH --wrap=touch pwned\nrm -rf ~",
+            "$(touch pwned) `id` ${HOME} \\ \"q\" ; | & < >",
+            "tab\there * ? [x]",
+        ];
+        let dir = Path::new("/tmp/exp with space/and'quote");
+        let exe = Path::new("/opt/j o/joca");
+        let text = script(dir, exe, &hostile);
+        // sbatch reads `#SBATCH` lines only before the first command: the script's second line.
+        assert_eq!(text.lines().nth(1), Some("set -euo pipefail"), "{text}");
+        let cells_line =
+            text.split_inclusive(")\n").next().unwrap().split_once("cells=").unwrap().1;
+        let probe = format!("cells={cells_line}printf '%s\\0' \"${{cells[@]}}\"");
+        let out = Command::new("bash").arg("-c").arg(&probe).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let got: Vec<String> = String::from_utf8(out.stdout)
+            .unwrap()
+            .split_terminator('\0')
+            .map(str::to_owned)
+            .collect();
+        assert_eq!(got, hostile);
+        assert!(Command::new("bash").arg("-n").arg("-c").arg(&text).status().unwrap().success());
+    }
+
+    #[test]
+    fn partitions_and_times_outside_slurms_formats_are_refused_naming_them() {
+        let dir = Path::new("/x");
+        let with = |partition: Option<&str>, time: Option<&str>| Options {
+            partition: partition.map(str::to_owned),
+            time: time.map(str::to_owned),
+            max_parallel: None,
+        };
+        for t in ["30", "30:00", "02:00:00", "1-12", "1-12:30", "2-00:00:00", "UNLIMITED"] {
+            assert!(sbatch_args("e", 1, 2, dir, &with(None, Some(t))).is_ok(), "{t}");
+        }
+        for t in ["", "2h", "1:2:3:4", "02:00:00\n#SBATCH --wrap=x", "-5", "1-"] {
+            let e = sbatch_args("e", 1, 2, dir, &with(None, Some(t))).unwrap_err().to_string();
+            assert!(e.contains("--time") && e.contains("02:00:00"), "{e}");
+        }
+        assert!(sbatch_args("e", 1, 2, dir, &with(Some("gpu,cpu-long"), None)).is_ok());
+        for p in ["", "gpu\n#SBATCH --wrap=x", "a b", "x;id"] {
+            let e = sbatch_args("e", 1, 2, dir, &with(Some(p), None)).unwrap_err().to_string();
+            assert!(e.contains("--partition") && e.contains("separated by commas"), "{e}");
+        }
+        let args = sbatch_args("bad\nname $(id)", 2, 3, dir, &with(None, None)).unwrap();
+        assert!(args.contains(&"--job-name=joca-bad_name___id_".to_owned()), "{args:?}");
+        assert!(args.contains(&"--array=0-2".to_owned()) && args.contains(&"--requeue".to_owned()));
     }
 }
