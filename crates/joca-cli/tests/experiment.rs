@@ -204,3 +204,42 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
         stderr(&o)
     );
 }
+
+/// A prepared cell replaced by a link to a user's folder is refused, by `joca experiment` and by
+/// `joca cell`, and the user's folder is left as it was.
+#[test]
+fn a_cell_that_is_a_symbolic_link_is_refused_and_its_target_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("tiny.toml");
+    let cfg = dir.path().join("run.toml");
+    std::fs::write(&file, TINY_EXPERIMENT).unwrap();
+    std::fs::write(&cfg, TINY_RUN).unwrap();
+    let exp = dir.path().join("exp");
+    let args = [
+        "experiment",
+        file.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        exp.to_str().unwrap(),
+    ];
+    let o = joca(&[&args[..], &["--prepare"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mine = dir.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("report.md"), "my notes").unwrap();
+    let cell = exp.join("cells/joca-blur4");
+    std::fs::remove_dir_all(&cell).unwrap();
+    std::os::unix::fs::symlink(&mine, &cell).unwrap();
+    for o in [joca(&[&args[..], &["--prepare"]].concat()), joca(&["cell", cell.to_str().unwrap()])]
+    {
+        let e = stderr(&o);
+        assert!(
+            !o.status.success() && e.contains("is a symbolic link") && e.contains("joca-blur4"),
+            "{e}"
+        );
+    }
+    let left: Vec<_> = std::fs::read_dir(&mine).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, ["report.md"]);
+    assert_eq!(std::fs::read_to_string(mine.join("report.md")).unwrap(), "my notes");
+}

@@ -291,6 +291,9 @@ fn print_status(exp: &Experiment, dir: &Path) -> Result<()> {
 /// Runs `joca cell`: run or resume the cell whose `cell.toml` is in the directory.
 pub fn run_cell(args: &CellArgs) -> Result<()> {
     let dir = &args.dir;
+    // The cell's folder and the `cells` folder above it are real folders, not links.
+    let exp = dir.parent().and_then(Path::parent).unwrap_or(dir);
+    crate::grid::real_cell_dir(exp, dir)?;
     let path = dir.join("cell.toml");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;

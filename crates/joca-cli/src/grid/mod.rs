@@ -288,6 +288,7 @@ pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for cell in &exp.cells {
         let cell_dir = Manifest::cell_dir(dir, &cell.spec);
+        real_cell_dir(dir, &cell_dir)?;
         // The cells of joca's own experiment folder are joca's (older ones had no marker).
         if output::marked_kind(&cell_dir) != Some(OutputKind::Run) {
             output::mark(&cell_dir, OutputKind::Run)?;
@@ -319,6 +320,24 @@ pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
         &dir.join(Manifest::FILE),
         &serde_json::to_string_pretty(&exp.manifest)?,
     )?;
+    Ok(())
+}
+
+/// Refuses a cell folder that is, or sits below, a symbolic link inside the experiment
+/// directory `exp`: joca would write through it into a folder that is not the experiment's.
+pub fn real_cell_dir(exp: &Path, cell_dir: &Path) -> Result<()> {
+    let inside = cell_dir.strip_prefix(exp).unwrap_or(cell_dir);
+    let mut path = exp.to_path_buf();
+    for part in inside.components() {
+        path.push(part);
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_symlink()) {
+            bail!(
+                "{} is a symbolic link: an experiment's cells must be real folders inside it \
+                 (joca would write through the link); remove the link to run the cell",
+                path.display()
+            );
+        }
+    }
     Ok(())
 }
 
