@@ -88,7 +88,22 @@ pub(super) fn load_run(
             reason: "no checkpoint: the run has not finished a single candidate".into(),
         }
     })?;
-    let state: RunState = read_json(&dir.join("state.json"))?;
+    let state_path = dir.join("state.json");
+    let state: RunState = read_json(&state_path)?;
+    // The checkpoint must be this run's: a folder holding another run's checkpoint would be
+    // evaluated and written as this one's.
+    let differing = crate::differing_fields(&state.config.as_read(), &file.run.as_read());
+    if !differing.is_empty() {
+        return Err(TrainError::Corrupt {
+            path: state_path.display().to_string(),
+            reason: format!(
+                "the checkpoint was written by a run of another configuration than {} (fields \
+                 differ: {})",
+                config_path.display(),
+                differing.join(", ")
+            ),
+        });
+    }
     Ok((file.run, state, dir, lock))
 }
 

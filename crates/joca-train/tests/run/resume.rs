@@ -78,6 +78,18 @@ fn a_run_killed_mid_way_resumes_to_the_same_results_as_one_never_killed() {
     other.task_weight = 5.0;
     let e = run(&other, &b_dir, true, &mut go).unwrap_err().to_string();
     assert!(e.contains("task_weight (7.0 → 5.0)"), "{e}");
+    // A run folder whose checkpoint another configuration wrote is not evaluated as its own.
+    let config = b_dir.join("config.toml");
+    let text = std::fs::read_to_string(&config).unwrap();
+    std::fs::write(&config, text.replace("task_weight = 7.0", "task_weight = 5.0")).unwrap();
+    let e = joca_train::evaluate_run(&b_dir, &EvalOptions::default()).unwrap_err().to_string();
+    assert!(
+        e.contains("state.json")
+            && e.contains("another configuration")
+            && e.contains("task_weight"),
+        "{e}"
+    );
+    assert!(!b_dir.join("results-eval.json").exists());
 }
 
 #[test]
