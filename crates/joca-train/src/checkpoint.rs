@@ -49,6 +49,7 @@ impl CheckpointDir {
         }
         std::fs::create_dir_all(&partial).map_err(|e| TrainError::io(&partial, e))?;
         fill(&partial)?;
+        write_digests(&partial)?;
         let old = self.old();
         if self.path.exists() {
             if old.exists() {
@@ -62,6 +63,62 @@ impl CheckpointDir {
         }
         Ok(())
     }
+}
+
+/// The file in a checkpoint that lists the SHA-256 of every other file in it, written last.
+pub const DIGESTS: &str = "digests.json";
+
+/// The SHA-256 of `path`'s contents, hex.
+fn sha256_of(path: &Path) -> Result<String, TrainError> {
+    use sha2::Digest;
+    let mut file = std::fs::File::open(path).map_err(|e| TrainError::io(path, e))?;
+    let mut hasher = sha2::Sha256::new();
+    std::io::copy(&mut file, &mut hasher).map_err(|e| TrainError::io(path, e))?;
+    Ok(hasher.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// Lists the SHA-256 of every file in checkpoint folder `dir` in [`DIGESTS`].
+fn write_digests(dir: &Path) -> Result<(), TrainError> {
+    let mut digests = std::collections::BTreeMap::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| TrainError::io(dir, e))? {
+        let path = entry.map_err(|e| TrainError::io(dir, e))?.path();
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        if path.is_file() && name != DIGESTS {
+            digests.insert(name, sha256_of(&path)?);
+        }
+    }
+    let text = serde_json::to_string_pretty(&digests).unwrap_or_default();
+    write_atomic(&dir.join(DIGESTS), &text)
+}
+
+/// Checks checkpoint folder `dir` against its [`DIGESTS`]: every listed file present with the
+/// contents it had when written. A checkpoint written before digests existed has none and is
+/// taken as it is.
+pub fn verify_checkpoint(dir: &Path) -> Result<(), TrainError> {
+    let list = dir.join(DIGESTS);
+    if !list.is_file() {
+        return Ok(());
+    }
+    let digests: std::collections::BTreeMap<String, String> = read_json(&list)?;
+    for (name, want) in digests {
+        let path = dir.join(&name);
+        if !path.is_file() {
+            return Err(TrainError::Corrupt {
+                path: path.display().to_string(),
+                reason: format!("missing: the checkpoint lists it in {DIGESTS}"),
+            });
+        }
+        if sha256_of(&path)? != want {
+            return Err(TrainError::Corrupt {
+                path: path.display().to_string(),
+                reason: format!(
+                    "its contents differ from the SHA-256 {DIGESTS} recorded when the checkpoint \
+                     was written (changed or damaged since); restore it or start the run afresh"
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Reads a JSON run file; a file that does not parse is reported as corrupt, with its path.

@@ -125,6 +125,11 @@ fn a_nan_loss_stops_pretraining_cleanly_and_leaves_the_last_checkpoint_intact() 
     // Divergence injected into the saved detector: the resumed run's first loss is NaN.
     let ckpt = run_dir.join("checkpoint");
     poison_first_tensor(&ckpt.join("detector.safetensors"));
+    // The checkpoint's digests see the change and refuse it, naming the file ...
+    let e = pretrain(&cfg, &run_dir, &weights, true, &mut go).unwrap_err().to_string();
+    assert!(e.contains("detector.safetensors") && e.contains("differ from the SHA-256"), "{e}");
+    // ... and without them (a checkpoint of a joca before digests) the NaN surfaces in training.
+    std::fs::remove_file(ckpt.join("digests.json")).unwrap();
     let before = snapshot(&ckpt);
     let e = pretrain(&cfg, &run_dir, &weights, true, &mut go).unwrap_err();
     assert!(matches!(e, TrainError::PretrainDiverged { frame: 4, .. }), "{e}");

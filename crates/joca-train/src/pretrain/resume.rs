@@ -34,6 +34,7 @@ pub(super) fn start_or_resume(
     let mut average = None;
     let resumed_from = ckpt.existing().filter(|_| resume);
     if let Some(dir) = &resumed_from {
+        crate::checkpoint::verify_checkpoint(dir)?;
         let state: State = read_json(&dir.join("state.json"))?;
         check_resume(&state.config, config, run_dir)?;
         model.load_weights(&dir.join("detector.safetensors"))?;

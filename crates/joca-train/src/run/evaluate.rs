@@ -88,6 +88,7 @@ pub(super) fn load_run(
             reason: "no checkpoint: the run has not finished a single candidate".into(),
         }
     })?;
+    crate::checkpoint::verify_checkpoint(&dir)?;
     let state_path = dir.join("state.json");
     let state: RunState = read_json(&state_path)?;
     // The checkpoint must be this run's: a folder holding another run's checkpoint would be

@@ -78,6 +78,7 @@ impl RunState {
         };
         match ckpt.existing() {
             Some(dir) if resume => {
+                crate::checkpoint::verify_checkpoint(&dir)?;
                 let path = dir.join("state.json");
                 let mut saved: RunState = read_json(&path)?;
                 if saved.format_version > STATE_FORMAT_VERSION {

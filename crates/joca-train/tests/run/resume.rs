@@ -129,7 +129,23 @@ fn a_nan_loss_mid_run_stops_cleanly_and_leaves_the_last_checkpoint_intact() {
     };
     assert!(run(&cfg, &run_dir, false, &mut stop).is_err());
     let ckpt = run_dir.join("checkpoint");
-    // (First, a checkpoint written by a newer joca is refused, named, and left as it was.)
+    // First, one bit flipped in the saved detector after the checkpoint was written: refused,
+    // naming the file, before anything is loaded or written.
+    let detector = ckpt.join("detector.safetensors");
+    let good = std::fs::read(&detector).unwrap();
+    let mut flipped = good.clone();
+    let last = flipped.len() - 1;
+    flipped[last] ^= 1;
+    std::fs::write(&detector, &flipped).unwrap();
+    let e = run(&cfg, &run_dir, true, &mut go).unwrap_err().to_string();
+    assert!(e.contains("detector.safetensors") && e.contains("differ from the SHA-256"), "{e}");
+    let e = joca_train::evaluate_run(&run_dir, &EvalOptions::default());
+    assert!(e.unwrap_err().to_string().contains("detector.safetensors"));
+    std::fs::write(&detector, &good).unwrap();
+    // Without its digests (as a checkpoint of a joca before them) a checkpoint is taken as it
+    // is: the changes below reach the loaders.
+    std::fs::remove_file(ckpt.join("digests.json")).unwrap();
+    // (A checkpoint written by a newer joca is refused, named, and left as it was.)
     let state_path = ckpt.join("state.json");
     let original = std::fs::read_to_string(&state_path).unwrap();
     assert!(original.starts_with("{\"format_version\":1,"), "{original}");
