@@ -249,7 +249,7 @@ impl RunConfig {
         if !(self.acc_lr > 0.0 && self.acc_lr <= 0.1) {
             return bad("acc_lr", self.acc_lr.to_string(), "above 0, at most 0.1");
         }
-        self.warm_start.check(self.method.neural())?;
+        self.warm_start.check()?;
         check_detector_lr(self.detector_lr)?;
         if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
             return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");
@@ -331,11 +331,21 @@ impl RunConfig {
     }
 
     /// The configuration as its method reads it: where the method searches no perturbations,
-    /// the search's score, step and tie-break are set to what an absent field means. Two cells
+    /// the search's score, step and tie-break are set to what an absent field means; where its
+    /// controller is AverageAE, NeuralAE's output form and warm start; where the detector is
+    /// frozen, its learning rate. Two cells
     /// whose `as_read` are equal run the same way, so a preset's change of the search does not
     /// orphan a finished AverageAE cell.
     pub fn as_read(&self) -> RunConfig {
         let mut c = self.clone();
+        if !c.method.neural() {
+            // AverageAE has no NeuralAE to warm or to shape.
+            c.warm_start = WarmStart::default();
+            c.acc_output = AccOutput::default();
+        }
+        if c.method == Method::FrozenDetector {
+            c.detector_lr = paper_detector_lr();
+        }
         if !c.method.perturbations() {
             c.perturbation_score = PerturbationScore::default();
             c.perturbation_steps = PerturbationSteps::default();

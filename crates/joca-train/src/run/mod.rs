@@ -177,7 +177,7 @@ pub fn run(
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let fresh = ckpt.existing().is_none();
     let mut state = RunState::start(&cx, &mut model, &ckpt, run_dir, resume)?;
-    if fresh && !config.warm_start.is_off() {
+    if fresh && config.method.neural() && !config.warm_start.is_off() {
         // NeuralAE's warm start on the first generation's designs, checkpointed so that a
         // resumed run does not repeat it.
         let members = state.members(&cx)?;

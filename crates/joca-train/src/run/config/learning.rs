@@ -43,7 +43,7 @@ impl WarmStart {
     }
 
     /// Checks the ranges, naming `run.warm_start.<field>`.
-    pub(super) fn check(&self, neural: bool) -> Result<(), TrainError> {
+    pub(super) fn check(&self) -> Result<(), TrainError> {
         let bad = |field: &str, value: String, allowed: &str| {
             Err(TrainError::Config {
                 field: format!("run.warm_start.{field}"),
@@ -56,13 +56,6 @@ impl WarmStart {
                 "frames",
                 self.frames.to_string(),
                 &format!("0 to {MAX_WARM_START_FRAMES}"),
-            );
-        }
-        if self.frames > 0 && !neural {
-            return bad(
-                "frames",
-                self.frames.to_string(),
-                "0 for a method whose controller is AverageAE (there is no NeuralAE to warm)",
             );
         }
         if !(self.lr > 0.0 && self.lr <= 0.1) {
@@ -153,11 +146,10 @@ mod tests {
             let e = AccOutput::parse(bad).unwrap_err();
             assert!(e.contains("at most 8 stops") && e.contains(bad), "{e}");
         }
-        let w = WarmStart { frames: 10, lr: 1e-3 };
-        assert!(w.check(true).is_ok());
-        let e = w.check(false).unwrap_err().to_string();
-        assert!(e.contains("run.warm_start.frames") && e.contains("AverageAE"), "{e}");
-        let e = WarmStart { frames: 10, lr: 0.0 }.check(true).unwrap_err().to_string();
+        assert!(WarmStart { frames: 10, lr: 1e-3 }.check().is_ok());
+        let e = WarmStart { frames: 100_001, lr: 1e-3 }.check().unwrap_err().to_string();
+        assert!(e.contains("run.warm_start.frames") && e.contains("0 to 100000"), "{e}");
+        let e = WarmStart { frames: 10, lr: 0.0 }.check().unwrap_err().to_string();
         assert!(e.contains("run.warm_start.lr") && e.contains("at most 0.1"), "{e}");
         let e = check_detector_lr(0.0).unwrap_err().to_string();
         assert!(e.contains("run.detector_lr") && e.contains("frozen-detector"), "{e}");

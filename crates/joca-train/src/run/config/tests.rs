@@ -86,3 +86,28 @@ fn presets_score_by_the_loss_and_older_configurations_meant_ap50() {
     let run: RunConfig = table.try_into().unwrap();
     assert_eq!(run.perturbation_score, PerturbationScore::Ap50);
 }
+
+/// NeuralAE's options mean nothing to AverageAE, nor the detector's rate to a frozen detector:
+/// read as absent there, so a preset that sets them leaves such cells' configuration (and its
+/// hash) as it was, and is not refused for them.
+#[test]
+fn controller_options_are_read_as_absent_where_the_method_has_no_use_for_them() {
+    let mut run = run_table("presets/quick.toml");
+    run.insert("acc_output".into(), "relative:3".into());
+    run.insert("detector_lr".into(), 1e-5.into());
+    let mut warm = toml::Table::new();
+    warm.insert("frames".into(), 600.into());
+    run.insert("warm_start".into(), warm.into());
+    let with: RunConfig = run.try_into().unwrap();
+    let average = RunConfig { method: joca_record::Method::TacosAverage, ..with.clone() };
+    assert!(average.validate().is_ok());
+    let plain = RunConfig {
+        acc_output: Default::default(),
+        warm_start: Default::default(),
+        ..average.clone()
+    };
+    assert_eq!(average.as_read(), plain.as_read());
+    let frozen = RunConfig { method: joca_record::Method::FrozenDetector, ..with.clone() };
+    assert_eq!(frozen.as_read().detector_lr, 1e-4);
+    assert_eq!((with.as_read().detector_lr, with.as_read().warm_start.frames), (1e-5, 600));
+}
