@@ -17,6 +17,15 @@ fn main() {
     for path in ["crates", "presets", "weights", "Cargo.lock", ".git/HEAD", ".git/index"] {
         println!("cargo:rerun-if-changed={}", root.join(path).display());
     }
+    // A commit moves the branch's ref, not HEAD (which names the branch): watch the ref too.
+    if let Some(branch) = std::fs::read_to_string(root.join(".git/HEAD"))
+        .ok()
+        .and_then(|h| h.strip_prefix("ref: ").map(|r| r.trim().to_owned()))
+    {
+        for path in [format!(".git/{branch}"), ".git/packed-refs".to_owned()] {
+            println!("cargo:rerun-if-changed={}", root.join(path).display());
+        }
+    }
     let commit = git(&root, &["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
     // Tracked files only: an untracked scratch file does not change what the binary runs.
     let dirty = match git(&root, &["status", "--porcelain", "--untracked-files=no"]) {
