@@ -95,11 +95,12 @@ impl RunData {
 
     /// The run's test repeated with another controller on the same design and detector
     /// (`results-<tag>.json` and `test-<tag>/`, as `joca eval --controller` and a NeuralAE run's
-    /// own end write them), without training records; `None` where the run has none.
+    /// own end write them), without training records (nor showcases where its test folder is
+    /// gone, as in compact records); `None` where the run has none.
     pub fn retest(dir: &Path, tag: &str) -> Result<Option<Self>, ReportError> {
         let results_path = dir.join(format!("results-{tag}.json"));
         let show_path = dir.join(format!("test-{tag}")).join("showcase.json");
-        if !results_path.exists() || !show_path.exists() {
+        if !results_path.exists() {
             return Ok(None);
         }
         let results: RunResults = parse(&results_path, &read(&results_path)?)?;
@@ -113,7 +114,12 @@ impl RunData {
             results,
             generations: Vec::new(),
             steps: Vec::new(),
-            showcases: parse(&show_path, &read(&show_path)?)?,
+            // Compact records (results only) have no showcases: what needs them is left out.
+            showcases: if show_path.exists() {
+                parse(&show_path, &read(&show_path)?)?
+            } else {
+                Vec::new()
+            },
             skipped_events: Vec::new(),
             warm_start: None,
         }))
