@@ -103,3 +103,21 @@ pub(super) fn tensor_to_rgb8(frame_dn: &Tensor) -> Rgb8Image {
     .unwrap_or_else(|_| vec![0; w * h * 3]);
     Rgb8Image::from_vec(w, h, bytes).unwrap_or_else(|_| Rgb8Image::zeros(w, h))
 }
+
+/// The task loss's pull on NeuralAE's outputs in l_GA's units: `w_task · ∂l_task/∂u` for the
+/// exposure's and the gain's unit position `u` in its range, from the gradients by the frame's
+/// exposure (seconds, at `exposure_s`) and gain (dB). The exposure's unit is log-scaled, so
+/// `∂E/∂u = E · (ln E_max − ln E_min)`; the gain's is linear in dB. Eq. 4 scales the exposure by a
+/// constant and shifts the gain, which changes neither; where the exposure cap binds, the gain
+/// carries the pull instead. On a step where l_GA applies it pulls each unit by `w_ga / 2`.
+pub(crate) fn task_gradient_units(
+    by_exposure: f64,
+    by_gain_db: f64,
+    exposure_s: f64,
+    bounds: &AccBounds,
+    task_weight: f64,
+) -> [f64; 2] {
+    let (a, b) = bounds.log_exposure;
+    let (c, d) = bounds.gain_db;
+    [task_weight * by_exposure * exposure_s * (b - a), task_weight * by_gain_db * (d - c)]
+}
