@@ -6,6 +6,8 @@ use super::method::{DesignSpec, FixedCamera};
 pub use super::reference::{MAX_REFERENCE_RANGE_M, ReferenceConfig};
 pub use super::source::{RealConfig, Source};
 use crate::TrainError;
+use checks::range_error;
+pub(crate) use checks::{check_detector, check_input};
 use joca_camera::{ApertureControl, CameraDesign, CameraError, DetectorInput, LensModel};
 use joca_core::optics::F_NUMBER_RANGE;
 use joca_nn::detector::{DetectorConfig, Precision};
@@ -23,43 +25,6 @@ use std::path::PathBuf;
 
 /// The highest ego top speed, m/s (144 km/h).
 pub const MAX_SPEED_MPS: f64 = 40.0;
-
-/// Checks a detector architecture (`table.detector`): a width that fits memory, joca's three
-/// classes.
-pub(crate) fn check_detector(d: &DetectorConfig, table: &str) -> Result<(), TrainError> {
-    let bad = |field: &str, value: i64, allowed: &str| {
-        Err(TrainError::Config {
-            field: format!("{table}.detector.{field}"),
-            value: value.to_string(),
-            allowed: allowed.into(),
-        })
-    };
-    if !(4..=128).contains(&d.width) {
-        return bad("width", d.width, "4 to 128");
-    }
-    if d.classes != 3 {
-        return bad("classes", d.classes, "3 (vehicle, walker, traffic sign)");
-    }
-    Ok(())
-}
-
-/// Checks a detector input (`table.input`), naming the field and its range.
-pub(crate) fn check_input(input: &DetectorInput, table: &str) -> Result<(), TrainError> {
-    input.validate(&format!("{table}.input")).map_err(|e| range_error(e, "", ""))
-}
-
-/// A camera crate's range error as a configuration error: the field (after `prefix`), the value
-/// and the range (followed by `note`).
-fn range_error(e: CameraError, prefix: &str, note: &str) -> TrainError {
-    match e {
-        CameraError::OutOfRange { field, value, min, max, unit } => TrainError::Config {
-            field: format!("{prefix}{field}"),
-            value: value.to_string(),
-            allowed: format!("{min} to {max}{unit}{note}"),
-        },
-        other => TrainError::Camera(other),
-    }
-}
 
 /// Settings of a run (the `[run]` table of a preset).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -394,6 +359,7 @@ fn empty_is_none<'de, D: Deserializer<'de>>(d: D) -> Result<Option<PathBuf>, D::
     Ok(text.filter(|t| !t.is_empty()).map(PathBuf::from))
 }
 
+mod checks;
 mod learning;
 mod search;
 

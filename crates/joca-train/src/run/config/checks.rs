@@ -1,0 +1,43 @@
+//! Checks shared by the `[run]` and `[pretrain]` tables: the detector architecture and input,
+//! and a camera crate's range error as a configuration error naming the field.
+
+use crate::TrainError;
+use joca_camera::{CameraError, DetectorInput};
+use joca_nn::detector::DetectorConfig;
+
+/// Checks a detector architecture (`table.detector`): a width that fits memory, joca's three
+/// classes.
+pub(crate) fn check_detector(d: &DetectorConfig, table: &str) -> Result<(), TrainError> {
+    let bad = |field: &str, value: i64, allowed: &str| {
+        Err(TrainError::Config {
+            field: format!("{table}.detector.{field}"),
+            value: value.to_string(),
+            allowed: allowed.into(),
+        })
+    };
+    if !(4..=128).contains(&d.width) {
+        return bad("width", d.width, "4 to 128");
+    }
+    if d.classes != 3 {
+        return bad("classes", d.classes, "3 (vehicle, walker, traffic sign)");
+    }
+    Ok(())
+}
+
+/// Checks a detector input (`table.input`), naming the field and its range.
+pub(crate) fn check_input(input: &DetectorInput, table: &str) -> Result<(), TrainError> {
+    input.validate(&format!("{table}.input")).map_err(|e| range_error(e, "", ""))
+}
+
+/// A camera crate's range error as a configuration error: the field (after `prefix`), the value
+/// and the range (followed by `note`).
+pub(super) fn range_error(e: CameraError, prefix: &str, note: &str) -> TrainError {
+    match e {
+        CameraError::OutOfRange { field, value, min, max, unit } => TrainError::Config {
+            field: format!("{prefix}{field}"),
+            value: value.to_string(),
+            allowed: format!("{min} to {max}{unit}{note}"),
+        },
+        other => TrainError::Camera(other),
+    }
+}
