@@ -2,6 +2,7 @@
 //! resumed when killed.
 #![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
 
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod common;
@@ -78,22 +79,29 @@ fn experiment_files_with_unknown_methods_or_scenarios_name_them_and_the_valid_on
     );
 }
 
+/// The tiny grid and its run configuration written into `dir`, and the `joca experiment`
+/// arguments that run it into `dir/exp`: (experiment folder, run configuration, arguments).
+fn tiny_grid(dir: &Path) -> (PathBuf, PathBuf, Vec<String>) {
+    let (file, cfg, exp) = (dir.join("tiny.toml"), dir.join("run.toml"), dir.join("exp"));
+    std::fs::write(&file, TINY_EXPERIMENT).unwrap();
+    std::fs::write(&cfg, TINY_RUN).unwrap();
+    let path = |p: &Path| p.to_str().unwrap().to_owned();
+    let args = vec![
+        "experiment".to_owned(),
+        path(&file),
+        "--config".to_owned(),
+        path(&cfg),
+        "--out".to_owned(),
+        path(&exp),
+    ];
+    (exp, cfg, args)
+}
+
 #[test]
 fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("tiny.toml");
-    let cfg = dir.path().join("run.toml");
-    std::fs::write(&file, TINY_EXPERIMENT).unwrap();
-    std::fs::write(&cfg, TINY_RUN).unwrap();
-    let exp = dir.path().join("exp");
-    let args = [
-        "experiment",
-        file.to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        exp.to_str().unwrap(),
-    ];
+    let (exp, cfg, args) = tiny_grid(dir.path());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let o = joca(&[&args[..], &["--jobs", "2"]].concat());
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
     let csv = std::fs::read_to_string(exp.join("results.csv")).unwrap();
@@ -210,19 +218,8 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
 #[test]
 fn a_cell_that_is_a_symbolic_link_is_refused_and_its_target_untouched() {
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("tiny.toml");
-    let cfg = dir.path().join("run.toml");
-    std::fs::write(&file, TINY_EXPERIMENT).unwrap();
-    std::fs::write(&cfg, TINY_RUN).unwrap();
-    let exp = dir.path().join("exp");
-    let args = [
-        "experiment",
-        file.to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        exp.to_str().unwrap(),
-    ];
+    let (exp, _, args) = tiny_grid(dir.path());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let o = joca(&[&args[..], &["--prepare"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     let mine = dir.path().join("mine");
