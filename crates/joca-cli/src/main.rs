@@ -55,6 +55,9 @@ enum Command {
     Experiment(commands::experiment::Args),
     /// Regenerate report.md, report.html and figures of a run or experiment directory.
     Report(commands::report::Args),
+    /// Copy a run's or experiment's compact records (no checkpoints, frames or figures) to a
+    /// folder that `joca report` and `joca experiment --reuse` read.
+    Export(commands::export::Args),
     /// Dense Inverse Search optical flow between two frames: colour-coded flow and warp check.
     Flow(commands::flow::FlowArgs),
     /// Preview the real-image mode's flow-based motion blur on a folder of consecutive frames.
@@ -156,6 +159,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(args) => commands::bench::run(&args),
         Command::Experiment(args) => commands::experiment::run(&args),
         Command::Report(args) => commands::report::run(&args),
+        Command::Export(args) => commands::export::run(&args),
         Command::Cell(args) => commands::experiment::run_cell(&args),
         Command::Flow(args) => commands::flow::run_flow(&args),
         Command::Blur(args) => commands::flow::run_blur(&args),

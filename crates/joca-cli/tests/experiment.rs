@@ -240,3 +240,91 @@ fn a_cell_that_is_a_symbolic_link_is_refused_and_its_target_untouched() {
     assert_eq!(left, ["report.md"]);
     assert_eq!(std::fs::read_to_string(mine.join("report.md")).unwrap(), "my notes");
 }
+
+/// `joca export` keeps what the reports read (the export's report has the grid's table), and
+/// `--reuse` fills another grid's cells from the export when the record names this commit and
+/// the cell's configuration, names a cell computed by another commit, and leaves a cell of
+/// another configuration to run.
+#[test]
+fn an_export_rebuilds_the_report_and_serves_another_grid_as_a_cache() {
+    let dir = tempfile::tempdir().unwrap();
+    let (exp, cfg, args) = tiny_grid(dir.path());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = joca(&[&args[..], &["--jobs", "2"]].concat());
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    let csv = std::fs::read_to_string(exp.join("results.csv")).unwrap();
+
+    let export = dir.path().join("export");
+    let o = joca(&["export", exp.to_str().unwrap(), export.to_str().unwrap()]);
+    assert!(
+        o.status.success() && stdout(&o).contains("exported 4 finished run(s)"),
+        "{}",
+        stderr(&o)
+    );
+    let cell = export.join("cells/joca-blur4");
+    assert!(
+        cell.join("results-average-127.5-town2.json").is_file() && cell.join("cell.toml").is_file()
+    );
+    assert!(!cell.join("checkpoint").exists() && !cell.join("cell.log").exists());
+    let show = std::fs::read_to_string(cell.join("test/showcase.json")).unwrap();
+    assert!(show.contains("\"exposure_ms\"") && show.contains("\"boxes\":[]"), "{show}");
+    let o = joca(&["report", export.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(export.join("results.csv")).unwrap(), csv);
+    // Exporting again replaces the export whole; into the grid itself, or into a run, refused.
+    std::fs::write(export.join("stale.txt"), "x").unwrap();
+    assert!(joca(&["export", exp.to_str().unwrap(), export.to_str().unwrap()]).status.success());
+    assert!(!export.join("stale.txt").exists());
+    let inside = exp.join("cells/x");
+    let e = stderr(&joca(&["export", exp.to_str().unwrap(), inside.to_str().unwrap()]));
+    assert!(e.contains("is inside"), "{e}");
+    let run = exp.join("cells/joca-calibrated");
+    let e = stderr(&joca(&[
+        "export",
+        run.to_str().unwrap(),
+        exp.join("cells/tacos-blur4").to_str().unwrap(),
+    ]));
+    assert!(e.contains("not an export") && e.contains("tacos-blur4"), "{e}");
+
+    // Another grid with the same cells takes all four from the export and runs none.
+    let again = dir.path().join("again");
+    let mut other = args.clone();
+    let out = other.iter().position(|a| *a == "--out").unwrap() + 1;
+    other[out] = again.to_str().unwrap();
+    let o = joca(&[&other[..], &["--reuse", export.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    assert!(
+        stdout(&o).contains("4 cell(s) reused") && stdout(&o).contains("4 cells, 0 to run"),
+        "{}",
+        stdout(&o)
+    );
+    assert_eq!(std::fs::read_to_string(again.join("results.csv")).unwrap(), csv);
+    let reused = std::fs::read_to_string(again.join("cells/tacos-blur4/reused.json")).unwrap();
+    assert!(reused.contains("export/cells/tacos-blur4"), "{reused}");
+    let status = stdout(&joca(&[&other[..], &["--status"]].concat()));
+    assert!(status.contains("(reused: reused.json)"), "{status}");
+
+    // A record of another commit is named and not taken.
+    let path = export.join("cells/joca-calibrated/results.json");
+    let mut r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    r["provenance"]["commit"] = "0123456789abcdef0123456789abcdef01234567".into();
+    std::fs::write(&path, serde_json::to_string_pretty(&r).unwrap()).unwrap();
+    let third = dir.path().join("third");
+    other[out] = third.to_str().unwrap();
+    let o = joca(&[&other[..], &["--reuse", export.to_str().unwrap(), "--prepare"]].concat());
+    let s = stdout(&o);
+    assert!(
+        s.contains("3 cell(s) reused")
+            && s.contains("not reused for joca-calibrated")
+            && s.contains("computed by commit 0123456789"),
+        "{s}"
+    );
+    // Another configuration finds nothing to take.
+    std::fs::write(&cfg, TINY_RUN.replace("steps_per_candidate = 3", "steps_per_candidate = 4"))
+        .unwrap();
+    let fourth = dir.path().join("fourth");
+    other[out] = fourth.to_str().unwrap();
+    let o = joca(&[&other[..], &["--reuse", exp.to_str().unwrap(), "--prepare"]].concat());
+    assert!(stdout(&o).contains("0 cell(s) reused"), "{}", stdout(&o));
+}

@@ -24,7 +24,7 @@ pub struct Provenance {
 
 impl Provenance {
     /// This binary's provenance for a record computed from `config` (any serialisable value;
-    /// pass the configuration as the method reads it).
+    /// pass what identifies the computation: a run's `RunConfig::identity`).
     pub fn of_this_build(config: &impl Serialize) -> Self {
         Self {
             joca_version: env!("CARGO_PKG_VERSION").to_owned(),
@@ -32,6 +32,12 @@ impl Provenance {
             dirty: build_dirty(),
             config_sha256: config_sha256(config),
         }
+    }
+
+    /// Whether this binary was built from the same commit, equally clean: a record it would
+    /// compute again the same way from the same configuration.
+    pub fn is_this_build(&self) -> bool {
+        self.commit == BUILD_COMMIT && self.dirty == build_dirty()
     }
 
     /// The commit with a `-dirty` suffix where the tree differed, as tables print it.

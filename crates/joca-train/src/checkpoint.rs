@@ -69,7 +69,7 @@ impl CheckpointDir {
 pub const DIGESTS: &str = "digests.json";
 
 /// The SHA-256 of `path`'s contents, hex.
-fn sha256_of(path: &Path) -> Result<String, TrainError> {
+pub(crate) fn sha256_of(path: &Path) -> Result<String, TrainError> {
     use sha2::Digest;
     let mut file = std::fs::File::open(path).map_err(|e| TrainError::io(path, e))?;
     let mut hasher = sha2::Sha256::new();

@@ -49,6 +49,12 @@ pub struct Args {
     /// Report cells computed by different joca commits together (refused otherwise).
     #[arg(long)]
     mixed_commits: bool,
+    /// Finished cells to take instead of running them again: experiment or run directories,
+    /// exports (`joca export`) or a folder holding them (`runs`). A cell is taken when its record
+    /// names this joca's commit and the cell's configuration (`provenance.config_sha256`); the
+    /// copy's `reused.json` says from where.
+    #[arg(long, value_name = "DIR")]
+    reuse: Vec<PathBuf>,
     /// Write every cell's configuration (cells/<id>/cell.toml) and the manifest, check the
     /// finished cells against the grid, and run nothing: for `joca cell DIR` run by hand or by
     /// another scheduler.
@@ -92,6 +98,11 @@ pub fn run(args: &Args) -> Result<()> {
     output::claim(&dir, OutputKind::Experiment)?;
     let _lock = DirLock::acquire(&dir, "joca experiment")?;
     prepare(&exp, &dir)?;
+    let all: Vec<&Cell> = exp.cells.iter().collect();
+    let reused = crate::grid::reuse(&dir, &all, &args.reuse)?;
+    if !args.reuse.is_empty() {
+        println!("{} cell(s) reused", reused.len());
+    }
     if args.prepare {
         return print_status(&exp, &dir);
     }
@@ -260,6 +271,11 @@ fn print_status(exp: &Experiment, dir: &Path) -> Result<()> {
                         )
                     })
                     .unwrap_or_default();
+                let extra = if cell_dir.join(crate::grid::REUSED).is_file() {
+                    format!("{extra}  (reused: {})", crate::grid::REUSED)
+                } else {
+                    extra
+                };
                 ("done", extra)
             }
             joca_report::CellState::Partial => {
@@ -308,30 +324,20 @@ pub fn run_cell(args: &CellArgs) -> Result<()> {
     follow_up(dir, &cell.follow_up, neural)
 }
 
-/// Runs the cell's follow-up tests it lacks: each town of `follow_up` with the cell's controller,
-/// and for a NeuralAE cell with AverageAE at mid-grey too (what `joca eval --town K [--controller
-/// average]` writes).
+/// Runs the cell's follow-up tests it lacks ([`crate::grid::FollowUp::tests`]).
 fn follow_up(dir: &Path, follow_up: &crate::grid::FollowUp, neural: bool) -> Result<()> {
-    let average = joca_train::TestController::Average { target_dn: joca_camera::MID_GREY_DN };
-    for &town in &follow_up.towns {
-        let controllers = if neural {
-            vec![joca_train::TestController::Trained, average]
-        } else {
-            vec![joca_train::TestController::Trained]
-        };
-        for controller in controllers {
-            let tag = match controller {
-                joca_train::TestController::Trained => format!("town{town}"),
-                c => format!("{}-town{town}", c.name()),
-            };
-            if dir.join(format!("results-{tag}.json")).is_file() {
-                continue;
-            }
-            let options = joca_train::EvalOptions { town, controller, ..Default::default() };
-            let (r, _) = joca_train::evaluate_run(dir, &options)
-                .with_context(|| format!("follow-up test {tag} of {}", dir.display()))?;
-            println!("{}: {tag}: mAP {:.3}", dir.display(), r.test.map);
+    for test in follow_up.tests(neural) {
+        if dir.join(format!("results-{}.json", test.tag)).is_file() {
+            continue;
         }
+        let options = joca_train::EvalOptions {
+            town: test.town,
+            controller: test.controller,
+            ..Default::default()
+        };
+        let (r, _) = joca_train::evaluate_run(dir, &options)
+            .with_context(|| format!("follow-up test {} of {}", test.tag, dir.display()))?;
+        println!("{}: {}: mAP {:.3}", dir.display(), test.tag, r.test.map);
     }
     Ok(())
 }

@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod detect;
 pub mod eval;
 pub mod experiment;
+pub mod export;
 pub mod flow;
 pub mod form;
 pub mod headroom;

@@ -10,16 +10,19 @@
 //! With a `[panel]` of designs ([`panel`]) every variant runs on every design with the hardware
 //! held fixed (`run.design`), as cell `<variant>-<scenario>-<design>`.
 
+mod cache;
 mod panel;
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
 use joca_core::output::{self, OutputKind};
 use joca_report::{CellSpec, Manifest};
-use joca_train::{Method, RunConfig, Scenario, differing_fields};
+use joca_train::{Method, RunConfig, Scenario, TestController, differing_fields};
 use panel::{PanelDesign, PanelFile, valid_id};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+pub use cache::{REUSED, reuse};
 
 /// The experiments shipped with joca, by name.
 pub const EXPERIMENTS: [(&str, &str); 11] = [
@@ -87,10 +90,41 @@ impl FollowUp {
         Ok(())
     }
 
+    /// The tests a cell runs after its run: each town with the cell's controller, and for a
+    /// NeuralAE cell with AverageAE at mid-grey too (what `joca eval --town K [--controller
+    /// average]` writes, as `results-<tag>.json`).
+    pub fn tests(&self, neural: bool) -> Vec<FollowUpTest> {
+        let average = TestController::Average { target_dn: joca_camera::MID_GREY_DN };
+        let mut tests = Vec::new();
+        for &town in &self.towns {
+            tests.push(FollowUpTest {
+                town,
+                controller: TestController::Trained,
+                tag: format!("town{town}"),
+            });
+            if neural {
+                let tag = format!("{}-town{town}", average.name());
+                tests.push(FollowUpTest { town, controller: average, tag });
+            }
+        }
+        tests
+    }
+
     /// Whether there is none (then `cell.toml` leaves the table out).
     pub fn is_empty(&self) -> bool {
         self.towns.is_empty()
     }
+}
+
+/// One follow-up test of a cell ([`FollowUp::tests`]).
+#[derive(Debug, Clone)]
+pub struct FollowUpTest {
+    /// The town of the test family.
+    pub town: u64,
+    /// The controller tested.
+    pub controller: TestController,
+    /// The tag of its record, `results-<tag>.json`.
+    pub tag: String,
 }
 
 /// The `[run]` table a cell runs with, and its follow-up tests (`cells/<id>/cell.toml`).

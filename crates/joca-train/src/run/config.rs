@@ -319,6 +319,22 @@ impl RunConfig {
         c
     }
 
+    /// What identifies the computation a run makes: [`as_read`](Self::as_read), with the
+    /// detector's weights named by their content (`sha256:<hex>`) instead of their path, so the
+    /// same cell started from another folder has the same identity and a changed weights file
+    /// another. Its SHA-256 is `results.json`'s `provenance.config_sha256`, the cell cache's key.
+    pub fn identity(&self) -> RunConfig {
+        let mut c = self.as_read();
+        if let Some(w) = &c.detector_weights {
+            let named = match crate::checkpoint::sha256_of(w) {
+                Ok(hex) => format!("sha256:{hex}"),
+                Err(_) => format!("unreadable:{}", w.display()),
+            };
+            c.detector_weights = Some(PathBuf::from(named));
+        }
+        c
+    }
+
     /// Whether the hardware GA designs the camera: the method searches and no `design` is
     /// fixed.
     pub fn hardware_search(&self) -> bool {

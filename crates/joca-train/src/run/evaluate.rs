@@ -282,7 +282,7 @@ pub(super) fn test_design(
         weather: config.weather,
         aperture: config.aperture,
         validation,
-        provenance: Some(Provenance::of_this_build(&config.as_read())),
+        provenance: Some(Provenance::of_this_build(&config.identity())),
     };
     results.format_version = results.layout_version();
     Ok(results)

@@ -154,7 +154,7 @@ pub fn headroom(
         ladder: rungs.iter().map(|&s| Settings::from(s)).collect(),
         policies,
         cpu: cpu_description(),
-        provenance: Provenance::of_this_build(&(config.as_read(), &options.ladder)),
+        provenance: Provenance::of_this_build(&(config.identity(), &options.ladder)),
     })
 }
 
