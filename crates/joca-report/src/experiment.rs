@@ -228,6 +228,11 @@ pub fn write_experiment_report_with(
     }
     let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
     let (mut seeds_md, mut seeds_html) = crate::seeds::seeds_sections(&table.rows);
+    for (town, rows) in town_rows(exp_dir, &runs)? {
+        let (md, html) = crate::seeds::town_sections(town, &rows);
+        seeds_md.push_str(&md);
+        seeds_html.push_str(&html);
+    }
     let controls = crate::controls::controls_table(&table.rows);
     if !controls.is_empty() {
         let (md, html) = (&mut seeds_md, &mut seeds_html);
@@ -280,6 +285,34 @@ pub fn write_experiment_report_with(
     let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
     write_text(&exp_dir.join("report.html"), &page)?;
     Ok(md)
+}
+
+/// Per follow-up town (ascending), the rows of the cells tested there (`results-town<K>.json`).
+fn town_rows(
+    exp_dir: &Path,
+    runs: &[(CellSpec, RunData)],
+) -> Result<Vec<(u64, Vec<Row>)>, ReportError> {
+    let mut towns: Vec<u64> = runs.iter().flat_map(|(c, _)| c.towns.iter().copied()).collect();
+    towns.sort_unstable();
+    towns.dedup();
+    let mut out = Vec::new();
+    for town in towns {
+        let mut rows = Vec::new();
+        for (cell, _) in runs {
+            let dir = Manifest::cell_dir(exp_dir, cell);
+            if let Some(retest) = RunData::retest(&dir, &format!("town{town}"))? {
+                rows.push(Row {
+                    group: cell.group.clone(),
+                    label: cell.label.clone(),
+                    cell: cell.id.clone(),
+                    design: cell.design.clone(),
+                    results: retest.results,
+                });
+            }
+        }
+        out.push((town, rows));
+    }
+    Ok(out)
 }
 
 /// The finished NeuralAE cells that carry an AverageAE re-test, with it.

@@ -241,5 +241,42 @@ pub fn seeds_sections(rows: &[Row]) -> (String, String) {
     (md, html)
 }
 
+/// The over-seeds section again for a follow-up town (`rows` built from each cell's
+/// `results-town<K>.json`): the same cells on another sample of test scenes, paired as on the
+/// test town. Empty when no variant has more than one cell there.
+pub fn town_sections(town: u64, rows: &[Row]) -> (String, String) {
+    if variants(rows).iter().all(|(_, _, m)| m.len() < 2) {
+        return (String::new(), String::new());
+    }
+    let (summary, paired) = tables(rows);
+    let title = format!("Town {town}: the same cells on another town of the test family");
+    let note = format!(
+        "Every cell tested again on town {town} (`[follow_up] towns`): the same designs, \
+         detectors and controllers on other scenes; {} cells there. Intervals and pairing as \
+         on the test town.",
+        rows.len()
+    );
+    let mut md = format!("## {title}\n\n{note}\n\n");
+    md.push_str(&markdown_table(&summary));
+    let mut html =
+        format!("<h2>{}</h2>\n<p class=\"meta\">{}</p>\n", escape(&title), escape(&note));
+    html.push_str(&html_table(&summary));
+    if paired.len() > 1 {
+        section(
+            &mut md,
+            &mut html,
+            &format!("Town {town}: ours paired with each baseline"),
+            "",
+            &paired,
+        );
+    }
+    let lights = light_table(rows);
+    if !lights.is_empty() {
+        section(&mut md, &mut html, &format!("Town {town}: paired, by illumination"), "", &lights);
+    }
+    md.push('\n');
+    (md, html)
+}
+
 #[cfg(test)]
 mod tests;

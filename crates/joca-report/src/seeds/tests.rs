@@ -59,6 +59,13 @@ fn variants_are_summarised_over_seeds_and_ours_is_paired_by_seed() {
     assert!(html.contains("<th>Δ mAP</th>"));
     // One seed per variant: no section.
     assert_eq!(seeds_sections(&rows[..1]).0, "");
+    // A follow-up town's rows get the same tables under the town's title, its cells counted.
+    let (md, html) = town_sections(2, &rows);
+    assert!(md.starts_with("## Town 2: the same cells on another town"), "{md}");
+    assert!(md.contains("6 cells there") && md.contains("### Town 2: ours paired with each"));
+    assert!(md.contains(&format!("| Calibrated | Ours − FLIR | 3 seeds | {m:.3} ± {hw:.3} |")));
+    assert!(html.contains("<h2>Town 2"));
+    assert_eq!(town_sections(2, &rows[..1]).0, "");
 }
 
 #[test]
