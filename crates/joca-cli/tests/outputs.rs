@@ -147,10 +147,21 @@ fn one_process_writes_a_run_directory_and_a_kill_frees_it() {
 fn eval_writes_its_own_results_and_keeps_the_runs() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("run.toml");
-    std::fs::write(&cfg, TINY_RUN).unwrap();
+    // Weights named relative to where `joca run` starts: the run directory records where they
+    // are, so `joca eval` works from any folder.
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector.safetensors");
+    std::fs::copy(shipped, dir.path().join("my.safetensors")).unwrap();
+    std::fs::write(&cfg, format!("{TINY_RUN}detector_weights = \"my.safetensors\"\n")).unwrap();
     let out = dir.path().join("run");
-    let o = joca(&["run", "--config", s(&cfg), "--out", s(&out)]);
+    let o = Command::new(env!("CARGO_BIN_EXE_joca"))
+        .args(["run", "--config", "run.toml", "--out", "run"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
+    let saved = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    let absolute = dir.path().canonicalize().unwrap().join("my.safetensors");
+    assert!(saved.contains(&format!("detector_weights = {:?}", s(&absolute))), "{saved}");
     let results = std::fs::read(out.join("results.json")).unwrap();
     let trace = std::fs::read(out.join("test/trace.jsonl")).unwrap();
     let report = std::fs::read(out.join("report.md")).unwrap();

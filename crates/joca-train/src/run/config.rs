@@ -335,6 +335,18 @@ impl RunConfig {
         c
     }
 
+    /// The configuration with the detector weights' path made absolute (where the file exists),
+    /// so that the run directory's `config.toml` and checkpoint name the file wherever `joca
+    /// eval` or `--resume` is started from.
+    pub fn with_absolute_weights(mut self) -> RunConfig {
+        if let Some(w) = &self.detector_weights
+            && let Ok(abs) = w.canonicalize()
+        {
+            self.detector_weights = Some(abs);
+        }
+        self
+    }
+
     /// Whether the hardware GA designs the camera: the method searches and no `design` is
     /// fixed.
     pub fn hardware_search(&self) -> bool {

@@ -93,7 +93,7 @@ pub(super) fn load_run(
     let state: RunState = read_json(&state_path)?;
     // The checkpoint must be this run's: a folder holding another run's checkpoint would be
     // evaluated and written as this one's.
-    let differing = crate::differing_fields(&state.config.as_read(), &file.run.as_read());
+    let differing = crate::differing_fields(&state.config.identity(), &file.run.identity());
     if !differing.is_empty() {
         return Err(TrainError::Corrupt {
             path: state_path.display().to_string(),

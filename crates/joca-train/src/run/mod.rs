@@ -164,6 +164,7 @@ pub fn run(
     progress: &mut dyn FnMut(&RunEvent) -> ControlFlow<()>,
 ) -> Result<RunResults, TrainError> {
     config.validate()?;
+    let config = &config.clone().with_absolute_weights();
     output::claim(run_dir, OutputKind::Run)?;
     // One writer per run directory, for the whole run (released however the process ends).
     let _lock = DirLock::acquire(run_dir, "joca run")?;

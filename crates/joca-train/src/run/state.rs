@@ -93,7 +93,8 @@ impl RunState {
                 }
                 // An older checkpoint is the same layout; it is written back as the current.
                 saved.format_version = STATE_FORMAT_VERSION;
-                check_resume(&saved.config, config, run_dir)?;
+                // Compared as computed: a weights file by content, wherever it is named from.
+                check_resume(&saved.config.identity(), &config.identity(), run_dir)?;
                 model.load(&dir)?;
                 Ok(saved)
             }
