@@ -12,6 +12,7 @@ use crate::paired::{LIGHTS, comparisons, light_map, variants};
 use crate::table::{Row, escape};
 use std::fmt::Write as _;
 
+mod pooled;
 mod rests_on;
 use rests_on::rests_on;
 
@@ -39,7 +40,7 @@ pub fn mean_interval(values: &[f64]) -> (f64, f64) {
     (mean, t_975(n - 1) * (var / n as f64).sqrt())
 }
 
-fn cell(interval: (f64, f64)) -> String {
+pub(crate) fn cell(interval: (f64, f64)) -> String {
     interval_text(interval, 3)
 }
 
@@ -206,6 +207,10 @@ pub(crate) fn titled_table(
     html.push_str(&html_table(table));
 }
 
+const POOLED: &str = "Per seed (in a panel, per design) the mean over the scenarios of ours − \
+    baseline, then the t interval over the seeds (designs) present in every one of them: each \
+    counted once, however many scenarios it ran in.";
+
 /// The over-seeds section of an experiment report, Markdown and HTML; empty when no variant has
 /// more than one cell.
 pub fn seeds_sections(rows: &[Row]) -> (String, String) {
@@ -226,6 +231,10 @@ pub fn seeds_sections(rows: &[Row]) -> (String, String) {
     html.push_str(&html_table(&summary));
     if paired.len() > 1 {
         section(&mut md, &mut html, "Ours paired with each baseline", "", &paired);
+    }
+    let pooled = pooled::pooled_table(rows);
+    if !pooled.is_empty() {
+        section(&mut md, &mut html, "Pooled over scenarios", POOLED, &pooled);
     }
     let lights = light_table(rows);
     if !lights.is_empty() {
@@ -268,6 +277,16 @@ pub fn town_sections(town: u64, rows: &[Row]) -> (String, String) {
             &format!("Town {town}: ours paired with each baseline"),
             "",
             &paired,
+        );
+    }
+    let pooled = pooled::pooled_table(rows);
+    if !pooled.is_empty() {
+        section(
+            &mut md,
+            &mut html,
+            &format!("Town {town}: pooled over scenarios"),
+            POOLED,
+            &pooled,
         );
     }
     let lights = light_table(rows);

@@ -150,3 +150,42 @@ fn a_panel_pairs_on_design_and_seed_and_takes_the_interval_over_designs() {
     );
     assert!(md.contains("0.020 ± ") && md.contains("; 2 of 5 pairs across machine types)"), "{md}");
 }
+
+/// Pooled over scenarios: per seed the mean of its scenario differences, then t over the seeds
+/// present in both scenarios (seed 2 ran only in one and is left out).
+#[test]
+fn ours_pooled_over_scenarios_counts_each_seed_once() {
+    let row = |group: &str, label: &str, method: Method, seed: u64, map: f64| {
+        let mut results = crate::table::tests::results(map, 0.3, true);
+        results.method = method;
+        results.seed = seed;
+        Row {
+            group: group.into(),
+            label: label.into(),
+            cell: format!("{label}-{group}-s{seed}"),
+            design: String::new(),
+            results,
+        }
+    };
+    let rows = vec![
+        row("Calibrated", "Ours", Method::Joca, 0, 0.30),
+        row("Calibrated", "Ours", Method::Joca, 1, 0.34),
+        row("Calibrated", "Ours", Method::Joca, 2, 0.40),
+        row("Calibrated", "TaCOS", Method::TacosAverage, 0, 0.28),
+        row("Calibrated", "TaCOS", Method::TacosAverage, 1, 0.30),
+        row("Calibrated", "TaCOS", Method::TacosAverage, 2, 0.20),
+        row("Blur", "Ours", Method::Joca, 0, 0.20),
+        row("Blur", "Ours", Method::Joca, 1, 0.22),
+        row("Blur", "TaCOS", Method::TacosAverage, 0, 0.24),
+        row("Blur", "TaCOS", Method::TacosAverage, 1, 0.20),
+    ];
+    // Seed 0: (0.02 − 0.04) / 2 = −0.01; seed 1: (0.04 + 0.02) / 2 = 0.03.
+    let table = pooled::pooled_table(&rows);
+    assert_eq!(table.len(), 2);
+    let (m, h) = mean_interval(&[-0.01, 0.03]);
+    assert_eq!(table[1][..3], ["Ours − TaCOS", "2", "2 seeds"]);
+    assert_eq!(table[1][3], format!("{m:.3} ± {h:.3}"));
+    assert_eq!(table[1][5], "1 of 2 seeds");
+    // One scenario: nothing to pool.
+    assert!(pooled::pooled_table(&rows[..6]).is_empty());
+}

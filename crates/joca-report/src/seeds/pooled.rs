@@ -1,0 +1,77 @@
+//! Ours against a baseline pooled over the scenarios both ran in: per unit (a seed, or in a panel
+//! a design) the mean over scenarios of ours − baseline, then the t interval over the units
+//! present in every one of those scenarios — Table 1's "over the five scenarios" as one number
+//! whose interval counts each seed (or design) once.
+
+use crate::paired::{Comparison, comparisons};
+use crate::seeds::{cell, mean_interval};
+use crate::table::Row;
+
+/// The pooled table (header first); empty when no pair of variants meets in two scenarios.
+pub fn pooled_table(rows: &[Row]) -> Vec<Vec<String>> {
+    let all = comparisons(rows);
+    let mut pairs: Vec<(&str, &str)> = Vec::new();
+    for c in &all {
+        if !pairs.contains(&(c.ours.as_str(), c.other.as_str())) {
+            pairs.push((&c.ours, &c.other));
+        }
+    }
+    let mut table = vec![
+        ["ours − baseline", "scenarios", "pooled over", "Δ mAP", "Δ AP50", "ours ahead (mAP)"]
+            .map(str::to_owned)
+            .to_vec(),
+    ];
+    for (ours, other) in pairs {
+        let of: Vec<&Comparison<'_>> =
+            all.iter().filter(|c| c.ours == ours && c.other == other).collect();
+        if of.len() < 2 {
+            continue;
+        }
+        let map = pooled_units(&of, |r| r.results.test.map);
+        if map.is_empty() {
+            continue;
+        }
+        let ap50 = pooled_units(&of, |r| r.results.test.ap50);
+        let unit = if of[0].panel() { "designs" } else { "seeds" };
+        table.push(vec![
+            format!("{ours} − {other}"),
+            of.len().to_string(),
+            format!("{} {unit}", map.len()),
+            cell(mean_interval(&map)),
+            cell(mean_interval(&ap50)),
+            format!("{} of {} {unit}", map.iter().filter(|d| **d > 0.0).count(), map.len()),
+        ]);
+    }
+    if table.len() < 2 { Vec::new() } else { table }
+}
+
+/// Per unit found in every comparison, the mean over the comparisons (scenarios) of that unit's
+/// difference in `f`.
+fn pooled_units(of: &[&Comparison<'_>], f: impl Fn(&Row) -> f64 + Copy) -> Vec<f64> {
+    let keyed: Vec<Vec<(String, f64)>> = of.iter().map(|c| unit_differences(c, f)).collect();
+    let Some(first) = keyed.first() else { return Vec::new() };
+    first
+        .iter()
+        .filter_map(|(key, _)| {
+            let values: Vec<f64> = keyed
+                .iter()
+                .map(|units| units.iter().find(|(k, _)| k == key).map(|(_, v)| *v))
+                .collect::<Option<Vec<f64>>>()?;
+            Some(values.iter().sum::<f64>() / values.len() as f64)
+        })
+        .collect()
+}
+
+/// A comparison's differences per unit: per seed, or in a panel per design (mean over seeds).
+fn unit_differences(c: &Comparison<'_>, f: impl Fn(&Row) -> f64) -> Vec<(String, f64)> {
+    let mut out: Vec<(String, Vec<f64>)> = Vec::new();
+    for (a, b) in &c.pairs {
+        let key = if c.panel() { a.design.clone() } else { a.results.seed.to_string() };
+        let d = f(a) - f(b);
+        match out.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, v)) => v.push(d),
+            None => out.push((key, vec![d])),
+        }
+    }
+    out.into_iter().map(|(k, v)| (k, v.iter().sum::<f64>() / v.len() as f64)).collect()
+}
