@@ -75,7 +75,9 @@ pub fn write_png(path: &Path, frame: &Rgb8Image) -> Result<()> {
 /// command fails first (dropped unfinished). The folder must be new, empty, or an earlier output
 /// of the same command, recognised by its marker (`joca_core::output`), so neither a user's
 /// folder nor stale files from a larger earlier output survive next to the new ones; a sibling
-/// joca did not make is never deleted.
+/// joca did not make is never deleted. Each output lists the files it wrote ([`INVENTORY`]): an
+/// earlier output holding any other file (a user's notes beside the frames) is not replaced —
+/// refused before anything is written and again before the swap, naming the files.
 #[derive(Debug)]
 pub struct StagedDir {
     target: PathBuf,
@@ -88,6 +90,7 @@ impl StagedDir {
     /// Starts writing `target` as `kind`'s output.
     pub fn create(target: &Path, kind: OutputKind) -> Result<Self> {
         output::check(target, kind)?;
+        refuse_foreign_files(target)?;
         let name = target.file_name().map(|n| n.to_string_lossy().into_owned());
         let name = name.filter(|n| !n.is_empty() && n != "." && n != "..").with_context(|| {
             format!("--out {} must name a folder (not `.` or `..`)", target.display())
@@ -105,6 +108,9 @@ impl StagedDir {
 
     /// Puts the written folder in place of the target (and of any earlier output there).
     pub fn finish(mut self) -> Result<()> {
+        refuse_foreign_files(&self.target)?;
+        let listing = files_below(&self.staging)?.join("\n");
+        write_atomic(&self.staging.join(INVENTORY), format!("{listing}\n").as_bytes())?;
         let old = self.staging.with_extension("old");
         remove_own(&old, self.kind)?;
         if output::check(&self.target, self.kind)?.is_some() {
@@ -129,6 +135,87 @@ impl Drop for StagedDir {
             let _ = std::fs::remove_dir_all(&self.staging);
         }
     }
+}
+
+/// The file in a staged output that lists every file the command wrote, one relative path a
+/// line.
+pub const INVENTORY: &str = ".joca-files";
+
+/// Every file below `dir`, as relative paths with `/`, sorted; the marker, the lock and the
+/// inventory left out.
+fn files_below(dir: &Path) -> Result<Vec<String>> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
+        for entry in
+            std::fs::read_dir(dir).with_context(|| format!("cannot list {}", dir.display()))?
+        {
+            let entry = entry?;
+            let path = entry.path();
+            if entry.file_type()?.is_dir() {
+                walk(root, &path, out)?;
+            } else {
+                let rel = path.strip_prefix(root).unwrap_or(&path);
+                out.push(
+                    rel.components()
+                        .map(|c| c.as_os_str().to_string_lossy())
+                        .collect::<Vec<_>>()
+                        .join("/"),
+                );
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out)?;
+    out.retain(|f| ![output::MARKER, output::LOCK_FILE, INVENTORY].contains(&f.as_str()));
+    out.sort();
+    Ok(out)
+}
+
+/// Adds to `dir`'s [`INVENTORY`] (where it has one: a staged output) the files another joca
+/// command wrote into it — `entries`, relative paths of files or folders — so that the next
+/// staged write does not take them for a user's.
+pub fn extend_inventory(dir: &Path, entries: &[&str]) -> Result<()> {
+    let path = dir.join(INVENTORY);
+    let Ok(text) = std::fs::read_to_string(&path) else { return Ok(()) };
+    let mut listed: std::collections::BTreeSet<String> = text.lines().map(str::to_owned).collect();
+    for file in files_below(dir)? {
+        if entries.iter().any(|e| file == *e || file.starts_with(&format!("{e}/"))) {
+            listed.insert(file);
+        }
+    }
+    let text: String = listed.into_iter().flat_map(|l| [l, "\n".to_owned()]).collect();
+    write_atomic(&path, text.as_bytes())
+}
+
+/// Refuses an earlier output at `target` that holds files its [`INVENTORY`] does not list (all
+/// of them, where an older joca kept no inventory), naming them: replacing it would lose them.
+fn refuse_foreign_files(target: &Path) -> Result<()> {
+    if !target.is_dir() {
+        return Ok(());
+    }
+    let listed: std::collections::HashSet<String> = std::fs::read_to_string(target.join(INVENTORY))
+        .map(|t| t.lines().map(str::to_owned).collect())
+        .unwrap_or_default();
+    let foreign: Vec<String> =
+        files_below(target)?.into_iter().filter(|f| !listed.contains(f)).collect();
+    if foreign.is_empty() {
+        return Ok(());
+    }
+    let more = foreign.len().saturating_sub(5);
+    let mut names = foreign[..foreign.len().min(5)].join(", ");
+    if more > 0 {
+        names.push_str(&format!(" and {more} more"));
+    }
+    let why = if target.join(INVENTORY).is_file() {
+        "files joca did not write"
+    } else {
+        "files an older joca wrote without listing them, or you added"
+    };
+    bail!(
+        "{} holds {why} ({names}); writing the output again replaces the folder whole and would \
+         lose them: move them away, or choose another folder",
+        target.display()
+    )
 }
 
 /// Removes `dir` if it is absent, empty, or marked as `kind`'s (a staging folder joca left);
@@ -219,8 +306,15 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         names.sort();
-        assert_eq!(names, [output::MARKER, "b.png"]);
+        assert_eq!(names, [INVENTORY, output::MARKER, "b.png"]);
+        assert_eq!(std::fs::read_to_string(target.join(INVENTORY)).unwrap(), "b.png\n");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        // A file the output did not write is named, and stays, before anything is staged.
+        std::fs::write(target.join("notes.txt"), "mine").unwrap();
+        let e = StagedDir::create(&target, OutputKind::Render).unwrap_err().to_string();
+        assert!(e.contains("files joca did not write (notes.txt)"), "{e}");
+        assert!(target.join("notes.txt").is_file() && !dir.path().join(".out.partial").exists());
+        std::fs::remove_file(target.join("notes.txt")).unwrap();
         // Another command's output is not replaced.
         let e = StagedDir::create(&target, OutputKind::Import).unwrap_err().to_string();
         assert!(e.contains("holds joca render output, not import"), "{e}");

@@ -230,6 +230,13 @@ fn render_writes_frames_ground_truth_and_a_contact_sheet() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     assert_eq!(names, ["r"]);
+    // Notes a user put beside the frames are not lost to the next render: it is refused,
+    // naming them, before anything is written.
+    std::fs::write(out.join("frames/notes.txt"), "keep").unwrap();
+    let o = again("1", &out);
+    assert!(stderr(&o).contains("did not write (frames/notes.txt)"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_dir(out.join("frames")).unwrap().count(), 3);
+    std::fs::remove_file(out.join("frames/notes.txt")).unwrap();
     // A folder of other files is refused and left as it was.
     let other = dir.path().join("mine");
     std::fs::create_dir_all(&other).unwrap();

@@ -144,9 +144,21 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     // resumes it (its checkpoint is newer than the first three cells' results) and reports all.
     let cell = exp.join("cells/joca-blur4");
     std::fs::remove_file(cell.join("results.json")).unwrap();
+    // While a process holds the cell's lock, `--status` says it is running and by whom.
+    let lock = std::fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(cell.join(".joca-lock"))
+        .unwrap();
+    lock.lock().unwrap();
+    let status = stdout(&joca(&[&args[..], &["--status"]].concat()));
+    assert!(status.contains("running  joca-blur4") && status.contains("1 running"), "{status}");
+    drop(lock);
     let status = joca(&[&args[..], &["--status"]].concat());
     assert!(stdout(&status).contains("partial  joca-blur4"), "{}", stdout(&status));
-    assert!(stdout(&status).contains("3 done, 1 partial, 0 missing of 4"), "{}", stdout(&status));
+    let counts = "3 done, 0 running, 1 partial, 0 missing of 4";
+    assert!(stdout(&status).contains(counts), "{}", stdout(&status));
     let before = std::fs::read_to_string(exp.join("cells/joca-calibrated/results.json")).unwrap();
     let o = joca(&args);
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
@@ -211,6 +223,12 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
         "{}",
         stderr(&o)
     );
+    // `--status` names the stale cells and the fields, and runs nothing.
+    let status = stdout(&joca(&[&args[..], &["--status"]].concat()));
+    assert!(
+        status.contains("stale    joca-blur4") && status.contains("(4 stale: made with another"),
+        "{status}"
+    );
 }
 
 /// A prepared cell replaced by a link to a user's folder is refused, by `joca experiment` and by
@@ -253,6 +271,11 @@ fn an_export_rebuilds_the_report_and_serves_another_grid_as_a_cache() {
     let o = joca(&[&args[..], &["--jobs", "2"]].concat());
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
     let csv = std::fs::read_to_string(exp.join("results.csv")).unwrap();
+    // A cell killed between its results and its report is completed by the next invocation.
+    std::fs::remove_file(exp.join("cells/tacos-calibrated/report.md")).unwrap();
+    let o = joca(&args);
+    assert!(stdout(&o).contains("wrote the missing report of tacos-calibrated"), "{}", stdout(&o));
+    assert!(exp.join("cells/tacos-calibrated/report.md").is_file());
 
     let export = dir.path().join("export");
     let o = joca(&["export", exp.to_str().unwrap(), export.to_str().unwrap()]);
@@ -271,10 +294,14 @@ fn an_export_rebuilds_the_report_and_serves_another_grid_as_a_cache() {
     let o = joca(&["report", export.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(export.join("results.csv")).unwrap(), csv);
-    // Exporting again replaces the export whole; into the grid itself, or into a run, refused.
-    std::fs::write(export.join("stale.txt"), "x").unwrap();
+    // Exporting again replaces the export whole, but not over a file the export did not write;
+    // into the grid itself, or into a run, refused.
+    std::fs::write(export.join("notes.txt"), "mine").unwrap();
+    let e = stderr(&joca(&["export", exp.to_str().unwrap(), export.to_str().unwrap()]));
+    assert!(e.contains("files joca did not write (notes.txt)"), "{e}");
+    assert_eq!(std::fs::read_to_string(export.join("notes.txt")).unwrap(), "mine");
+    std::fs::remove_file(export.join("notes.txt")).unwrap();
     assert!(joca(&["export", exp.to_str().unwrap(), export.to_str().unwrap()]).status.success());
-    assert!(!export.join("stale.txt").exists());
     let inside = exp.join("cells/x");
     let e = stderr(&joca(&["export", exp.to_str().unwrap(), inside.to_str().unwrap()]));
     assert!(e.contains("is inside"), "{e}");

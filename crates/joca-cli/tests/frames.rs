@@ -3,6 +3,7 @@
 #![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
 
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 mod common;
 use common::{TINY_RUN, cli, joca, stderr, stdout};
@@ -234,4 +235,40 @@ fn import_writes_the_folder_format_or_nothing() {
     assert!(!bad.status.success());
     assert!(stderr(&bad).contains("0003.txt:1: unknown type \"Scooter\""), "{}", stderr(&bad));
     assert!(!fresh.exists(), "nothing is written for a refused import");
+
+    // A FIFO among the frames (or listed by a folder's annotations) is refused, not waited on.
+    std::fs::write(
+        &labels,
+        "1 4 Cyclist 0 0 0 5 6 15 26 1 1 1 1 1 1 0
+",
+    )
+    .unwrap();
+    // (Under `timeout`, so that a regression fails the test instead of hanging it.)
+    let bounded = |args: &[&str]| {
+        Command::new("timeout").arg("120").arg(env!("CARGO_BIN_EXE_joca")).args(args).output()
+    };
+    let fifo = images.join("000002.png");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let bad = bounded(&[
+        "import",
+        "kitti",
+        "--labels",
+        l,
+        "--images",
+        i,
+        "--out",
+        fresh.to_str().unwrap(),
+    ])
+    .unwrap();
+    assert!(stderr(&bad).contains("000002.png: is not a regular file"), "{}", stderr(&bad));
+    assert!(!fresh.exists());
+    let listed = out.join(coco["images"][1]["file_name"].as_str().unwrap());
+    std::fs::remove_file(&listed).unwrap();
+    assert!(Command::new("mkfifo").arg(&listed).status().unwrap().success());
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../weights/detector.safetensors");
+    let list = out.join("annotations.json");
+    let dt = dir.path().join("dt.json");
+    let (w, li, d) = (weights.to_str().unwrap(), list.to_str().unwrap(), dt.to_str().unwrap());
+    let o = bounded(&["detect", "--weights", w, "--images", li, "--out", d]).unwrap();
+    assert!(stderr(&o).contains("is not a regular file"), "{}", stderr(&o));
 }

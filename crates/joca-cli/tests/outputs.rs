@@ -257,3 +257,41 @@ fn report_names_a_bad_event_line_and_keeps_the_rest() {
     assert!(std::fs::read_to_string(out.join("report.md")).unwrap().contains(&note));
     assert!(std::fs::read_dir(out.join("figures")).unwrap().count() > 0);
 }
+
+/// SIGTERM and SIGINT (a scheduler's stop, Ctrl-C) end a run as kill -9 does, and `--resume`
+/// continues it to results byte-identical to a run never stopped.
+#[test]
+fn a_run_stopped_by_sigterm_or_sigint_resumes_to_the_same_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("run.toml");
+    std::fs::write(&cfg, TINY_RUN.replace("generations = 1", "generations = 3")).unwrap();
+    let whole = dir.path().join("whole");
+    let o = joca(&["run", "--config", s(&cfg), "--out", s(&whole)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let expected = std::fs::read(whole.join("results.json")).unwrap();
+    for (name, signal) in [("term", "-TERM"), ("int", "-INT")] {
+        let out = dir.path().join(name);
+        let args = ["run", "--config", s(&cfg), "--out", s(&out)];
+        let mut child = Command::new(env!("CARGO_BIN_EXE_joca"))
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        // Stopped once the first candidate's checkpoint is written, mid-run.
+        let started = Instant::now();
+        while !out.join("checkpoint").exists() {
+            assert!(started.elapsed() < Duration::from_secs(300), "no checkpoint was written");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        std::thread::sleep(Duration::from_millis(300));
+        let sent = Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap();
+        assert!(sent.success());
+        let status = child.wait().unwrap();
+        assert!(!out.join("results.json").exists(), "{name}: the run ended before the signal");
+        assert!(!status.success());
+        let o = joca(&[&args[..], &["--resume"]].concat());
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert_eq!(std::fs::read(out.join("results.json")).unwrap(), expected, "{name}");
+    }
+}

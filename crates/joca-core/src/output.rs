@@ -199,6 +199,21 @@ pub struct DirLock {
     _file: File,
 }
 
+/// Who holds `dir`'s lock now (its description), or `None` where no process does; the lock is
+/// only tried, never kept.
+pub fn lock_holder(dir: &Path) -> Option<String> {
+    let mut file = File::open(dir.join(LOCK_FILE)).ok()?;
+    match file.try_lock_shared() {
+        Ok(()) => None,
+        Err(TryLockError::WouldBlock) => {
+            let mut text = String::new();
+            let _ = file.read_to_string(&mut text);
+            Some(if text.trim().is_empty() { "holder unknown".into() } else { text.trim().into() })
+        }
+        Err(TryLockError::Error(_)) => None,
+    }
+}
+
 impl DirLock {
     /// Takes the lock of `dir` for `holder` (what the lock file tells a refused second writer,
     /// e.g. "joca run"), or refuses naming the current holder.

@@ -151,6 +151,10 @@ impl Import {
                 ));
             }
         }
+        // A FIFO or device among the frames would block the copy for good: refused first.
+        if let Some(f) = self.frames.iter().find(|f| !f.source.is_file()) {
+            return Err(not_a_file(&f.source));
+        }
         for f in &self.frames {
             let to = dir.join(&f.file_name);
             if let Some(parent) = to.parent() {
@@ -217,10 +221,27 @@ fn numbered(dir: &Path, extensions: &[&str]) -> Result<Vec<(u64, PathBuf)>, Data
             ));
         }
     }
+    if let Some((_, p)) = files.iter().find(|(_, p)| !p.is_file()) {
+        return Err(not_a_file(p));
+    }
     Ok(files)
 }
 
+/// A FIFO, device or folder where a frame or label file should be: opening it could block for
+/// good, so it is refused.
+fn not_a_file(path: &Path) -> DataError {
+    err(
+        path,
+        None,
+        "is not a regular file (a FIFO, a device or a folder): frames and labels are read from \
+         files only",
+    )
+}
+
 fn dimensions(path: &Path) -> Result<(u32, u32), DataError> {
+    if !path.is_file() {
+        return Err(not_a_file(path));
+    }
     image::image_dimensions(path).map_err(|source| DataError::Image {
         path: path.to_path_buf(),
         what: "the image".into(),

@@ -106,6 +106,7 @@ pub fn run(args: &Args) -> Result<()> {
     if args.prepare {
         return print_status(&exp, &dir);
     }
+    complete_reports(&dir, &exp)?;
     let mut todo: Vec<&Cell> = exp
         .cells
         .iter()
@@ -175,6 +176,23 @@ pub fn run(args: &Args) -> Result<()> {
             failed.len(),
             failed.join(", ")
         );
+    }
+    Ok(())
+}
+
+/// Writes the run report of every finished cell that lacks one (a cell killed between its
+/// `results.json` and its report); compact cells (no `events.jsonl`) have none by design.
+fn complete_reports(dir: &Path, exp: &Experiment) -> Result<()> {
+    for cell in &exp.cells {
+        let cell_dir = Manifest::cell_dir(dir, &cell.spec);
+        if cell_dir.join("results.json").is_file()
+            && cell_dir.join("events.jsonl").is_file()
+            && !cell_dir.join("report.md").is_file()
+        {
+            joca_report::write_run_report(&cell_dir)
+                .with_context(|| format!("cannot write the report of {}", cell_dir.display()))?;
+            println!("  wrote the missing report of {}", cell.spec.id);
+        }
     }
     Ok(())
 }
@@ -254,7 +272,7 @@ fn print_status(exp: &Experiment, dir: &Path) -> Result<()> {
         println!("{}: not started (no {})", dir.display(), Manifest::FILE);
         return Ok(());
     }
-    let mut counts = [0usize; 3];
+    let mut counts = [0usize; 5];
     for cell in &exp.cells {
         let state = Manifest::state(dir, &cell.spec);
         let cell_dir = Manifest::cell_dir(dir, &cell.spec);
@@ -278,6 +296,10 @@ fn print_status(exp: &Experiment, dir: &Path) -> Result<()> {
                 };
                 ("done", extra)
             }
+            _ if let Some(holder) = output::lock_holder(&cell_dir) => {
+                counts[3] += 1;
+                ("running", holder)
+            }
             joca_report::CellState::Partial => {
                 counts[1] += 1;
                 let n = std::fs::read_to_string(cell_dir.join("events.jsonl"))
@@ -290,18 +312,43 @@ fn print_status(exp: &Experiment, dir: &Path) -> Result<()> {
                 ("missing", String::new())
             }
         };
+        let (name, extra) = match stale_fields(&cell_dir, cell) {
+            Some(fields) => {
+                counts[4] += 1;
+                ("stale", format!("its cell.toml differs from the grid in {fields}; {extra}"))
+            }
+            None => (name, extra),
+        };
         println!("  {name:<8} {:<32} {extra}", cell.spec.id);
     }
     println!(
-        "{}: {} done, {} partial, {} missing of {}",
+        "{}: {} done, {} running, {} partial, {} missing of {}{}",
         dir.display(),
         counts[0],
+        counts[3],
         counts[1],
         counts[2],
-        exp.cells.len()
+        exp.cells.len(),
+        if counts[4] > 0 {
+            format!(
+                " ({} stale: made with another configuration, refused until moved away)",
+                counts[4]
+            )
+        } else {
+            String::new()
+        }
     );
     slurm::print_status(dir);
     Ok(())
+}
+
+/// The fields in which a cell's `cell.toml` differs from the grid's configuration for it, as
+/// `prepare` compares them; `None` when it matches or is not written yet.
+fn stale_fields(cell_dir: &Path, cell: &Cell) -> Option<String> {
+    let text = std::fs::read_to_string(cell_dir.join("cell.toml")).ok()?;
+    let old: CellFile = toml::from_str(&text).ok()?;
+    let fields = joca_train::differing_fields(&old.run.as_read(), &cell.config.as_read());
+    (!fields.is_empty()).then(|| fields.join(", "))
 }
 
 /// Runs `joca cell`: run or resume the cell whose `cell.toml` is in the directory.
@@ -318,6 +365,11 @@ pub fn run_cell(args: &CellArgs) -> Result<()> {
     let neural = cell.run.method.neural();
     if dir.join("results.json").is_file() {
         println!("{}: run already finished", dir.display());
+        if !dir.join("report.md").is_file() {
+            // Killed between its results and its report: the report is all that is missing.
+            joca_report::write_run_report(dir)
+                .with_context(|| format!("cannot write the report of {}", dir.display()))?;
+        }
     } else {
         execute(cell.run, dir, true)?;
     }

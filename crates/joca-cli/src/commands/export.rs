@@ -7,8 +7,10 @@
 //! (`results*.json`, `best_design.json`, `reused.json`), `events.jsonl` without the training
 //! steps (generations, candidates and the warm start stay), and each test's `showcase.json`
 //! with the settings and light of every frame but no boxes, detections or frames. The export is
-//! written beside its destination and moved into place whole.
+//! staged beside its destination and moved into place whole (`crate::io::StagedDir`: an earlier
+//! export holding files it did not write is refused, naming them).
 
+use crate::io::StagedDir;
 use anyhow::{Context, Result, bail};
 use joca_core::output::{self, OutputKind};
 use joca_report::Manifest;
@@ -21,7 +23,8 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     /// A finished run directory or an experiment directory.
     dir: PathBuf,
-    /// The folder to write: new, empty, or an earlier export of the same kind (replaced whole).
+    /// The folder to write: new, empty, or an earlier export of the same kind (replaced whole,
+    /// unless it holds files the export did not write).
     to: PathBuf,
 }
 
@@ -57,17 +60,10 @@ pub fn run(args: &Args) -> Result<()> {
         ),
     };
     check_destination(from, to, kind)?;
-    let staging = staging_dir(to)?;
-    let written = match kind {
-        OutputKind::Experiment => export_experiment(from, &staging),
-        _ => export_run(from, &staging).map(|()| 1),
-    };
-    let runs = match written {
-        Ok(n) => n,
-        Err(e) => {
-            let _ = std::fs::remove_dir_all(&staging);
-            return Err(e);
-        }
+    let staged = StagedDir::create(to, kind)?;
+    let runs = match kind {
+        OutputKind::Experiment => export_experiment(from, staged.path())?,
+        _ => export_run(from, staged.path()).map(|()| 1)?,
     };
     let record = ExportRecord {
         from: from.canonicalize().unwrap_or_else(|_| from.clone()),
@@ -75,8 +71,9 @@ pub fn run(args: &Args) -> Result<()> {
         runs,
         left_out: LEFT_OUT.to_owned(),
     };
-    joca_train::write_atomic(&staging.join(EXPORT_FILE), &serde_json::to_string_pretty(&record)?)?;
-    replace_whole(&staging, to)?;
+    let text = serde_json::to_string_pretty(&record)?;
+    joca_train::write_atomic(&staged.path().join(EXPORT_FILE), &text)?;
+    staged.finish()?;
     println!(
         "exported {runs} finished run(s) of {} to {} ({} left out); `joca report {}` rebuilds its \
          tables",
@@ -113,46 +110,6 @@ fn check_destination(from: &Path, to: &Path, kind: OutputKind) -> Result<()> {
             kind.name()
         ),
     }
-}
-
-/// The folder the export is written into before it is moved into place: `.<name>.export-partial`
-/// beside `to` (an earlier killed export's is removed; anything else by that name is refused).
-fn staging_dir(to: &Path) -> Result<PathBuf> {
-    let name = to.file_name().context("the destination has no folder name")?;
-    let staging = to.with_file_name(format!(".{}.export-partial", name.to_string_lossy()));
-    if staging.exists() {
-        if output::marked_kind(&staging).is_none() {
-            bail!(
-                "{} exists and is not an interrupted export of joca's: move it away first",
-                staging.display()
-            );
-        }
-        std::fs::remove_dir_all(&staging)
-            .with_context(|| format!("cannot remove {}", staging.display()))?;
-    }
-    Ok(staging)
-}
-
-/// Moves `staging` to `to`, replacing an earlier export (or an empty folder) whole.
-fn replace_whole(staging: &Path, to: &Path) -> Result<()> {
-    if to.exists() {
-        let old = to.with_file_name(format!(
-            ".{}.export-old",
-            to.file_name().unwrap_or_default().to_string_lossy()
-        ));
-        if old.exists() {
-            std::fs::remove_dir_all(&old)?;
-        }
-        std::fs::rename(to, &old).with_context(|| format!("cannot move {} aside", to.display()))?;
-        std::fs::rename(staging, to)
-            .with_context(|| format!("cannot move the export into {}", to.display()))?;
-        std::fs::remove_dir_all(&old)
-            .with_context(|| format!("cannot remove {}", old.display()))?;
-    } else {
-        std::fs::rename(staging, to)
-            .with_context(|| format!("cannot move the export into {}", to.display()))?;
-    }
-    Ok(())
 }
 
 /// Exports an experiment's manifest, tables and finished cells; returns the cells exported.

@@ -48,6 +48,8 @@ pub fn run(args: &Args) -> Result<()> {
             output::MARKER
         ),
     }
+    // Written by joca: an export's next refresh replaces them without asking.
+    crate::io::extend_inventory(dir, &["report.md", "report.html", "results.csv", "figures"])?;
     println!(
         "wrote {}, {} and {}",
         dir.join("report.md").display(),

@@ -11,18 +11,21 @@
 //! held fixed (`run.design`), as cell `<variant>-<scenario>-<design>`.
 
 mod cache;
+mod checks;
 mod panel;
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
 use joca_core::output::{self, OutputKind};
 use joca_report::{CellSpec, Manifest};
-use joca_train::{Method, RunConfig, Scenario, TestController, differing_fields};
+use joca_train::{RunConfig, TestController, differing_fields};
 use panel::{PanelDesign, PanelFile, valid_id};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 pub use cache::{REUSED, reuse};
+pub use checks::real_cell_dir;
+use checks::{check_method, check_scenarios, check_unique_ids};
 
 /// The experiments shipped with joca, by name.
 pub const EXPERIMENTS: [(&str, &str); 11] = [
@@ -204,9 +207,7 @@ pub fn resolve(
     check_method(&file.run, &source, "[run]")?;
     file.follow_up.check(&source)?;
     let mut cells = Vec::new();
-    for scenario in &file.scenarios {
-        Scenario::from_name(scenario).map_err(|e| anyhow!("{source}: scenarios: {e}"))?;
-    }
+    check_scenarios(&file.scenarios, &source)?;
     let designs: Vec<Option<PanelDesign>> = match &file.panel {
         Some(p) => p.resolve(&source)?.into_iter().map(Some).collect(),
         None => vec![None],
@@ -253,7 +254,8 @@ pub fn resolve(
                 let config =
                     RunConfig { design: design.as_ref().map(|d| d.spec.clone()), ..config.clone() };
                 config.validate().with_context(|| {
-                    format!("{source}: variant {:?}, scenario {scenario}, panel design", v.id)
+                    let d = design.as_ref().map_or(String::new(), |d| format!(" {:?}", d.id));
+                    format!("{source}: variant {:?}, scenario {scenario}, panel design{d}", v.id)
                 })?;
                 let base = match design {
                     Some(d) => format!("{}-{scenario}-{}", v.id, d.id),
@@ -279,6 +281,7 @@ pub fn resolve(
             }
         }
     }
+    check_unique_ids(&cells, &source)?;
     // Rows of a group together: order by scenario as listed, then variant (already so).
     Ok(Experiment {
         manifest: Manifest {
@@ -291,16 +294,6 @@ pub fn resolve(
         },
         cells,
     })
-}
-
-/// A `method` value in `table` must name a method; the error lists the valid ones.
-fn check_method(table: &toml::Table, source: &str, what: &str) -> Result<()> {
-    if let Some(m) = table.get("method") {
-        let name =
-            m.as_str().ok_or_else(|| anyhow!("{source}: {what}: method must be a string"))?;
-        Method::from_name(name).map_err(|e| anyhow!("{source}: {what}: {e}"))?;
-    }
-    Ok(())
 }
 
 /// How tables title a scenario (the paper's names).
@@ -354,24 +347,6 @@ pub fn prepare(exp: &Experiment, dir: &Path) -> Result<()> {
         &dir.join(Manifest::FILE),
         &serde_json::to_string_pretty(&exp.manifest)?,
     )?;
-    Ok(())
-}
-
-/// Refuses a cell folder that is, or sits below, a symbolic link inside the experiment
-/// directory `exp`: joca would write through it into a folder that is not the experiment's.
-pub fn real_cell_dir(exp: &Path, cell_dir: &Path) -> Result<()> {
-    let inside = cell_dir.strip_prefix(exp).unwrap_or(cell_dir);
-    let mut path = exp.to_path_buf();
-    for part in inside.components() {
-        path.push(part);
-        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_symlink()) {
-            bail!(
-                "{} is a symbolic link: an experiment's cells must be real folders inside it \
-                 (joca would write through the link); remove the link to run the cell",
-                path.display()
-            );
-        }
-    }
     Ok(())
 }
 

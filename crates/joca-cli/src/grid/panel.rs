@@ -80,6 +80,13 @@ impl PanelFile {
                 bail!("{what}: the id must be letters, digits, '-' or '_'");
             }
             let spec = e.spec().with_context(|| what.clone())?;
+            if let Some(other) = out.iter().find(|d| d.spec == spec) {
+                bail!(
+                    "{what}: the same design as {:?}; list each design once (a design's cells \
+                     would otherwise be run twice under two names)",
+                    other.id
+                );
+            }
             push(&mut out, PanelDesign { id: e.id.clone(), spec }, &what)?;
         }
         for dir in &self.from_runs {
@@ -130,8 +137,8 @@ fn check(spec: &DesignSpec) -> Result<()> {
     spec.design().map(|_| ()).map_err(|e| anyhow!("{e}"))
 }
 
-/// Adds `design` unless the panel holds it already (under any id); two designs under one id are
-/// refused.
+/// Adds `design` unless the panel holds it already (under any id: a design two runs chose is
+/// kept once); two designs under one id are refused.
 fn push(out: &mut Vec<PanelDesign>, design: PanelDesign, what: &str) -> Result<()> {
     if out.iter().any(|d| d.spec == design.spec) {
         return Ok(());

@@ -1,6 +1,7 @@
 //! Resolving grids: built-in experiments, seeds and design panels.
 
 use super::*;
+use joca_train::Method;
 
 #[test]
 fn every_built_in_experiment_resolves_with_every_preset() {
@@ -159,6 +160,36 @@ fn a_bad_panel_names_the_entry_the_field_and_the_file() {
     assert!(e.contains("variant \"neural\" sets `design`"), "{e}");
     let e = err("", &|s| s.replace("id = \"wide\"", "id = \"flir\""));
     assert!(e.contains("id \"flir\" names two different designs"), "{e}");
+    // One design under two ids, a scenario twice, two cells composed to one id, and an
+    // f-number the pinhole cannot have: each refused naming what to change.
+    let e = err("", &|s| {
+        s.replace(
+            "  { id = \"wide\"",
+            "  { id = \"flir2\", camera = \"flir\" },\n  { id = \"wide\"",
+        )
+    });
+    assert!(e.contains("design \"flir2\": the same design as \"flir\""), "{e}");
+    let e =
+        err("", &|s| s.replace("[\"calibrated\"]", "[\"calibrated\", \"blur4\", \"calibrated\"]"));
+    assert!(e.contains("scenarios: \"calibrated\" is listed twice"), "{e}");
+    let e = err("", &|s| {
+        s.replace("[\"calibrated\"]", "[\"calibrated\", \"blur4\"]")
+            .replace("id = \"wide\"", "id = \"blur4-flir\"")
+            .replace("id = \"average\"", "id = \"neural-calibrated\"")
+    });
+    assert!(
+        e.contains("two cells would be named \"neural-calibrated-blur4-flir-s0\"")
+            && e.contains("the variant labelled \"AverageAE\" (tacos-average), scenario blur4")
+            && e.contains("rename a variant or a panel design"),
+        "{e}"
+    );
+    let e = err("", &|s| s.replace("z_m = 1.6 }", "z_m = 1.6, f_number = 2.8 }"));
+    assert!(
+        e.contains("panel design \"wide\"")
+            && e.contains("design.f_number")
+            && e.contains("lens = \"thin\""),
+        "{e}"
+    );
 }
 
 /// A prepared cell is checked against the grid in the fields its method reads: an AverageAE cell

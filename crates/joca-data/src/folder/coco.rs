@@ -135,6 +135,13 @@ pub fn inside(dir: &Path, name: &str) -> Result<PathBuf, String> {
             real.display()
         ));
     }
+    // Opening a FIFO or a device would block or never end: only regular files are frames.
+    if path.exists() && !path.is_file() {
+        return Err(format!(
+            "file_name {name:?} is not a regular file (a FIFO, a device or a folder): frames are \
+             read from files only"
+        ));
+    }
     Ok(path)
 }
 

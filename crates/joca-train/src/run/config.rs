@@ -290,6 +290,16 @@ impl RunConfig {
         }
         if let Some(d) = &self.design {
             d.design().map_err(|e| design_error(e, d))?;
+            if let Some(n) = d.f_number.filter(|&n| {
+                self.lens == LensModel::Pinhole && n != joca_core::optics::CALIBRATION_F_NUMBER
+            }) {
+                return bad(
+                    "design.f_number",
+                    n.to_string(),
+                    "16 or absent with lens = \"pinhole\" (the pinhole has the calibration's \
+                     light); set lens = \"thin\" for a design behind another f-number",
+                );
+            }
         }
         self.real.folder_config()?;
         Ok(())
