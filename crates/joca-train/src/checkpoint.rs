@@ -78,7 +78,7 @@ pub(crate) fn sha256_of(path: &Path) -> Result<String, TrainError> {
 }
 
 /// Lists the SHA-256 of every file in checkpoint folder `dir` in [`DIGESTS`].
-fn write_digests(dir: &Path) -> Result<(), TrainError> {
+pub(crate) fn write_digests(dir: &Path) -> Result<(), TrainError> {
     let mut digests = std::collections::BTreeMap::new();
     for entry in std::fs::read_dir(dir).map_err(|e| TrainError::io(dir, e))? {
         let path = entry.map_err(|e| TrainError::io(dir, e))?.path();

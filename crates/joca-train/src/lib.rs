@@ -27,10 +27,10 @@ pub use pretrain::{
     PretrainEvent, differing_fields, evaluate_weights, pretrain, reference_design,
 };
 pub use run::{
-    AccOutput, DesignSpec, DesignSummary, EvalOptions, FNumberRange, FixedCamera, HardwareMutation,
-    MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MAX_TEST_TOWN, Method, PerturbationMutation,
-    PerturbationScore, PerturbationSteps, RealConfig, ReferenceConfig, RunConfig, RunEvent,
-    RunResults, Scenario, SearchTies, Showcase, ShowcaseFrame, Source, StepBreakdown, TieBreak,
-    TrainingScenes, WarmStart, bench_step, check_town, cpu_description, evaluate_run, headroom,
-    run,
+    AccOutput, CheckpointTiming, DesignSpec, DesignSummary, EvalOptions, FNumberRange, FixedCamera,
+    HardwareMutation, MAX_REFERENCE_RANGE_M, MAX_SPEED_MPS, MAX_TEST_TOWN, Method,
+    PerturbationMutation, PerturbationScore, PerturbationSteps, RealConfig, ReferenceConfig,
+    RunConfig, RunEvent, RunResults, Scenario, SearchTies, Showcase, ShowcaseFrame, Source,
+    StepBreakdown, TieBreak, TrainingScenes, WarmStart, bench_checkpoint, bench_step, check_town,
+    cpu_description, evaluate_run, headroom, run,
 };

@@ -66,7 +66,7 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use timing::Stopwatch;
-pub use timing::{StepBreakdown, bench_step};
+pub use timing::{CheckpointTiming, StepBreakdown, bench_checkpoint, bench_step};
 
 /// Progress of a run.
 #[derive(Debug, Clone)]

@@ -181,3 +181,60 @@ pub fn bench_step(
     let t = cx.watch.breakdown.unwrap_or_default();
     Ok(t.scaled(1.0 / t.steps.max(1) as f64))
 }
+
+/// What a checkpoint costs to write and to prove (`joca bench checkpoint`), best of the
+/// repetitions, milliseconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct CheckpointTiming {
+    /// Bytes in the checkpoint (model, optimiser states, run state).
+    pub bytes: u64,
+    /// Writing its files (what `--resume` needs), without the digests.
+    pub write_ms: f64,
+    /// Hashing every file into `digests.json` (written last).
+    pub digest_ms: f64,
+    /// Checking every file against `digests.json` (what `--resume` and `eval` do first).
+    pub verify_ms: f64,
+}
+
+/// Writes the run's model (detector, NeuralAE, both optimisers) as a checkpoint into `dir`
+/// `repeats` times, timing the files, their digests and their verification apart.
+pub fn bench_checkpoint(
+    config: &RunConfig,
+    dir: &std::path::Path,
+    repeats: usize,
+) -> Result<CheckpointTiming, TrainError> {
+    config.validate()?;
+    let (_cx, model) = setup(config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
+    let mut best = CheckpointTiming {
+        write_ms: f64::INFINITY,
+        digest_ms: f64::INFINITY,
+        verify_ms: f64::INFINITY,
+        bytes: 0,
+    };
+    let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
+    for _ in 0..repeats.max(1) + 1 {
+        if dir.exists() {
+            std::fs::remove_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
+        }
+        std::fs::create_dir_all(dir).map_err(|e| TrainError::io(dir, e))?;
+        let t = Instant::now();
+        model.save(dir)?;
+        crate::checkpoint::write_atomic(&dir.join("state.json"), "{}")?;
+        let write = ms(t);
+        let t = Instant::now();
+        crate::checkpoint::write_digests(dir)?;
+        let digest = ms(t);
+        let t = Instant::now();
+        crate::checkpoint::verify_checkpoint(dir)?;
+        let verify = ms(t);
+        best.write_ms = best.write_ms.min(write);
+        best.digest_ms = best.digest_ms.min(digest);
+        best.verify_ms = best.verify_ms.min(verify);
+    }
+    best.bytes = std::fs::read_dir(dir)
+        .map_err(|e| TrainError::io(dir, e))?
+        .filter_map(|e| e.ok()?.metadata().ok())
+        .map(|m| m.len())
+        .sum();
+    Ok(best)
+}

@@ -33,6 +33,9 @@ pub enum Target {
     Step,
     /// DIS optical flow on a 1920×1280 pair (each preset, 1 and 2 threads) and flow-based blur.
     Flow,
+    /// A run's checkpoint (the preset's detector and NeuralAE with their optimisers): writing
+    /// its files, their SHA-256 digests, and verifying them.
+    Checkpoint,
 }
 
 /// Arguments of `joca bench`.
@@ -58,7 +61,8 @@ pub struct Args {
     /// for `bench flow` (each is skipped, with a message, where it cannot be imported).
     #[arg(long, default_value = "python3")]
     python: String,
-    /// Preset whose [run] settings `bench step` uses (detector input, threads, weights).
+    /// Preset whose [run] settings `bench step` and `bench checkpoint` use (detector input,
+    /// threads, weights).
     #[arg(long, default_value = "quick")]
     preset: String,
     /// `bench flow`: a pair of frames to measure on (same size) instead of the built-in one.
@@ -75,7 +79,7 @@ pub struct Args {
 
 /// Runs `joca bench`.
 pub fn run(args: &Args) -> Result<()> {
-    if matches!(args.target, Target::Detector | Target::Step) {
+    if matches!(args.target, Target::Detector | Target::Step | Target::Checkpoint) {
         println!(
             "libtorch CPU kernels: {} (JOCA_CPU_KERNELS; the PyTorch reference inherits them); \
              subnormal floats: {} (JOCA_DENORMALS)",
@@ -96,6 +100,7 @@ pub fn run(args: &Args) -> Result<()> {
         }
         Target::Step => bench_step(args.repeats.max(2), &args.preset),
         Target::Flow => flow::bench_flow(args),
+        Target::Checkpoint => step::bench_checkpoint(args.repeats.max(1), &args.preset),
     }
 }
 

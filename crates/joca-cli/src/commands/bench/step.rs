@@ -103,3 +103,44 @@ pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
     );
     Ok(())
 }
+
+/// `joca bench checkpoint`: what proving a checkpoint (SHA-256 of every file, written last and
+/// checked before a resume or an eval) costs beside writing it.
+pub(super) fn bench_checkpoint(repeats: usize, preset: &str) -> Result<()> {
+    use joca_train::{Method, RunConfig};
+    let mut cfg: RunConfig = crate::config::load(preset, None, "run")?;
+    cfg.method = Method::Joca;
+    crate::commands::run::resolve_weights(&mut cfg);
+    let dir = tempfile_dir()?;
+    let t = joca_train::bench_checkpoint(&cfg, &dir, repeats);
+    let _ = std::fs::remove_dir_all(&dir);
+    let t = t?;
+    println!(
+        "checkpoint of a `{preset}` run (detector, NeuralAE, both optimisers): {:.1} MB, best of \
+            {repeats}, on {}",
+        t.bytes as f64 / 1e6,
+        joca_train::cpu_description()
+    );
+    println!("{:<44} {:>9}", "part", "ms");
+    println!("{:<44} {:>9.1}", "write the files", t.write_ms);
+    println!(
+        "{:<44} {:>9.1}  ({:.1} % of the write)",
+        "SHA-256 of every file (digests.json)",
+        t.digest_ms,
+        100.0 * t.digest_ms / t.write_ms
+    );
+    println!(
+        "{:<44} {:>9.1}  ({:.1} % of the write)",
+        "verify before --resume / eval",
+        t.verify_ms,
+        100.0 * t.verify_ms / t.write_ms
+    );
+    Ok(())
+}
+
+/// A fresh folder under the system's temporary directory.
+fn tempfile_dir() -> Result<std::path::PathBuf> {
+    let dir = std::env::temp_dir().join(format!("joca-bench-checkpoint-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    Ok(dir)
+}
