@@ -57,6 +57,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// Writes an 8-bit RGB frame as PNG (atomically, see [`write_atomic`]).
 pub fn write_png(path: &Path, frame: &Rgb8Image) -> Result<()> {
+    write_atomic(path, &png_bytes(frame)?)
+}
+
+/// An 8-bit RGB frame encoded as PNG.
+pub fn png_bytes(frame: &Rgb8Image) -> Result<Vec<u8>> {
     let (w, h) = (u32::try_from(frame.width())?, u32::try_from(frame.height())?);
     let mut bytes = Vec::new();
     image::ImageEncoder::write_image(
@@ -66,8 +71,39 @@ pub fn write_png(path: &Path, frame: &Rgb8Image) -> Result<()> {
         h,
         image::ExtendedColorType::Rgb8,
     )
-    .with_context(|| format!("cannot encode {}", path.display()))?;
-    write_atomic(path, &bytes)
+    .context("cannot encode a PNG")?;
+    Ok(bytes)
+}
+
+/// Writes every file of `files` or none: each goes to a temporary sibling first, and only when
+/// all are written are they renamed into place; a failure removes the temporaries and leaves
+/// every path as it was. A path that is a folder is refused before anything is written.
+pub fn write_all_or_none(files: &[(&Path, Vec<u8>)]) -> Result<()> {
+    if let Some((path, _)) = files.iter().find(|(p, _)| p.is_dir()) {
+        bail!("{} is a folder: give a file path for this output", path.display());
+    }
+    let mut written: Vec<PathBuf> = Vec::new();
+    let mut result = Ok(());
+    for (path, bytes) in files {
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let temp = path.with_file_name(format!(".{name}.joca-partial"));
+        result = write_atomic(&temp, bytes);
+        if result.is_err() {
+            break;
+        }
+        written.push(temp);
+    }
+    if result.is_ok() {
+        for ((path, _), temp) in files.iter().zip(&written) {
+            std::fs::rename(temp, path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        return Ok(());
+    }
+    for temp in written {
+        let _ = std::fs::remove_file(temp);
+    }
+    result
 }
 
 /// An output folder written in full or not at all: everything goes into a temporary sibling

@@ -50,6 +50,23 @@ fn flow_reports_motion_and_refuses_bad_input() {
     let args = [a.to_str().unwrap(), b.to_str().unwrap(), "--out", out.to_str().unwrap()];
     let o = joca(&[&["flow"], &args[..], &["--flo", flo.to_str().unwrap()]].concat());
     assert!(o.status.success() && flo.is_file(), "{}", stderr(&o));
+    // All outputs or none: a --flo that cannot be written (a folder; a path below a file)
+    // leaves no --out or --warped behind, nor a temporary.
+    let fresh = dir.path().join("fresh.png");
+    let warped = dir.path().join("warped.png");
+    let (f, w) = (fresh.to_str().unwrap(), warped.to_str().unwrap());
+    let below_a_file = a.join("x.flo");
+    for bad in [dir.path(), below_a_file.as_path()] {
+        let (x, y) = (a.to_str().unwrap(), b.to_str().unwrap());
+        let o = joca(&["flow", x, y, "--out", f, "--warped", w, "--flo", bad.to_str().unwrap()]);
+        assert!(!o.status.success(), "{}", stdout(&o));
+        let left: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains("fresh") || n.contains("warped"))
+            .collect();
+        assert!(left.is_empty(), "{left:?}: {}", stderr(&o));
+    }
     let o = joca(&[&["flow"], &args[..], &["--gt", flo.to_str().unwrap()]].concat());
     assert!(stdout(&o).contains("end-point error 0.000 px, 0.00 %"), "{}", stdout(&o));
     let o = joca(&[&["flow"], &args[..], &["--gt", truth.to_str().unwrap()]].concat());

@@ -8,7 +8,6 @@ use joca_core::{HdrImage, Rgb8Image};
 use joca_data::blur::{Linearize, motion_blur, samples_for};
 use joca_data::flow::{
     DisParams, DisPreset, Flow, Gray, accuracy, colour_code, dis, read_disparity, read_flo,
-    write_flo,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -166,12 +165,16 @@ pub fn run_flow(args: &FlowArgs) -> Result<()> {
             acc.known
         );
     }
-    write_png(&args.out, &colours)?;
+    // All outputs or none: a later one that cannot be written leaves no earlier one behind.
+    let mut files = vec![(args.out.as_path(), crate::io::png_bytes(&colours)?)];
     if let Some(path) = &args.warped {
-        write_png(path, &warped)?;
+        files.push((path.as_path(), crate::io::png_bytes(&warped)?));
     }
     if let Some(path) = &args.flo {
-        write_flo(path, &flow)?;
+        files.push((path.as_path(), joca_data::flow::flo_bytes(&flow)));
+    }
+    crate::io::write_all_or_none(&files)?;
+    if let Some(path) = &args.flo {
         println!("flow field: {}", path.display());
     }
     println!("flow: {}", args.out.display());

@@ -28,6 +28,11 @@ fn err(path: &Path, reason: impl Into<String>) -> DataError {
 
 /// Writes `flow` as a Middlebury `.flo` file.
 pub fn write_flo(path: &Path, flow: &Flow) -> Result<(), DataError> {
+    joca_core::fs::write_atomic(path, &flo_bytes(flow)).map_err(DataError::io(path, "write"))
+}
+
+/// The Middlebury `.flo` encoding of `flow` (what [`write_flo`] writes).
+pub fn flo_bytes(flow: &Flow) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(12 + 8 * flow.data().len());
     bytes.extend_from_slice(&FLO_MAGIC.to_le_bytes());
     bytes.extend_from_slice(&(flow.width() as i32).to_le_bytes());
@@ -36,7 +41,7 @@ pub fn write_flo(path: &Path, flow: &Flow) -> Result<(), DataError> {
         bytes.extend_from_slice(&v[0].to_le_bytes());
         bytes.extend_from_slice(&v[1].to_le_bytes());
     }
-    joca_core::fs::write_atomic(path, &bytes).map_err(DataError::io(path, "write"))
+    bytes
 }
 
 /// A flow field whose vectors may be unknown (`None`).

@@ -31,7 +31,8 @@ pub mod variational;
 
 pub use colour::colour_code;
 pub use files::{
-    FLO_MAGIC, FlowAccuracy, KnownFlow, UNKNOWN_FLOW, accuracy, read_disparity, read_flo, write_flo,
+    FLO_MAGIC, FlowAccuracy, KnownFlow, UNKNOWN_FLOW, accuracy, flo_bytes, read_disparity,
+    read_flo, write_flo,
 };
 
 pub use image::{Gray, pyramid};
