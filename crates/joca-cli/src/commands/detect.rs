@@ -72,9 +72,14 @@ pub fn run(args: &Args) -> Result<()> {
         .load_weights(&args.weights)
         .with_context(|| format!("cannot load {}", args.weights.display()))?;
     let mut out = Vec::new();
+    let mut diverged = Vec::new();
     for (image, path) in list.images.iter().zip(&paths) {
         let frame = read_rgb8(path)?;
-        for d in model.detect(&frame) {
+        let found = model.detect(&frame);
+        if found.is_empty() && model.diverges_on(&frame) {
+            diverged.push(path.display().to_string());
+        }
+        for d in found {
             let b = d.bbox;
             out.push(serde_json::json!({
                 "image_id": image.id,
@@ -86,5 +91,15 @@ pub fn run(args: &Args) -> Result<()> {
     }
     crate::io::write_atomic(&args.out, serde_json::to_string(&out)?.as_bytes())?;
     println!("{} detections on {} frames: {}", out.len(), list.images.len(), args.out.display());
+    if let Some(first) = diverged.first() {
+        eprintln!(
+            "warning: the detector's outputs were NaN or infinite on {} of {} frames (first: \
+             {first}), which therefore have no detections: {} overflow in the forward pass \
+             (weights far outside a trained network's range)",
+            diverged.len(),
+            list.images.len(),
+            args.weights.display()
+        );
+    }
     Ok(())
 }

@@ -238,6 +238,16 @@ impl DetectorModel {
         decode(&out, frame.width(), frame.height(), MAX_DETECTIONS, MIN_SCORE)
     }
 
+    /// Whether the network's outputs on `frame` hold NaN or infinite values: weights that are
+    /// finite but overflow in the forward pass give no detection and no other sign.
+    pub fn diverges_on(&self, frame: &Rgb8Image) -> bool {
+        let _guard = tch::no_grad_guard();
+        let out = self.net.forward(&image_tensor(frame, self.device));
+        [&out.heatmap, &out.size, &out.offset]
+            .iter()
+            .any(|t| t.isfinite().all().int64_value(&[]) == 0)
+    }
+
     /// Detections in each of several frames of one size, through the network as one batch (the
     /// normalisation is per frame, so each frame's detections do not depend on the others).
     /// Panics if the frames differ in size.

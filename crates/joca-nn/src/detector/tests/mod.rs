@@ -60,6 +60,25 @@ fn any_input_size_gives_a_quarter_resolution_grid() {
     assert_eq!(out.features.size(), vec![1, 32, 20, 26]);
 }
 
+/// Finite weights that overflow in the forward pass (every weight ×1e30) are told apart from a
+/// network that merely finds nothing.
+#[test]
+fn weights_that_overflow_are_detected() {
+    let _serial = crate::torch_serial();
+    let engine = Engine::cpu(1);
+    let model = small_model(&engine);
+    let frame = frame_with_box(64, 48, BBox::new(10.0, 10.0, 30.0, 30.0));
+    assert!(!model.diverges_on(&frame));
+    {
+        let _guard = tch::no_grad_guard();
+        for (_, mut t) in model.vs.variables() {
+            let _ = t.g_mul_scalar_(1e30);
+        }
+    }
+    assert!(model.diverges_on(&frame));
+    assert!(model.detect(&frame).is_empty());
+}
+
 #[test]
 fn decoding_survives_nan_output() {
     let _serial = crate::torch_serial();
