@@ -115,24 +115,11 @@ pub fn reuse(exp_dir: &Path, cells: &[&Cell], roots: &[PathBuf]) -> Result<Vec<S
         });
         let Some(from) = this_build else {
             for c in &same {
-                let commit = c.results.provenance.as_ref().map(|p| p.commit_label());
                 println!(
                     "  not reused for {}: {} has its configuration but {}",
                     cell.spec.id,
                     c.dir.display(),
-                    match commit {
-                        Some(label)
-                            if !c
-                                .results
-                                .provenance
-                                .as_ref()
-                                .is_some_and(|p| p.is_this_build()) =>
-                            format!(
-                                "was computed by commit {label} (this joca: {})",
-                                this_commit_label()
-                            ),
-                        _ => "lacks follow-up tests and the checkpoint to run them".to_owned(),
-                    }
+                    why_not(c)
                 );
             }
             continue;
@@ -146,6 +133,18 @@ pub fn reuse(exp_dir: &Path, cells: &[&Cell], roots: &[PathBuf]) -> Result<Vec<S
         filled.push(cell.spec.id.clone());
     }
     Ok(filled)
+}
+
+/// Why a candidate with the cell's configuration was not taken.
+fn why_not(c: &Candidate) -> String {
+    match &c.results.provenance {
+        Some(p) if !p.is_this_build() => format!(
+            "was computed by commit {} (this joca: {})",
+            p.commit_label(),
+            this_commit_label()
+        ),
+        _ => "lacks follow-up tests and the checkpoint to run them".to_owned(),
+    }
 }
 
 fn this_commit_label() -> String {
