@@ -231,7 +231,13 @@ mod tests {
         ];
         let dir = Path::new("/tmp/exp with space/and'quote");
         let exe = Path::new("/opt/j o/joca");
-        let text = script(dir, exe, &hostile);
+        assert_eq!(through_bash(dir, exe, &hostile), hostile);
+    }
+
+    /// The cells of `script(dir, exe, cells)` as bash reads them back (and the whole script
+    /// parsed by `bash -n`).
+    fn through_bash(dir: &Path, exe: &Path, cells: &[&str]) -> Vec<String> {
+        let text = script(dir, exe, cells);
         // sbatch reads `#SBATCH` lines only before the first command: the script's second line.
         assert_eq!(text.lines().nth(1), Some("set -euo pipefail"), "{text}");
         let cells_line =
@@ -239,13 +245,23 @@ mod tests {
         let probe = format!("cells={cells_line}printf '%s\\0' \"${{cells[@]}}\"");
         let out = Command::new("bash").arg("-c").arg(&probe).output().unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let got: Vec<String> = String::from_utf8(out.stdout)
-            .unwrap()
-            .split_terminator('\0')
-            .map(str::to_owned)
-            .collect();
-        assert_eq!(got, hostile);
         assert!(Command::new("bash").arg("-n").arg("-c").arg(&text).status().unwrap().success());
+        String::from_utf8(out.stdout).unwrap().split_terminator('\0').map(str::to_owned).collect()
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Any strings (bash strings hold no NUL) as cells, folder and executable reach bash as
+        /// themselves.
+        #[test]
+        fn arbitrary_strings_reach_bash_as_themselves(
+            cells in proptest::collection::vec("[^\u{0}]{0,24}", 1..5),
+            dir in "[^\u{0}]{1,24}",
+            exe in "[^\u{0}]{1,24}",
+        ) {
+            let cells: Vec<&str> = cells.iter().map(String::as_str).collect();
+            proptest::prop_assert_eq!(through_bash(Path::new(&dir), Path::new(&exe), &cells), cells);
+        }
     }
 
     #[test]
