@@ -274,7 +274,11 @@ fn a_run_stopped_by_sigterm_or_sigint_resumes_to_the_same_results() {
     for (name, signal) in [("term", "-TERM"), ("int", "-INT")] {
         let out = dir.path().join(name);
         let args = ["run", "--config", s(&cfg), "--out", s(&out)];
-        let mut child = Command::new(env!("CARGO_BIN_EXE_joca"))
+        // Under `env --default-signal`: a test harness started in the background (`cmd &`)
+        // inherits SIGINT ignored, which would make the run ignore Ctrl-C here.
+        let mut child = Command::new("env")
+            .arg("--default-signal=INT,TERM")
+            .arg(env!("CARGO_BIN_EXE_joca"))
             .args(args)
             .stdout(Stdio::null())
             .stderr(Stdio::null())

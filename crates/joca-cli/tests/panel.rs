@@ -85,7 +85,7 @@ fn prepare_writes_every_cell_and_runs_none() {
     let exp = dir.path().join("exp");
     let o = cli!("experiment", file, "--config", cfg, "--seeds 2 --prepare --out", exp);
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
-    assert!(stdout(&o).contains("0 done, 0 partial, 4 missing of 4"), "{}", stdout(&o));
+    assert!(stdout(&o).contains("0 done, 0 running, 0 partial, 4 missing of 4"), "{}", stdout(&o));
     assert!(exp.join("experiment.json").is_file());
     for cell in ["average-calibrated-basler-s0", "neural-calibrated-basler-s1"] {
         let c = exp.join("cells").join(cell);
