@@ -228,7 +228,7 @@ pub fn write_experiment_report_with(
     }
     let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
     let (mut seeds_md, mut seeds_html) = crate::seeds::seeds_sections(&table.rows);
-    for (town, rows) in town_rows(exp_dir, &runs)? {
+    for (town, rows) in crate::retests::town_rows(exp_dir, &runs)? {
         let (md, html) = crate::seeds::town_sections(town, &rows);
         seeds_md.push_str(&md);
         seeds_html.push_str(&html);
@@ -239,7 +239,7 @@ pub fn write_experiment_report_with(
         crate::seeds::titled_table(md, html, 2, CONTROLS, CONTROLS_NOTE, &controls);
         seeds_md.push('\n');
     }
-    let swaps = swap_cells(exp_dir, &runs)?;
+    let swaps = crate::retests::swap_cells(exp_dir, &runs)?;
     if !swaps.is_empty() {
         let (md, html) = (&mut seeds_md, &mut seeds_html);
         let paired = crate::swap::swap_table(&swaps);
@@ -285,64 +285,6 @@ pub fn write_experiment_report_with(
     let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
     write_text(&exp_dir.join("report.html"), &page)?;
     Ok(md)
-}
-
-/// Per follow-up town (ascending), the rows of the cells tested there (`results-town<K>.json`).
-fn town_rows(
-    exp_dir: &Path,
-    runs: &[(CellSpec, RunData)],
-) -> Result<Vec<(u64, Vec<Row>)>, ReportError> {
-    let mut towns: Vec<u64> = runs.iter().flat_map(|(c, _)| c.towns.iter().copied()).collect();
-    towns.sort_unstable();
-    towns.dedup();
-    let mut out = Vec::new();
-    for town in towns {
-        let mut rows = Vec::new();
-        for (cell, _) in runs {
-            let dir = Manifest::cell_dir(exp_dir, cell);
-            if let Some(retest) = RunData::retest(&dir, &format!("town{town}"))? {
-                rows.push(Row {
-                    group: cell.group.clone(),
-                    label: cell.label.clone(),
-                    cell: cell.id.clone(),
-                    design: cell.design.clone(),
-                    results: retest.results,
-                });
-            }
-        }
-        out.push((town, rows));
-    }
-    Ok(out)
-}
-
-/// The finished NeuralAE cells that carry an AverageAE re-test, with it.
-fn swap_cells<'a>(
-    exp_dir: &Path,
-    runs: &'a [(CellSpec, RunData)],
-) -> Result<Vec<crate::swap::SwapCell<'a>>, ReportError> {
-    let mut out = Vec::new();
-    for (cell, run) in runs {
-        let dir = Manifest::cell_dir(exp_dir, cell);
-        let mut push = |town: u64, neural: RunData, average: Option<RunData>| {
-            if let Some(average) = average {
-                out.push(crate::swap::SwapCell {
-                    group: &cell.group,
-                    label: &cell.label,
-                    design: &cell.design,
-                    town,
-                    neural,
-                    average,
-                });
-            }
-        };
-        push(0, run.clone(), RunData::retest(&dir, crate::SWAP_TAG)?);
-        for &t in &cell.towns {
-            if let Some(neural) = RunData::retest(&dir, &format!("town{t}"))? {
-                push(t, neural, RunData::retest(&dir, &format!("{}-town{t}", crate::SWAP_TAG))?);
-            }
-        }
-    }
-    Ok(out)
 }
 
 /// A file-name-safe form of a label.

@@ -27,6 +27,7 @@ mod html;
 mod paired;
 mod plot;
 mod pulls;
+mod retests;
 mod seeds;
 mod swap;
 mod table;
