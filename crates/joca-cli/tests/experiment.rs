@@ -16,6 +16,7 @@ scenarios = ["calibrated", "blur4"]
 
 [follow_up]
 towns = [2]
+starting_detector = true
 
 [[variant]]
 id = "tacos"
@@ -77,6 +78,42 @@ fn experiment_files_with_unknown_methods_or_scenarios_name_them_and_the_valid_on
         "{}",
         stderr(&o)
     );
+    // A cell to run first that the grid lacks: refused before anything is written.
+    let out = dir.path().join("never");
+    let o = cli!("experiment", file, "--first joca-fog --out", out);
+    let e = stderr(&o);
+    assert!(e.contains("--first: unknown cell \"joca-fog\"") && e.contains("joca-blur4"), "{e}");
+    assert!(!out.exists());
+}
+
+/// The follow-up tests of the tiny grid's cells, and the report's tables of them.
+fn follow_ups_are_tested_and_reported(exp: &Path, md: &str) {
+    // Every NeuralAE cell is paired with its own AverageAE re-test (one unit per cell here).
+    let map = |file: &str| -> f64 {
+        let text = std::fs::read_to_string(exp.join("cells/joca-calibrated").join(file)).unwrap();
+        serde_json::from_str::<serde_json::Value>(&text).unwrap()["test"]["map"].as_f64().unwrap()
+    };
+    let d = map("results.json") - map("results-average-127.5.json");
+    let row = format!("| {} of 1 | {d:.3} |", usize::from(d > 0.0));
+    assert!(md.contains("## The learned controller against AverageAE on its own detector"), "{md}");
+    let line = |town: &str| md.lines().find(|l| l.contains(&format!("| Ours | {town} | 1 |")));
+    assert!(line("test town").is_some_and(|l| l.contains(&row)), "{row}\n{md}");
+    assert!(md.contains("| AverageAE mid-grey |"), "{md}");
+    // The follow-up test on town 2: every cell tested there, a NeuralAE cell with AverageAE too.
+    assert!(line("town 2").is_some(), "{md}");
+    for f in ["tacos-blur4/results-town2.json", "joca-blur4/results-average-127.5-town2.json"] {
+        assert!(exp.join("cells").join(f).is_file(), "{f}");
+    }
+    assert!(!exp.join("cells/tacos-blur4/results-average-127.5-town2.json").exists());
+    // The starting detector swapped back in, on both towns; the report's difference is the
+    // cell's own test minus that re-test (one seed: no interval; no frozen-detector variant).
+    let d = map("results.json") - map("results-detector-start.json");
+    let row = format!("| Calibrated | Ours | test | 1 seed | {d:.3} | – |");
+    assert!(
+        md.contains("## What training the detector changed") && md.contains(&row),
+        "{row}\n{md}"
+    );
+    assert!(exp.join("cells/tacos-blur4/results-detector-start-town2.json").is_file());
 }
 
 /// The tiny grid and its run configuration written into `dir`, and the `joca experiment`
@@ -122,23 +159,7 @@ fn an_experiment_runs_its_grid_skips_finished_cells_and_resumes_a_killed_one() {
     }
     let html = std::fs::read_to_string(exp.join("report.html")).unwrap();
     assert!(html.matches("src=\"").count() == html.matches("src=\"data:image/").count());
-    // Every NeuralAE cell is paired with its own AverageAE re-test (one unit per cell here).
-    let map = |file: &str| -> f64 {
-        let text = std::fs::read_to_string(exp.join("cells/joca-calibrated").join(file)).unwrap();
-        serde_json::from_str::<serde_json::Value>(&text).unwrap()["test"]["map"].as_f64().unwrap()
-    };
-    let d = map("results.json") - map("results-average-127.5.json");
-    let row = format!("| {} of 1 | {d:.3} |", usize::from(d > 0.0));
-    assert!(md.contains("## The learned controller against AverageAE on its own detector"), "{md}");
-    let line = |town: &str| md.lines().find(|l| l.contains(&format!("| Ours | {town} | 1 |")));
-    assert!(line("test town").is_some_and(|l| l.contains(&row)), "{row}\n{md}");
-    assert!(md.contains("| AverageAE mid-grey |"), "{md}");
-    // The follow-up test on town 2: every cell tested there, a NeuralAE cell with AverageAE too.
-    assert!(line("town 2").is_some(), "{md}");
-    for f in ["tacos-blur4/results-town2.json", "joca-blur4/results-average-127.5-town2.json"] {
-        assert!(exp.join("cells").join(f).is_file(), "{f}");
-    }
-    assert!(!exp.join("cells/tacos-blur4/results-average-127.5-town2.json").exists());
+    follow_ups_are_tested_and_reported(&exp, &md);
 
     // A killed cell: results gone, checkpoint kept -> "partial", and the next invocation
     // resumes it (its checkpoint is newer than the first three cells' results) and reports all.
@@ -291,6 +312,12 @@ fn an_export_rebuilds_the_report_and_serves_another_grid_as_a_cache() {
     assert!(!cell.join("checkpoint").exists() && !cell.join("cell.log").exists());
     let show = std::fs::read_to_string(cell.join("test/showcase.json")).unwrap();
     assert!(show.contains("\"exposure_ms\"") && show.contains("\"boxes\":[]"), "{show}");
+    // Tables only, as records are committed: no figures, the same numbers.
+    let o = joca(&["report", export.to_str().unwrap(), "--no-figures"]);
+    assert!(o.status.success() && stdout(&o).contains("(no figures)"), "{}", stderr(&o));
+    assert!(!export.join("figures").exists() && export.join("report.html").is_file());
+    assert!(!std::fs::read_to_string(export.join("report.md")).unwrap().contains(".png"));
+    assert_eq!(std::fs::read_to_string(export.join("results.csv")).unwrap(), csv);
     let o = joca(&["report", export.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(export.join("results.csv")).unwrap(), csv);

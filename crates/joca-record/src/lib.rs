@@ -25,6 +25,7 @@ mod headroom;
 mod method;
 mod provenance;
 mod results;
+mod retest;
 mod settings;
 mod showcase;
 mod vocabulary;
@@ -41,6 +42,7 @@ pub use headroom::{HEADROOM_FORMAT_VERSION, HeadroomRecord, PolicyLight, PolicyS
 pub use method::{Method, Scenario};
 pub use provenance::{BUILD_COMMIT, Provenance, config_sha256};
 pub use results::{DesignSummary, RESULTS_FORMAT_VERSION, RunResults, SearchTies, Validated};
+pub use retest::Retest;
 pub use settings::Settings;
 pub use showcase::{LightStep, Showcase, ShowcaseFrame};
 pub use vocabulary::{Light, Source, TestController};

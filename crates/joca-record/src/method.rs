@@ -29,6 +29,11 @@ impl Method {
         self != Method::FixedNeural
     }
 
+    /// Whether the detector trains in the loop (all but `frozen-detector`).
+    pub fn trains_detector(self) -> bool {
+        self != Method::FrozenDetector
+    }
+
     /// Whether the perturbation mode runs (the GA's, or the fixed perturbations').
     pub fn perturbations(self) -> bool {
         matches!(self, Method::Joca | Method::FixedPerturbation | Method::FrozenDetector)

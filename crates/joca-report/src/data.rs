@@ -3,7 +3,7 @@
 //! them with (`joca_record`).
 
 use crate::ReportError;
-use joca_record::{Event, RunResults, Showcase};
+use joca_record::{Event, Retest, RunResults, Showcase};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -97,7 +97,8 @@ impl RunData {
     /// (`results-<tag>.json` and `test-<tag>/`, as `joca eval --controller` and a NeuralAE run's
     /// own end write them), without training records (nor showcases where its test folder is
     /// gone, as in compact records); `None` where the run has none.
-    pub fn retest(dir: &Path, tag: &str) -> Result<Option<Self>, ReportError> {
+    pub fn retest(dir: &Path, retest: &Retest) -> Result<Option<Self>, ReportError> {
+        let tag = retest.to_string();
         let results_path = dir.join(format!("results-{tag}.json"));
         let show_path = dir.join(format!("test-{tag}")).join("showcase.json");
         if !results_path.exists() {

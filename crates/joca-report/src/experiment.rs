@@ -3,8 +3,11 @@
 //! covers the finished cells and lists the others, so it can be made while a grid still runs.
 
 use crate::data::{RunData, parse, read};
+use crate::seeds::titled_table;
 use crate::table::{Row, Table, escape};
-use crate::{Figure, ReportError, figures_markdown, html, write_figures, write_text};
+use crate::{
+    Figure, ReportError, ReportOptions, figures_markdown, html, write_figures, write_text,
+};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -30,6 +33,10 @@ pub struct CellSpec {
     /// `results-town<K>.json`, and for a NeuralAE cell its AverageAE re-test there too.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub towns: Vec<u64>,
+    /// The tags of every follow-up test the cell runs after its run (`results-<tag>.json`,
+    /// [`joca_record::Retest`]); older manifests lack them and list only `towns`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub follow_ups: Vec<String>,
 }
 
 /// `experiment.json`: what an experiment directory contains.
@@ -124,8 +131,12 @@ impl Manifest {
     /// means the cell is complete.
     pub fn state(exp_dir: &Path, cell: &CellSpec) -> CellState {
         let dir = Self::cell_dir(exp_dir, cell);
-        let towns_done =
-            cell.towns.iter().all(|t| dir.join(format!("results-town{t}.json")).is_file());
+        let towns_done = cell
+            .towns
+            .iter()
+            .map(|t| joca_record::Retest::town(*t).to_string())
+            .chain(cell.follow_ups.iter().cloned())
+            .all(|tag| dir.join(format!("results-{tag}.json")).is_file());
         if dir.join("results.json").is_file() && towns_done {
             CellState::Done
         } else if dir.join("checkpoint").exists() || dir.join("events.jsonl").exists() {
@@ -135,6 +146,11 @@ impl Manifest {
         }
     }
 }
+
+/// The note of the table pooled over towns.
+const POOLED_TOWNS: &str = "Ours − baseline per seed (in a panel, per design) averaged over the \
+    test town and every follow-up town, then the 95 % t interval over the seeds (designs) tested \
+    on all of them: a cell's towns share its training, so each cell counts once.";
 
 /// The controls section's title and note.
 const CONTROLS: &str = "How the controllers set the camera";
@@ -147,7 +163,7 @@ const CONTROLS_NOTE: &str = "Closed-loop test, mean over each variant's cells ±
 /// Writes `report.md`, `report.html`, `results.csv` and `figures/` into the experiment
 /// directory from its finished cells, and returns the Markdown.
 pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
-    write_experiment_report_with(exp_dir, false)
+    write_experiment_report_with(exp_dir, ReportOptions::default())
 }
 
 /// The commit (with `-dirty`, or `unrecorded` for cells written before provenance existed) of
@@ -164,11 +180,12 @@ fn commits(rows: &[Row]) -> Vec<(String, Vec<String>)> {
     by
 }
 
-/// [`write_experiment_report`], refusing cells of different joca commits unless `mixed_commits`
-/// (then the report names each commit and its cells).
+/// [`write_experiment_report`] as `options` say: refusing cells of different joca commits unless
+/// `mixed_commits` (then the report names each commit and its cells), without figures with
+/// `no_figures`.
 pub fn write_experiment_report_with(
     exp_dir: &Path,
-    mixed_commits: bool,
+    options: ReportOptions,
 ) -> Result<String, ReportError> {
     let manifest = Manifest::load(exp_dir)?;
     let mut rows = Vec::new();
@@ -196,7 +213,7 @@ pub fn write_experiment_report_with(
         .map(|(c, cells)| format!("{c}: {}", cells.join(", ")))
         .collect::<Vec<_>>()
         .join("; ");
-    if commits.len() > 1 && !mixed_commits {
+    if commits.len() > 1 && !options.mixed_commits {
         return Err(ReportError::MixedCommits {
             experiment: exp_dir.display().to_string(),
             cells: commit_text,
@@ -216,6 +233,11 @@ pub fn write_experiment_report_with(
     if !pending.is_empty() {
         let _ = write!(meta, " Not finished: {}.", pending.join(", "));
     }
+    if let [machine] = crate::seeds::machines(&table.rows).as_slice()
+        && machine != "unrecorded"
+    {
+        let _ = write!(meta, " Computed on {machine}.");
+    }
     match commits.as_slice() {
         [] => {}
         [(c, _)] => {
@@ -227,35 +249,7 @@ pub fn write_experiment_report_with(
         }
     }
     let mut md = format!("# {}\n\n{meta}\n\n", manifest.title);
-    let (mut seeds_md, mut seeds_html) = crate::seeds::seeds_sections(&table.rows);
-    for (town, rows) in crate::retests::town_rows(exp_dir, &runs)? {
-        let (md, html) = crate::seeds::town_sections(town, &rows);
-        seeds_md.push_str(&md);
-        seeds_html.push_str(&html);
-    }
-    let controls = crate::controls::controls_table(&table.rows);
-    if !controls.is_empty() {
-        let (md, html) = (&mut seeds_md, &mut seeds_html);
-        crate::seeds::titled_table(md, html, 2, CONTROLS, CONTROLS_NOTE, &controls);
-        seeds_md.push('\n');
-    }
-    let swaps = crate::retests::swap_cells(exp_dir, &runs)?;
-    if !swaps.is_empty() {
-        let (md, html) = (&mut seeds_md, &mut seeds_html);
-        let paired = crate::swap::swap_table(&swaps);
-        crate::seeds::titled_table(md, html, 2, crate::swap::SWAP, crate::swap::SWAP_NOTE, &paired);
-        md.push('\n');
-        let behaviour = crate::swap::behaviour_table(&swaps);
-        crate::seeds::titled_table(
-            md,
-            html,
-            3,
-            "What the controllers did",
-            crate::swap::BEHAVIOUR_NOTE,
-            &behaviour,
-        );
-        md.push('\n');
-    }
+    let (seeds_md, seeds_html) = summary_sections(exp_dir, &table.rows, &runs)?;
     md.push_str(&seeds_md);
     if !seeds_md.is_empty() {
         md.push_str("## Every cell\n\n");
@@ -268,7 +262,7 @@ pub fn write_experiment_report_with(
         table.html()
     );
     let mut figures: Vec<Figure> = Vec::new();
-    for group in table.groups() {
+    for group in table.groups().into_iter().filter(|_| !options.no_figures) {
         let members = figure_members(&runs, &group, |r: &RunData| !r.showcases.is_empty());
         let prefix = format!("{}-", slug(&group));
         let group_figures = write_figures(exp_dir, &prefix, &group, &members)?;
@@ -278,13 +272,59 @@ pub fn write_experiment_report_with(
     }
     write_text(&exp_dir.join("results.csv"), &table.csv())?;
     write_text(&exp_dir.join("report.md"), &md)?;
-    html_body.push_str(
+    html_body.push_str(if options.no_figures {
+        "<p class=\"meta\">All numbers, at full precision: results.csv.</p>\n"
+    } else {
         "<p class=\"meta\">All numbers, at full precision: results.csv. Figures follow, by \
-            scenario.</p>\n",
-    );
+            scenario.</p>\n"
+    });
     let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
     write_text(&exp_dir.join("report.html"), &page)?;
     Ok(md)
+}
+
+/// The sections above the table of every cell: over seeds (and designs) on the test town and each
+/// follow-up town, how the controllers set the camera, the controller swap and the starting
+/// detector; Markdown and HTML.
+fn summary_sections(
+    exp_dir: &Path,
+    rows: &[Row],
+    runs: &[(CellSpec, RunData)],
+) -> Result<(String, String), ReportError> {
+    let (mut md, mut html) = crate::seeds::seeds_sections(rows);
+    let towns = crate::retests::town_rows(exp_dir, runs)?;
+    for (town, rows) in &towns {
+        let (town_md, town_html) = crate::seeds::town_sections(*town, rows);
+        md.push_str(&town_md);
+        html.push_str(&town_html);
+    }
+    let pooled = crate::seeds::pooled_towns_table(rows, &towns);
+    if !pooled.is_empty() {
+        titled_table(&mut md, &mut html, 2, "Pooled over towns", POOLED_TOWNS, &pooled);
+        md.push('\n');
+    }
+    let controls = crate::controls::controls_table(rows);
+    if !controls.is_empty() {
+        titled_table(&mut md, &mut html, 2, CONTROLS, CONTROLS_NOTE, &controls);
+        md.push('\n');
+    }
+    let swaps = crate::retests::swap_cells(exp_dir, runs)?;
+    if !swaps.is_empty() {
+        let paired = crate::swap::swap_table(&swaps);
+        titled_table(&mut md, &mut html, 2, crate::swap::SWAP, crate::swap::SWAP_NOTE, &paired);
+        md.push('\n');
+        let behaviour = crate::swap::behaviour_table(&swaps);
+        let (title, note) = ("What the controllers did", crate::swap::BEHAVIOUR_NOTE);
+        titled_table(&mut md, &mut html, 3, title, note, &behaviour);
+        md.push('\n');
+    }
+    let start = crate::detector_start::detector_start_table(exp_dir, runs)?;
+    if !start.is_empty() {
+        let (title, note) = (crate::detector_start::TITLE, crate::detector_start::NOTE);
+        titled_table(&mut md, &mut html, 2, title, note, &start);
+        md.push('\n');
+    }
+    Ok((md, html))
 }
 
 /// A file-name-safe form of a label.
@@ -308,6 +348,7 @@ mod tests {
             seed,
             design: String::new(),
             towns: Vec::new(),
+            follow_ups: Vec::new(),
         };
         (spec, seed)
     }

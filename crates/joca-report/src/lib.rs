@@ -19,6 +19,7 @@
 
 mod controls;
 mod data;
+mod detector_start;
 mod experiment;
 mod figures;
 mod frames;
@@ -37,6 +38,7 @@ pub use experiment::{
     CellSpec, CellState, Manifest, write_experiment_report, write_experiment_report_with,
 };
 pub use figures::write_figures;
+
 pub use frames::DRAW_MIN_SCORE;
 pub use headroom::{REFERENCE_POLICY, headroom_markdown, headroom_summary_markdown};
 pub use joca_record::{
@@ -47,6 +49,7 @@ pub use seeds::{mean_interval, t_975};
 pub use table::{Row, Table};
 
 use joca_core::compute::{CpuKernels, Denormals};
+use joca_record::Retest;
 use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
@@ -108,19 +111,35 @@ fn io_err(path: &Path, source: std::io::Error) -> ReportError {
     ReportError::Io { path: path.display().to_string(), source }
 }
 
-/// The re-test a NeuralAE run ends with: AverageAE at mid-grey on its design and detector.
-pub const SWAP_TAG: &str = "average-127.5";
 const SWAP_LABEL: &str = "AverageAE, same design and detector";
+
+/// How `joca report` writes a report.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ReportOptions {
+    /// Report an experiment's cells of different joca commits together (refused otherwise).
+    pub mixed_commits: bool,
+    /// Write the tables only: no `figures/`, and report.md and report.html without them (a
+    /// `figures/` folder an earlier report wrote is left as it was).
+    pub no_figures: bool,
+}
 
 /// Writes `report.md`, `report.html` and `figures/` into the run directory `run_dir` and
 /// returns the Markdown.
 pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
+    write_run_report_with(run_dir, ReportOptions::default())
+}
+
+/// [`write_run_report`] as `options` say (`mixed_commits` does not apply to one run).
+pub fn write_run_report_with(
+    run_dir: &Path,
+    options: ReportOptions,
+) -> Result<String, ReportError> {
     let run = RunData::load(run_dir)?;
     let r = &run.results;
     let title = format!("joca run: {} / {}", r.method.name(), r.scenario.name());
     // Does the learned controller earn its place? AverageAE at mid-grey driving the same
     // design with the same detector, where the run (or `joca eval --controller average`) tested it.
-    let swap = RunData::retest(run_dir, SWAP_TAG)?;
+    let swap = RunData::retest(run_dir, &Retest::average_swap(0))?;
     let cell = run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let mut rows = vec![Row {
         group: r.scenario.name().to_owned(),
@@ -141,8 +160,12 @@ pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
         runs.push((SWAP_LABEL.to_owned(), s));
     }
     let table = Table { label_header: "Method".into(), rows };
-    let figures =
-        write_figures(run_dir, "", &format!("{} / {}", r.method.name(), r.scenario.name()), &runs)?;
+    let figures = if options.no_figures {
+        Vec::new()
+    } else {
+        let caption = format!("{} / {}", r.method.name(), r.scenario.name());
+        write_figures(run_dir, "", &caption, &runs)?
+    };
     let mut md = format!("# {title}\n\n");
     let tested_on = if r.real_images() {
         format!(

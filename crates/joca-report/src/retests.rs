@@ -6,6 +6,7 @@ use crate::ReportError;
 use crate::data::RunData;
 use crate::experiment::{CellSpec, Manifest};
 use crate::table::Row;
+use joca_record::Retest;
 use std::path::Path;
 
 /// Per follow-up town (ascending), the rows of the cells tested there (`results-town<K>.json`).
@@ -21,7 +22,7 @@ pub(crate) fn town_rows(
         let mut rows = Vec::new();
         for (cell, _) in runs {
             let dir = Manifest::cell_dir(exp_dir, cell);
-            if let Some(retest) = RunData::retest(&dir, &format!("town{town}"))? {
+            if let Some(retest) = RunData::retest(&dir, &Retest::town(town))? {
                 rows.push(Row {
                     group: cell.group.clone(),
                     label: cell.label.clone(),
@@ -56,10 +57,10 @@ pub(crate) fn swap_cells<'a>(
                 });
             }
         };
-        push(0, run.clone(), RunData::retest(&dir, crate::SWAP_TAG)?);
+        push(0, run.clone(), RunData::retest(&dir, &Retest::average_swap(0))?);
         for &t in &cell.towns {
-            if let Some(neural) = RunData::retest(&dir, &format!("town{t}"))? {
-                push(t, neural, RunData::retest(&dir, &format!("{}-town{t}", crate::SWAP_TAG))?);
+            if let Some(neural) = RunData::retest(&dir, &Retest::town(t))? {
+                push(t, neural, RunData::retest(&dir, &Retest::average_swap(t))?);
             }
         }
     }

@@ -14,7 +14,10 @@ use std::fmt::Write as _;
 
 mod pooled;
 mod rests_on;
+mod strata;
+pub(crate) use pooled::pooled_towns_table;
 use rests_on::rests_on;
+pub(crate) use strata::machines;
 
 /// t(0.975, df), the two-sided 95 % quantile of Student's t with `df` degrees of freedom (statrs'
 /// inverse CDF); NaN for df = 0.
@@ -242,6 +245,15 @@ pub fn seeds_sections(rows: &[Row]) -> (String, String) {
             night, tunnel, cycle for e mod 4); paired and aggregated as above.";
         section(&mut md, &mut html, "Paired, by illumination", note, &lights);
     }
+    let bands = strata::band_table(rows);
+    if !bands.is_empty() {
+        section(&mut md, &mut html, "Paired, by distance band", BANDS, &bands);
+    }
+    let (machines, split) = strata::machine_tables(rows);
+    if !machines.is_empty() {
+        section(&mut md, &mut html, "Machine types", MACHINES, &machines);
+        section(&mut md, &mut html, "Paired, by machine type", MACHINE_PAIRS, &split);
+    }
     let designs = design_table(rows);
     if !designs.is_empty() {
         section(&mut md, &mut html, "Per design", "Each variant's mean over its seeds.", &designs);
@@ -249,6 +261,18 @@ pub fn seeds_sections(rows: &[Row]) -> (String, String) {
     md.push('\n');
     (md, html)
 }
+
+const BANDS: &str = "The same test frames scored per distance band of the reference objects \
+    (mAP over a band's objects; false positives, having no distance, count in every band); paired \
+    and aggregated as above. A band without objects in a pair's tests leaves the pair out.";
+
+const MACHINES: &str = "The cells ran on more than one machine type. Training repeats bit for \
+    bit on one machine type, not across types: a grid resumed on another CPU mixes two \
+    populations of runs.";
+
+const MACHINE_PAIRS: &str = "Each comparison restricted to the pairs whose two cells ran on one \
+    machine type (per type), and to those that ran on two: a difference that holds within each \
+    type is not a machine effect.";
 
 /// The over-seeds section again for a follow-up town (`rows` built from each cell's
 /// `results-town<K>.json`): the same cells on another sample of test scenes, paired as on the

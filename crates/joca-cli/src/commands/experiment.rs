@@ -7,10 +7,11 @@
 
 use crate::commands::run::execute;
 use crate::commands::slurm;
-use crate::grid::{Cell, CellFile, Experiment, prepare, resolve};
+use crate::grid::{Cell, CellFile, Experiment, check_first, order_cells, prepare, resolve};
 use anyhow::{Context, Result, bail};
 use joca_core::output::{self, DirLock, OutputKind};
 use joca_report::Manifest;
+use joca_train::RunConfig;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Instant;
@@ -43,6 +44,11 @@ pub struct Args {
     /// before any of seed s + 1).
     #[arg(long, default_value = "grid", value_parser = ["grid", "design", "seed"])]
     order: String,
+    /// Cells to run before all others, in this order (ids as `--status` lists them,
+    /// comma-separated or repeated): the cells a comparison needs first. The rest follow
+    /// `--order`; a finished cell named here is skipped as any other.
+    #[arg(long, value_name = "ID", value_delimiter = ',')]
+    first: Vec<String>,
     /// Print where each cell stands (and the Slurm job's, if one was submitted); run nothing.
     #[arg(long, conflicts_with = "prepare")]
     status: bool,
@@ -94,6 +100,7 @@ pub fn run(args: &Args) -> Result<()> {
     if args.status {
         return print_status(&exp, &dir);
     }
+    check_first(&exp, &args.first)?;
     // A new or empty folder, or an experiment of joca's; one `joca experiment` at a time.
     output::claim(&dir, OutputKind::Experiment)?;
     let _lock = DirLock::acquire(&dir, "joca experiment")?;
@@ -112,7 +119,7 @@ pub fn run(args: &Args) -> Result<()> {
         .iter()
         .filter(|c| Manifest::state(&dir, &c.spec) != joca_report::CellState::Done)
         .collect();
-    order_cells(&mut todo, &exp, &args.order);
+    order_cells(&mut todo, &exp, &args.order, &args.first);
     println!(
         "experiment {} (preset {}): {} cells, {} to run, in {}",
         exp.manifest.name,
@@ -155,7 +162,9 @@ pub fn run(args: &Args) -> Result<()> {
         .filter(|c| Manifest::state(&dir, &c.spec) != joca_report::CellState::Done)
         .map(|c| c.spec.id.as_str())
         .collect();
-    joca_report::write_experiment_report_with(&dir, args.mixed_commits)
+    let options =
+        joca_report::ReportOptions { mixed_commits: args.mixed_commits, ..Default::default() };
+    joca_report::write_experiment_report_with(&dir, options)
         .with_context(|| format!("cannot write the report of {}", dir.display()))?;
     println!(
         "\n{}",
@@ -195,20 +204,6 @@ fn complete_reports(dir: &Path, exp: &Experiment) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Puts `todo` in the order `order` names (`grid`: as resolved). The sort is stable, so cells
-/// that tie keep the grid's order.
-fn order_cells(todo: &mut [&Cell], exp: &Experiment, order: &str) {
-    // A panel design's place in the file (its first cell's position in the grid).
-    let design_rank = |c: &Cell| {
-        exp.cells.iter().position(|o| o.spec.design == c.spec.design).unwrap_or(usize::MAX)
-    };
-    match order {
-        "design" => todo.sort_by_key(|c| (c.spec.seed, design_rank(c))),
-        "seed" => todo.sort_by_key(|c| c.spec.seed),
-        _ => {}
-    }
 }
 
 /// Runs the cells as child processes `joca cell DIR`, at most `jobs` at once; a cell's output
@@ -362,7 +357,6 @@ pub fn run_cell(args: &CellArgs) -> Result<()> {
         .with_context(|| format!("cannot read {}", path.display()))?;
     let cell: CellFile =
         toml::from_str(&text).with_context(|| format!("invalid {}", path.display()))?;
-    let neural = cell.run.method.neural();
     if dir.join("results.json").is_file() {
         println!("{}: run already finished", dir.display());
         if !dir.join("report.md").is_file() {
@@ -371,25 +365,26 @@ pub fn run_cell(args: &CellArgs) -> Result<()> {
                 .with_context(|| format!("cannot write the report of {}", dir.display()))?;
         }
     } else {
-        execute(cell.run, dir, true)?;
+        execute(cell.run.clone(), dir, true)?;
     }
-    follow_up(dir, &cell.follow_up, neural)
+    follow_up(dir, &cell.follow_up, &cell.run)
 }
 
 /// Runs the cell's follow-up tests it lacks ([`crate::grid::FollowUp::tests`]).
-fn follow_up(dir: &Path, follow_up: &crate::grid::FollowUp, neural: bool) -> Result<()> {
-    for test in follow_up.tests(neural) {
-        if dir.join(format!("results-{}.json", test.tag)).is_file() {
+fn follow_up(dir: &Path, follow_up: &crate::grid::FollowUp, config: &RunConfig) -> Result<()> {
+    for test in follow_up.tests(config) {
+        if dir.join(test.results_file()).is_file() {
             continue;
         }
         let options = joca_train::EvalOptions {
             town: test.town,
             controller: test.controller,
+            start_detector: test.start_detector,
             ..Default::default()
         };
         let (r, _) = joca_train::evaluate_run(dir, &options)
-            .with_context(|| format!("follow-up test {} of {}", test.tag, dir.display()))?;
-        println!("{}: {}: mAP {:.3}", dir.display(), test.tag, r.test.map);
+            .with_context(|| format!("follow-up test {test} of {}", dir.display()))?;
+        println!("{}: {test}: mAP {:.3}", dir.display(), r.test.map);
     }
     Ok(())
 }

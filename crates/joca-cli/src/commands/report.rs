@@ -13,19 +13,27 @@ pub struct Args {
     /// otherwise, naming each commit's cells).
     #[arg(long)]
     mixed_commits: bool,
+    /// Write the tables only (report.md, report.html, results.csv), no figures: for records
+    /// that are committed or shared.
+    #[arg(long)]
+    no_figures: bool,
 }
 
 /// Runs `joca report`.
 pub fn run(args: &Args) -> Result<()> {
     let dir = &args.dir;
+    let options = joca_report::ReportOptions {
+        mixed_commits: args.mixed_commits,
+        no_figures: args.no_figures,
+    };
     // Reports are written only into folders joca marked as its own (joca_core::output).
     match output::marked_kind(dir) {
         Some(OutputKind::Experiment) => {
-            joca_report::write_experiment_report_with(dir, args.mixed_commits)
+            joca_report::write_experiment_report_with(dir, options)
                 .with_context(|| format!("cannot write the report of {}", dir.display()))?;
         }
         Some(OutputKind::Run) if dir.join("results.json").is_file() => {
-            joca_report::write_run_report(dir)
+            joca_report::write_run_report_with(dir, options)
                 .with_context(|| format!("cannot write the report of {}", dir.display()))?;
             if let Some(note) =
                 joca_report::RunData::load(dir).ok().and_then(|r| r.skipped_events_note())
@@ -50,11 +58,16 @@ pub fn run(args: &Args) -> Result<()> {
     }
     // Written by joca: an export's next refresh replaces them without asking.
     crate::io::extend_inventory(dir, &["report.md", "report.html", "results.csv", "figures"])?;
-    println!(
-        "wrote {}, {} and {}",
-        dir.join("report.md").display(),
-        dir.join("report.html").display(),
-        dir.join("figures").display()
-    );
+    let (md, html) = (dir.join("report.md"), dir.join("report.html"));
+    if args.no_figures {
+        println!("wrote {} and {} (no figures)", md.display(), html.display());
+    } else {
+        println!(
+            "wrote {}, {} and {}",
+            md.display(),
+            html.display(),
+            dir.join("figures").display()
+        );
+    }
     Ok(())
 }

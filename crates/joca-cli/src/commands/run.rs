@@ -193,7 +193,7 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
 /// NeuralAE's test beside AverageAE's on the same design, detector and scenes (the re-test a
 /// NeuralAE run ends with), per light: does the learned controller earn its place?
 fn print_swap(r: &RunResults, out: &Path) {
-    let path = out.join(format!("results-{}.json", joca_report::SWAP_TAG));
+    let path = out.join(joca_record::Retest::average_swap(0).results_file());
     let Ok(text) = std::fs::read_to_string(&path) else { return };
     let Ok(swap) = serde_json::from_str::<RunResults>(&text) else { return };
     println!(

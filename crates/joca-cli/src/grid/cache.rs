@@ -111,7 +111,7 @@ pub fn reuse(exp_dir: &Path, cells: &[&Cell], roots: &[PathBuf]) -> Result<Vec<S
             .collect();
         let this_build = same.iter().find(|c| {
             c.results.provenance.as_ref().is_some_and(|p| p.is_this_build())
-                && can_follow_up(&c.dir, &cell.follow_up, cell.config.method.neural())
+                && can_follow_up(&c.dir, &cell.follow_up, &cell.config)
         });
         let Some(from) = this_build else {
             for c in &same {
@@ -153,12 +153,9 @@ fn this_commit_label() -> String {
 
 /// Whether a cell at `dir` has the follow-up tests `follow_up` asks for, or the checkpoint that
 /// `joca cell` runs them from.
-fn can_follow_up(dir: &Path, follow_up: &FollowUp, neural: bool) -> bool {
+fn can_follow_up(dir: &Path, follow_up: &FollowUp, config: &RunConfig) -> bool {
     dir.join("checkpoint").is_dir()
-        || follow_up
-            .tests(neural)
-            .iter()
-            .all(|t| dir.join(format!("results-{}.json", t.tag)).is_file())
+        || follow_up.tests(config).iter().all(|t| dir.join(t.results_file()).is_file())
 }
 
 /// Copies run directory `from` into cell folder `to` (which holds only its `cell.toml` and

@@ -12,13 +12,15 @@
 
 mod cache;
 mod checks;
+mod order;
 mod panel;
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
 use joca_core::output::{self, OutputKind};
+use joca_record::Retest;
 use joca_report::{CellSpec, Manifest};
-use joca_train::{RunConfig, TestController, differing_fields};
+use joca_train::{RunConfig, differing_fields};
 use panel::{PanelDesign, PanelFile, valid_id};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -26,6 +28,7 @@ use std::path::Path;
 pub use cache::{REUSED, reuse};
 pub use checks::real_cell_dir;
 use checks::{check_method, check_scenarios, check_unique_ids};
+pub use order::{check_first, order_cells};
 
 /// The experiments shipped with joca, by name.
 pub const EXPERIMENTS: [(&str, &str); 11] = [
@@ -79,6 +82,11 @@ pub struct FollowUp {
     /// its own controller, and a NeuralAE cell's AverageAE (mid-grey) too.
     #[serde(default)]
     pub towns: Vec<u64>,
+    /// Test each cell that trains its detector again with the detector weights it started from
+    /// (`joca eval --detector start`), on the test town and each of `towns`: what training the
+    /// detector changed on that design and those scenes, beside the frozen-detector variant.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub starting_detector: bool,
 }
 
 impl FollowUp {
@@ -93,41 +101,32 @@ impl FollowUp {
         Ok(())
     }
 
-    /// The tests a cell runs after its run: each town with the cell's controller, and for a
-    /// NeuralAE cell with AverageAE at mid-grey too (what `joca eval --town K [--controller
-    /// average]` writes, as `results-<tag>.json`).
-    pub fn tests(&self, neural: bool) -> Vec<FollowUpTest> {
-        let average = TestController::Average { target_dn: joca_camera::MID_GREY_DN };
+    /// The tests a cell of configuration `config` runs after its run (what `joca eval` writes
+    /// as `results-<tag>.json`): each town with the cell's controller, and for a NeuralAE cell
+    /// with AverageAE at mid-grey too; with `starting_detector`, for a cell that trains its
+    /// detector from weights, that detector swapped back on the test town and each town.
+    pub fn tests(&self, config: &RunConfig) -> Vec<Retest> {
         let mut tests = Vec::new();
         for &town in &self.towns {
-            tests.push(FollowUpTest {
-                town,
-                controller: TestController::Trained,
-                tag: format!("town{town}"),
-            });
-            if neural {
-                let tag = format!("{}-town{town}", average.name());
-                tests.push(FollowUpTest { town, controller: average, tag });
+            tests.push(Retest::town(town));
+            if config.method.neural() {
+                tests.push(Retest::average_swap(town));
             }
+        }
+        if self.starting_detector
+            && config.method.trains_detector()
+            && config.detector_weights.is_some()
+        {
+            let towns = std::iter::once(0).chain(self.towns.iter().copied());
+            tests.extend(towns.map(Retest::start_detector));
         }
         tests
     }
 
     /// Whether there is none (then `cell.toml` leaves the table out).
     pub fn is_empty(&self) -> bool {
-        self.towns.is_empty()
+        self.towns.is_empty() && !self.starting_detector
     }
-}
-
-/// One follow-up test of a cell ([`FollowUp::tests`]).
-#[derive(Debug, Clone)]
-pub struct FollowUpTest {
-    /// The town of the test family.
-    pub town: u64,
-    /// The controller tested.
-    pub controller: TestController,
-    /// The tag of its record, `results-<tag>.json`.
-    pub tag: String,
 }
 
 /// The `[run]` table a cell runs with, and its follow-up tests (`cells/<id>/cell.toml`).
@@ -257,27 +256,8 @@ pub fn resolve(
                     let d = design.as_ref().map_or(String::new(), |d| format!(" {:?}", d.id));
                     format!("{source}: variant {:?}, scenario {scenario}, panel design{d}", v.id)
                 })?;
-                let base = match design {
-                    Some(d) => format!("{}-{scenario}-{}", v.id, d.id),
-                    None => format!("{}-{scenario}", v.id),
-                };
-                for k in 0..seeds {
-                    let id = if seeds == 1 { base.clone() } else { format!("{base}-s{k}") };
-                    let config = RunConfig { seed: config.seed.wrapping_add(k), ..config.clone() };
-                    cells.push(Cell {
-                        spec: CellSpec {
-                            dir: format!("cells/{id}"),
-                            id,
-                            label: v.label.clone(),
-                            group: scenario_title(scenario),
-                            seed: config.seed,
-                            design: design.as_ref().map(|d| d.id.clone()).unwrap_or_default(),
-                            towns: file.follow_up.towns.clone(),
-                        },
-                        config,
-                        follow_up: file.follow_up.clone(),
-                    });
-                }
+                let at = Place { variant: v, scenario, design: design.as_ref() };
+                cells.extend(seed_cells(&at, &config, seeds, &file.follow_up));
             }
         }
     }
@@ -294,6 +274,40 @@ pub fn resolve(
         },
         cells,
     })
+}
+
+/// Where a cell sits in the grid: its variant, scenario and panel design.
+struct Place<'a> {
+    variant: &'a Variant,
+    scenario: &'a str,
+    design: Option<&'a PanelDesign>,
+}
+
+/// The `seeds` cells of one place, seed k of `config.seed + k` (ids end in `-s<k>` when there
+/// are several).
+fn seed_cells(at: &Place<'_>, config: &RunConfig, seeds: u64, follow_up: &FollowUp) -> Vec<Cell> {
+    let (v, scenario) = (at.variant, at.scenario);
+    let base = match at.design {
+        Some(d) => format!("{}-{scenario}-{}", v.id, d.id),
+        None => format!("{}-{scenario}", v.id),
+    };
+    (0..seeds)
+        .map(|k| {
+            let id = if seeds == 1 { base.clone() } else { format!("{base}-s{k}") };
+            let config = RunConfig { seed: config.seed.wrapping_add(k), ..config.clone() };
+            let spec = CellSpec {
+                dir: format!("cells/{id}"),
+                id,
+                label: v.label.clone(),
+                group: scenario_title(scenario),
+                seed: config.seed,
+                design: at.design.map(|d| d.id.clone()).unwrap_or_default(),
+                towns: follow_up.towns.clone(),
+                follow_ups: follow_up.tests(&config).iter().map(ToString::to_string).collect(),
+            };
+            Cell { spec, config, follow_up: follow_up.clone() }
+        })
+        .collect()
 }
 
 /// How tables title a scenario (the paper's names).

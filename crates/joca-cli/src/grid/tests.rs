@@ -212,3 +212,28 @@ fn a_prepared_cell_must_match_the_grid_in_what_its_method_reads() {
     let e = format!("{:#}", prepare(&exp, dir.path()).unwrap_err());
     assert!(e.contains("neural-calibrated-flir") && e.contains("perturbation_score"), "{e}");
 }
+
+#[test]
+fn cells_named_first_run_first_in_the_order_named_and_the_rest_keep_theirs() {
+    let exp = resolve("table1", "quick", None, 2).unwrap();
+    let ids = |cells: &[&Cell]| cells.iter().map(|c| c.spec.id.clone()).collect::<Vec<_>>();
+    let mut by_seed: Vec<&Cell> = exp.cells.iter().collect();
+    order_cells(&mut by_seed, &exp, "seed", &[]);
+    let first = vec![by_seed[7].spec.id.clone(), by_seed[2].spec.id.clone()];
+    let mut todo: Vec<&Cell> = exp.cells.iter().collect();
+    order_cells(&mut todo, &exp, "seed", &first);
+    let all = ids(&todo);
+    let (named, rest) = all.split_at(2);
+    assert_eq!(named, first.as_slice());
+    let expect: Vec<String> = ids(&by_seed).into_iter().filter(|i| !first.contains(i)).collect();
+    assert_eq!(rest, expect.as_slice());
+    // Seed order: every seed-0 cell before any seed-1 cell.
+    assert!(by_seed.windows(2).all(|w| w[0].spec.seed <= w[1].spec.seed));
+    // An id the grid lacks is refused, naming it and the cells there are.
+    let e = format!("{:#}", check_first(&exp, &["flir-fog".to_owned()]).unwrap_err());
+    assert!(
+        e.contains("--first: unknown cell \"flir-fog\"") && e.contains("flir-calibrated-s0"),
+        "{e}"
+    );
+    assert!(check_first(&exp, &first).is_ok());
+}

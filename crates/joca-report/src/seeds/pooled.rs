@@ -75,3 +75,49 @@ fn unit_differences(c: &Comparison<'_>, f: impl Fn(&Row) -> f64) -> Vec<(String,
     }
     out.into_iter().map(|(k, v)| (k, v.iter().sum::<f64>() / v.len() as f64)).collect()
 }
+
+/// Ours against each baseline pooled over towns (header first): per unit (seed, or design in a
+/// panel) the mean over the test town and every follow-up town of its difference, then the t
+/// interval over the units present on all of them — a cell's towns share its training, so they
+/// are not independent draws. Empty without follow-up towns.
+pub fn pooled_towns_table(test: &[Row], towns: &[(u64, Vec<Row>)]) -> Vec<Vec<String>> {
+    if towns.is_empty() {
+        return Vec::new();
+    }
+    let on_towns: Vec<Vec<Comparison<'_>>> = towns.iter().map(|(_, r)| comparisons(r)).collect();
+    let mut table = vec![
+        [
+            "scenario",
+            "ours − baseline",
+            "towns",
+            "pooled over",
+            "Δ mAP",
+            "Δ AP50",
+            "ours ahead (mAP)",
+        ]
+        .map(str::to_owned)
+        .to_vec(),
+    ];
+    for c in comparisons(test) {
+        let same =
+            |o: &&Comparison<'_>| o.group == c.group && o.ours == c.ours && o.other == c.other;
+        let mut of: Vec<&Comparison<'_>> = vec![&c];
+        of.extend(on_towns.iter().filter_map(|cs| cs.iter().find(same)));
+        if of.len() < 2 {
+            continue;
+        }
+        let map = pooled_units(&of, |r| r.results.test.map);
+        let ap50 = pooled_units(&of, |r| r.results.test.ap50);
+        let unit = if c.panel() { "designs" } else { "seeds" };
+        table.push(vec![
+            c.group.clone(),
+            format!("{} − {}", c.ours, c.other),
+            of.len().to_string(),
+            format!("{} {unit}", map.len()),
+            cell(mean_interval(&map)),
+            cell(mean_interval(&ap50)),
+            format!("{} of {} {unit}", map.iter().filter(|d| **d > 0.0).count(), map.len()),
+        ]);
+    }
+    if table.len() < 2 { Vec::new() } else { table }
+}

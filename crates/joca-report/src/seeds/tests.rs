@@ -189,3 +189,98 @@ fn ours_pooled_over_scenarios_counts_each_seed_once() {
     // One scenario: nothing to pool.
     assert!(pooled::pooled_table(&rows[..6]).is_empty());
 }
+
+#[test]
+fn pairs_split_by_distance_band_and_by_machine_type_match_hand_computations() {
+    use joca_record::BandScores;
+    // Two bands; band maps chosen so the differences are easy: ours − FLIR per seed.
+    let band = |from: f64, to: f64, map: Option<f64>| BandScores {
+        from_m: from,
+        to_m: to,
+        class_objects: [u64::from(map.is_some()), 0, 0],
+        map,
+        ap50: map,
+        recall50: map,
+    };
+    let row = |label: &str, method: Method, seed: u64, near: f64, far: Option<f64>, cpu: &str| {
+        let mut results = crate::table::tests::results(near, 0.3, true);
+        (results.method, results.seed, results.cpu) = (method, seed, cpu.to_owned());
+        results.test_bands = vec![band(0.0, 20.0, Some(near)), band(20.0, 50.0, far)];
+        Row {
+            group: "Calibrated".into(),
+            label: label.into(),
+            cell: format!("{label}-s{seed}"),
+            design: String::new(),
+            results,
+        }
+    };
+    let (a, b) = ("EPYC (AVX-512)", "Xeon (AVX2)");
+    let rows = vec![
+        row("Ours", Method::Joca, 0, 0.30, Some(0.10), a),
+        row("Ours", Method::Joca, 1, 0.34, Some(0.14), a),
+        row("Ours", Method::Joca, 2, 0.32, None, b),
+        row("FLIR", Method::FixedNeural, 0, 0.25, Some(0.08), a),
+        row("FLIR", Method::FixedNeural, 1, 0.33, Some(0.10), a),
+        row("FLIR", Method::FixedNeural, 2, 0.31, Some(0.12), a),
+    ];
+    let bands = strata::band_table(&rows);
+    assert_eq!(bands[0][3..], ["Δ mAP 0–20 m", "Δ mAP 20–50 m"]);
+    // Near: 0.05, 0.01, 0.01 over three seeds; far: 0.02, 0.04 (seed 2 had no far objects).
+    let near = mean_interval(&[0.05, 0.01, 0.01]);
+    let far = mean_interval(&[0.02, 0.04]);
+    assert_eq!(bands[1][3], format!("{:.3} ± {:.3}", near.0, near.1));
+    assert_eq!(bands[1][4], format!("{:.3} ± {:.3}", far.0, far.1));
+    // Machines: five cells on a, one on b; seeds 0 and 1 paired on a, seed 2 across both.
+    let (counts, split) = strata::machine_tables(&rows);
+    // A machine type names the CPU, libtorch's kernels and the scoring precision.
+    let type_of = |cpu: &str| format!("{cpu}, native kernels, scoring fp32");
+    assert_eq!(counts[1..], [vec![type_of(a), "5".into()], vec![type_of(b), "1".into()]]);
+    let on_a = mean_interval(&[0.05, 0.01]);
+    assert_eq!(split.len(), 3, "{split:?}");
+    assert_eq!(
+        split[1][2..5],
+        [type_of(a), "2 seeds".into(), format!("{:.3} ± {:.3}", on_a.0, on_a.1)]
+    );
+    assert_eq!(split[2][2..5], ["two machine types", "1 seed", "0.010"]);
+    let (md, _) = seeds_sections(&rows);
+    assert!(
+        md.contains("### Paired, by distance band") && md.contains("### Paired, by machine type")
+    );
+    // One machine type: no machine section.
+    let one: Vec<Row> = rows.into_iter().filter(|r| r.results.cpu == a).collect();
+    assert!(strata::machine_tables(&one).0.is_empty());
+    assert!(!seeds_sections(&one).0.contains("Machine types"));
+}
+
+#[test]
+fn pooled_over_towns_averages_each_design_over_the_towns_then_takes_the_interval() {
+    let row = |label: &str, method: Method, design: &str, map: f64| {
+        let mut results = crate::table::tests::results(map, 0.3, false);
+        results.method = method;
+        Row {
+            group: "Calibrated".into(),
+            label: label.into(),
+            cell: format!("{label}-{design}"),
+            design: design.into(),
+            results,
+        }
+    };
+    let town = |ours: [f64; 2], base: [f64; 2]| {
+        vec![
+            row("Ours", Method::Joca, "a", ours[0]),
+            row("Ours", Method::Joca, "b", ours[1]),
+            row("AverageAE", Method::TacosAverage, "a", base[0]),
+            row("AverageAE", Method::TacosAverage, "b", base[1]),
+        ]
+    };
+    // Test town: a +0.05, b −0.02; town 2: a +0.09, b 0.00. Per design over towns: a 0.07,
+    // b −0.01; mean 0.03, s = 0.0566, half-width t(0.975, 1) · 0.04 = 0.508.
+    let test = town([0.30, 0.20], [0.25, 0.22]);
+    let towns = vec![(2, town([0.40, 0.30], [0.31, 0.30]))];
+    let table = pooled_towns_table(&test, &towns);
+    assert_eq!(table.len(), 2);
+    assert_eq!(table[1][..4], ["Calibrated", "Ours − AverageAE", "2", "2 designs"]);
+    assert_eq!(table[1][4], "0.030 ± 0.508");
+    assert_eq!(table[1][6], "1 of 2 designs");
+    assert!(pooled_towns_table(&test, &[]).is_empty());
+}

@@ -113,9 +113,8 @@ pub(super) fn load_run(
 /// `options` change (another scenario, frame or episode count, town of the test family, or
 /// controller: AverageAE at a chosen frame mean in place of the trained one; or detector: the
 /// weights it started from; the design is still chosen with the run's own model). Never rewrites
-/// the run's own `results.json`: writes `results-<tags>.json` with one tag per change, joined by
-/// `-` (`<scenario>`, `<controller>`, `detector-start`, `frames<N>`, `episodes<N>`, `town<K>`;
-/// `eval` when nothing changed), its trace and showcases in the matching `test-<tags>` folder,
+/// the run's own `results.json`: writes `results-<tag>.json` (the tag names each change,
+/// [`joca_record::Retest`]), its trace and showcases in the matching `test-<tag>` folder,
 /// and returns the results and that folder. Holds the run directory's lock while it works, so it
 /// never reads a checkpoint a run is writing.
 pub fn evaluate_run(
@@ -164,32 +163,19 @@ pub fn evaluate_run(
     }
     model.load(&dir)?;
     let (design, validation) = best_design(&mut cx, &mut model, &state)?;
-    let mut tags = Vec::new();
-    if scenario.is_some_and(|s| s != state.config.scenario) {
-        tags.push(config.scenario.name().to_owned());
-    }
-    if controller != TestController::Trained {
-        tags.push(controller.name());
-    }
+    let retest = joca_record::Retest {
+        scenario: scenario.filter(|s| *s != state.config.scenario),
+        controller,
+        start_detector: start_weights.is_some(),
+        frames_per_episode: Some(config.test_frames_per_episode).filter(|f| *f != run_frames),
+        episodes: Some(config.test_episodes).filter(|n| *n != run_episodes),
+        town,
+    };
     if let Some(weights) = &start_weights {
         // After the design is chosen: the swap tests the detector, not the choice.
         model.load_detector(weights)?;
-        tags.push("detector-start".to_owned());
     }
-    if config.test_frames_per_episode != run_frames {
-        tags.push(format!("frames{}", config.test_frames_per_episode));
-    }
-    if config.test_episodes != run_episodes {
-        tags.push(format!("episodes{}", config.test_episodes));
-    }
-    if town != 0 {
-        tags.push(format!("town{town}"));
-    }
-    if tags.is_empty() {
-        tags.push("eval".to_owned());
-    }
-    let (name, test_dir) =
-        (format!("results-{}.json", tags.join("-")), format!("test-{}", tags.join("-")));
+    let (name, test_dir) = (retest.results_file(), format!("test-{retest}"));
     let out = run_dir.join(test_dir);
     cx.test_controller = controller;
     cx.test_town = town;

@@ -225,13 +225,13 @@ pub fn run(
     if config.method.neural() {
         // Does the learned controller earn its place? The same design, detector and test
         // scenes driven by AverageAE at mid-grey (what `joca eval --controller average` writes).
-        let swap = TestController::Average { target_dn: joca_camera::MID_GREY_DN };
-        cx.test_controller = swap;
-        let out = run_dir.join(format!("test-{}", swap.name()));
+        let swap = joca_record::Retest::average_swap(0);
+        cx.test_controller = swap.controller;
+        let out = run_dir.join(format!("test-{swap}"));
         let mut r = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
-        r.test_controller = Some(swap);
+        r.test_controller = Some(swap.controller);
         write_atomic(
-            &run_dir.join(format!("results-{}.json", swap.name())),
+            &run_dir.join(swap.results_file()),
             &serde_json::to_string_pretty(&r).unwrap_or_default(),
         )?;
         cx.test_controller = TestController::Trained;
