@@ -8,7 +8,7 @@ use super::RunConfig;
 use super::config::TrainingScenes;
 use super::driver::Driver;
 use super::perturbation::{self, Probe};
-use super::{Context, RealSources, simulator};
+use super::{Context, RealSources};
 use crate::TrainError;
 use crate::control::{Decision, SensorLimits, controller};
 use joca_camera::{ApertureControl, CameraDesign, Iris};
@@ -61,7 +61,7 @@ fn stretches(cx: &mut Context, scenes: Scenes) -> Vec<Stretch> {
     };
     let mut rng = cx.streams.indexed(stream, scenes);
     let k = c.steps_per_candidate;
-    if let Some(r) = cx.real.clone() {
+    if let Some(r) = cx.scenes.real.clone() {
         let episode: u64 = rng.random_range(0..1_000_000);
         // A window of k frames inside the recorded sequence (from its start if shorter).
         let room = r.train.duration_s(episode) - k as f64 * r.train.frame_interval_s();
@@ -75,7 +75,7 @@ fn stretches(cx: &mut Context, scenes: Scenes) -> Vec<Stretch> {
             let map_seed = train_map_seed(rng.random_range(0..c.train_maps));
             let episode: u64 = rng.random_range(0..1_000_000);
             let (first_step, last) = (s * k / n, (s + 1) * k / n);
-            let town = simulator(&mut cx.sims, map_seed, &c, Some(illumination));
+            let town = cx.scenes.town(map_seed, Some(illumination));
             // From 1 s into the episode, with room for the stretch's frames before its end.
             let sim = town.config();
             let span = sim.episode_s - 1.0 - (last - first_step) as f64 * town.frame_interval_s();
@@ -117,7 +117,7 @@ pub(super) fn train(
     let c = cx.config.clone();
     let fresh = c.training_scenes == TrainingScenes::Fresh;
     let stretches = stretches(cx, if fresh { Scenes::Own(index) } else { Scenes::Common(scenes) });
-    let real = cx.real.clone();
+    let real = cx.scenes.real.clone();
     let camera = design.view(&c.input, c.lens);
     let formation = cx.formation.for_design(design);
     // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
@@ -142,7 +142,7 @@ pub(super) fn train(
         } else {
             scenes * c.steps_per_candidate as u64 + step as u64
         };
-        cx.watch.restart();
+        cx.journal.watch.restart();
         // 1. Exposure and gain for this frame, from the previous one.
         let decision = match &previous_frame {
             Some(prev) => control.next(model, prev),
@@ -152,7 +152,7 @@ pub(super) fn train(
         let predicted_iris = decision.prediction.as_ref().and_then(Prediction::iris);
         // The frame's f-number where NeuralAE sets the iris (`None`: the design's).
         let f_number = control.f_number();
-        cx.watch.lap(|t| &mut t.acc_predict_ms);
+        cx.journal.watch.lap(|t| &mut t.acc_predict_ms);
         let stretch =
             stretches.iter().rev().find(|s| s.first_step <= step).unwrap_or(&stretches[0]);
         let sim = source(&real, stretch);
@@ -183,8 +183,9 @@ pub(super) fn train(
             reason: "the frame source returned no frame".into(),
         })?;
         let perturbed: Vec<Frame> = frames.collect();
-        cx.watch.lap(|t| &mut t.render_ms);
-        cx.watch
+        cx.journal.watch.lap(|t| &mut t.render_ms);
+        cx.journal
+            .watch
             .count_subframes(perturbed.iter().map(|f| f.subframes).fold(frame.subframes, u32::max));
         let mut ga_target = None;
         if !members.is_empty() {
@@ -193,12 +194,12 @@ pub(super) fn train(
             if step % c.ga_every == 0 {
                 ga_target = best;
             }
-            cx.watch.lap(|t| &mut t.perturbation_ga_ms);
+            cx.journal.watch.lap(|t| &mut t.perturbation_ga_ms);
         }
         // 3. Forward mode: differentiable formation, detector, DF-Grad update.
         let noise_seed: u64 = cx.streams.indexed("noise", common).random();
         let normals = formation.input_normals(camera.width_px, camera.height_px, noise_seed);
-        cx.watch.lap(|t| &mut t.noise_ms);
+        cx.journal.watch.lap(|t| &mut t.noise_ms);
         let light_factor = match f_number {
             Some(n) => formation.with_f_number(n)?.light_factor(),
             None => formation.light_factor(),
@@ -217,8 +218,8 @@ pub(super) fn train(
         // reference object.
         let (targets, ignore) = training_targets(&frame.boxes, &frame.ignore, TRAINING_MIN_BOX_PX);
         let report = model.step(&scene, &targets, &ignore, exposure, ga_target, weights)?;
-        cx.watch.restart();
-        cx.watch.add_model_step(&report.timings);
+        cx.journal.watch.restart();
+        cx.journal.watch.add_model_step(&report.timings);
         metrics.update(&frame.boxes, &frame.ignore, &report.detections, frame.visible_180);
         if step % 5 == 0 {
             let l = report.loss;
@@ -259,7 +260,7 @@ fn judge(
 ) -> Result<TaskScores, TrainError> {
     let c = cx.config.clone();
     let stretches = stretches(cx, Scenes::Common(scenes));
-    let real = cx.real.clone();
+    let real = cx.scenes.real.clone();
     let camera = design.view(&c.input, c.lens);
     let dt = source(&real, &stretches[0]).frame_interval_s();
     // The controller carries its settings across stretches, as in training.

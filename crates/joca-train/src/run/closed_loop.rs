@@ -13,7 +13,7 @@
 
 use super::driver::Driver;
 pub(super) use super::driver::WARMUP_FRAMES;
-use super::{Context, light_of, simulator};
+use super::{Context, light_of};
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use joca_camera::CameraDesign;
@@ -76,8 +76,7 @@ pub(super) const TOWN_START_S: f64 = 1.0;
 /// The towns of `plan`, one per illumination: episode e drives `Illumination::ALL[e % 4]`, so
 /// every light gets the same number of episodes (within one). Built once per run.
 pub(super) fn towns(cx: &mut Context, plan: Plan) -> Vec<Arc<Simulator>> {
-    let c = cx.config.clone();
-    Illumination::ALL.iter().map(|&il| simulator(&mut cx.sims, plan.town, &c, Some(il))).collect()
+    Illumination::ALL.iter().map(|&il| cx.scenes.town(plan.town, Some(il))).collect()
 }
 
 /// Closed-loop evaluation of `design` with the trained controller (`plan`: the test, or the
@@ -97,7 +96,7 @@ pub(super) fn test(
     let mut metrics_by_light: BTreeMap<Light, TaskMetrics> = BTreeMap::new();
     let mut sums: BTreeMap<Light, LightSums> = BTreeMap::new();
     let mut trace = String::new();
-    let real = cx.real.clone();
+    let real = cx.scenes.real.clone();
     // The test is stratified by illumination: episode e drives the test town under
     // `Illumination::ALL[e % 4]` (day, night, tunnel, cycle), so every light gets the same
     // number of episodes (within one), whatever the episodes' own draws would have been.
@@ -250,8 +249,7 @@ fn showcases(
     .enumerate()
     {
         // The test has built these towns already: the run's simulator cache holds them.
-        let sim =
-            simulator(&mut cx.sims, test_map_seed(cx.test_town), &cx.config, Some(illumination));
+        let sim = cx.scenes.town(test_map_seed(cx.test.town), Some(illumination));
         let episode = 0;
         let dt = sim.frame_interval_s();
         let (start_s, frames) = if illumination == Illumination::Tunnel {

@@ -53,7 +53,7 @@ impl Driver {
             .with_iris(super::candidate::iris(&cx.config, design));
         model.set_max_exposure(sensor.max_exposure_s);
         let mut control =
-            test_control(cx.test_controller, cx.config.method.neural(), sensor, cx.ranges);
+            test_control(cx.test.controller, cx.config.method.neural(), sensor, cx.ranges);
         let applied = control.start();
         let formation = cx.formation.for_design(design);
         Self { control, applied, previous: None, pixel_pitch_um, formation }

@@ -151,7 +151,7 @@ pub fn evaluate_run(
         None
     };
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
-    if town != 0 && cx.real.is_some() {
+    if town != 0 && cx.scenes.recorded() {
         return Err(TrainError::Config {
             field: "--town".into(),
             value: town.to_string(),
@@ -177,8 +177,8 @@ pub fn evaluate_run(
     }
     let (name, test_dir) = (retest.results_file(), format!("test-{retest}"));
     let out = run_dir.join(test_dir);
-    cx.test_controller = controller;
-    cx.test_town = town;
+    cx.test.controller = controller;
+    cx.test.town = town;
     let mut results = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
     if controller != TestController::Trained {
         results.test_controller = Some(controller);
@@ -204,7 +204,7 @@ pub(super) fn best_design(
 ) -> Result<(CameraDesign, Vec<Validated>), TrainError> {
     let fallback =
         state.best.as_ref().map_or_else(|| state.hardware.ask()[0].clone(), |b| b.0.clone());
-    if state.top.len() < 2 || cx.real.is_some() {
+    if state.top.len() < 2 || cx.scenes.recorded() {
         return Ok((cx.codec.decode(&fallback)?, Vec::new()));
     }
     let optimised = cx.config.hardware_search();
@@ -235,7 +235,7 @@ pub(super) fn test_design(
     (design, validation): (&CameraDesign, Vec<Validated>),
     out: Option<&Path>,
 ) -> Result<RunResults, TrainError> {
-    let plan = Plan::test(&cx.config, cx.test_town);
+    let plan = Plan::test(&cx.config, cx.test.town);
     let tested = closed_loop::test(cx, model, design, plan, out)?;
     let config = &cx.config;
     let mut results = RunResults {

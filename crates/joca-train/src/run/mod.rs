@@ -10,7 +10,7 @@
 //! generation's scenes), [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
 //! (choosing the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop
 //! driving: the test, the validation, the showcases; [`driver`] one sequence's controller and
-//! captures), [`headroom`] (`joca headroom`), [`results`] (what a run reports),
+//! captures), [`scenes`] (where scenes come from: towns built once, or recordings), [`headroom`] (`joca headroom`), [`results`] (what a run reports),
 //! [`timing`] (`joca bench step`).
 
 mod aperture;
@@ -26,6 +26,7 @@ mod method;
 mod perturbation;
 mod reference;
 mod results;
+mod scenes;
 mod source;
 mod state;
 mod timing;
@@ -49,18 +50,17 @@ use joca_camera::{
 };
 use joca_core::SeedStreams;
 use joca_core::output::{self, DirLock, OutputKind};
-use joca_data::folder::Recording;
 use joca_nn::Engine;
 use joca_nn::joint::JointModel;
-use joca_record::{Event, Light};
+use joca_record::Event;
 pub use joca_record::{Method, Scenario};
-use joca_sim::{Illumination, SimConfig, Simulator};
 pub use method::{DesignSpec, FixedCamera};
 use rand::Rng;
 use results::summary;
 pub use results::{DesignSummary, RunResults, SearchTies};
+pub(crate) use scenes::light_of;
+use scenes::{RealSources, SceneSource};
 use state::RunState;
-use std::collections::HashMap;
 use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -105,54 +105,49 @@ pub enum RunEvent {
     /// Testing started.
     Testing,
 }
-/// Simulators by town (map seed) and illumination.
-type Sims = HashMap<(u64, Option<Illumination>), Arc<Simulator>>;
-
-/// Training and test recordings of the real-image mode.
-struct RealSources {
-    train: Recording,
-    /// `None`: the test plays the training recording (no `test_source`).
-    held_out: Option<Recording>,
-}
-
-impl RealSources {
-    /// The recording the test plays.
-    fn test(&self) -> &Recording {
-        self.held_out.as_ref().unwrap_or(&self.train)
-    }
-}
-
 struct Context {
     config: RunConfig,
     streams: SeedStreams,
     codec: GenomeCodec,
     formation: ImageFormation,
-    /// Training towns built so far.
-    sims: Sims,
-    /// The recorded sources of the real-image mode (None: the simulator).
-    real: Option<Arc<RealSources>>,
+    /// Where scenes come from: the towns built so far, or the recordings.
+    scenes: SceneSource,
     ranges: AccRanges,
+    /// What the closed-loop test drives: which controller, which town.
+    test: TestDrive,
+    /// What the run records as it goes: events, step timings, search ties.
+    journal: Journal,
+}
+
+/// What a run records as it goes.
+struct Journal {
     /// `events.jsonl` (a sink where nothing is logged).
     log: Box<dyn Write>,
     log_path: PathBuf,
     /// Where each step's time goes (only `joca bench step` reads it).
     watch: Stopwatch,
-    /// The controller closed-loop tests drive the design with (`joca eval --controller`).
-    test_controller: TestController,
-    /// The test family's town the test drives (`joca eval --town`; 0: the test town).
-    test_town: u64,
     /// The perturbation searches of the candidate in training, and their ties.
     ties: SearchTies,
+}
+
+/// What a closed-loop test drives the chosen design with, and where.
+#[derive(Debug, Clone, Copy, Default)]
+struct TestDrive {
+    /// The controller (`joca eval --controller`; the run's own by default).
+    controller: TestController,
+    /// The test family's town (`joca eval --town`; 0: the test town).
+    town: u64,
 }
 
 impl Context {
     /// Appends `event` to `events.jsonl`.
     fn log(&mut self, event: &Event) -> Result<(), TrainError> {
+        let j = &mut self.journal;
         let line = serde_json::to_string(event).map_err(|e| TrainError::Corrupt {
-            path: self.log_path.display().to_string(),
+            path: j.log_path.display().to_string(),
             reason: e.to_string(),
         })?;
-        writeln!(self.log, "{line}").map_err(|e| TrainError::io(&self.log_path, e))
+        writeln!(j.log, "{line}").map_err(|e| TrainError::io(&j.log_path, e))
     }
 }
 
@@ -226,7 +221,7 @@ pub fn run(
         // Does the learned controller earn its place? The same design, detector and test
         // scenes driven by AverageAE at mid-grey (what `joca eval --controller average` writes).
         let swap = joca_record::Retest::average_swap(0);
-        cx.test_controller = swap.controller;
+        cx.test.controller = swap.controller;
         let out = run_dir.join(format!("test-{swap}"));
         let mut r = test_design(&mut cx, &mut model, &state, (&design, validation), Some(&out))?;
         r.test_controller = Some(swap.controller);
@@ -234,24 +229,13 @@ pub fn run(
             &run_dir.join(swap.results_file()),
             &serde_json::to_string_pretty(&r).unwrap_or_default(),
         )?;
-        cx.test_controller = TestController::Trained;
+        cx.test.controller = TestController::Trained;
     }
     write_atomic(
         &run_dir.join("results.json"),
         &serde_json::to_string_pretty(&results).unwrap_or_default(),
     )?;
     Ok(results)
-}
-
-/// The records' name for the light of frames under `illumination` (`None`: a recording's).
-pub(crate) fn light_of(illumination: Option<Illumination>) -> Light {
-    match illumination {
-        None => Light::Recorded,
-        Some(Illumination::Day) => Light::Day,
-        Some(Illumination::Night) => Light::Night,
-        Some(Illumination::Tunnel) => Light::Tunnel,
-        Some(Illumination::Cycle) => Light::Cycle,
-    }
 }
 
 /// Engine, model (with its starting detector weights) and loop context for `config`.
@@ -304,50 +288,19 @@ fn setup(
         streams,
         codec: GenomeCodec::new(space, SensorEncoding::QuantisedContinuous)?,
         formation,
-        sims: HashMap::new(),
-        real,
+        scenes: SceneSource::new(config, real),
         ranges,
-        log,
-        log_path,
-        watch: Stopwatch::default(),
-        test_controller: TestController::Trained,
-        test_town: 0,
-        ties: SearchTies::default(),
+        journal: Journal {
+            log,
+            log_path,
+            watch: Stopwatch::default(),
+            ties: SearchTies::default(),
+        },
+        test: TestDrive::default(),
     };
     Ok((cx, model))
 }
 
 fn ga_err(e: joca_evolve::GaError) -> TrainError {
     TrainError::Config { field: "ga".into(), value: String::new(), allowed: e.to_string() }
-}
-
-/// The simulator of town `map_seed` under `illumination` (`None`: drawn per episode), built
-/// once.
-fn simulator(
-    sims: &mut Sims,
-    map_seed: u64,
-    config: &RunConfig,
-    illumination: Option<Illumination>,
-) -> Arc<Simulator> {
-    Arc::clone(sims.entry((map_seed, illumination)).or_insert_with(|| {
-        Arc::new(Simulator::new(SimConfig {
-            map_seed,
-            max_speed_mps: config.max_speed_mps,
-            illumination,
-            visibility: config.reference.rules(),
-            weather: config.weather,
-            ..SimConfig::default()
-        }))
-    }))
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn the_records_name_each_light_as_the_simulator_does() {
-        for &i in joca_sim::Illumination::ALL {
-            assert_eq!(super::light_of(Some(i)).name(), i.name());
-        }
-        assert_eq!(super::light_of(None).name(), "recorded");
-    }
 }

@@ -238,20 +238,24 @@ pub(super) fn search(
         }
         None => Vec::new(),
     };
-    cx.watch.lap(|t| &mut t.perturbation_render_ms);
+    cx.journal.watch.lap(|t| &mut t.perturbation_render_ms);
     let refs: Vec<&Rgb8Image> = images.iter().collect();
     let precision = cx.config.scoring_precision.on_this_cpu();
     let (fitness, tied) = score(&cx.config, model, frames, &refs, precision)?;
-    cx.ties.add(SearchTies { searches: 1, tied: u64::from(tied) });
-    cx.watch.lap(|t| &mut t.perturbation_detect_ms);
+    cx.journal.ties.add(SearchTies { searches: 1, tied: u64::from(tied) });
+    cx.journal.watch.lap(|t| &mut t.perturbation_detect_ms);
     let best = best_member(&fitness);
     // `joca bench step` only: would the other precision have chosen the same member, and what
     // does this precision's choice lose by the other's scores?
-    if let Some(other) = cx.watch.check_precision {
+    if let Some(other) = cx.journal.watch.check_precision {
         let (reference, _) = score(&cx.config, model, frames, &refs, other)?;
         let top = reference.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let bottom = reference.iter().copied().fold(f64::INFINITY, f64::min);
-        cx.watch.count_check(best_member(&reference) == best, top - reference[best], top - bottom);
+        cx.journal.watch.count_check(
+            best_member(&reference) == best,
+            top - reference[best],
+            top - bottom,
+        );
     }
     if cx.config.method != Method::FixedPerturbation {
         ga.tell(&fitness, &mut cx.streams.indexed("perturbation-ga", probe.global_step), |_| {})

@@ -163,7 +163,7 @@ impl RunState {
             r => r?,
         };
         // A killed candidate is repeated from the checkpoint: count its searches once.
-        self.ties.add(std::mem::take(&mut cx.ties));
+        self.ties.add(std::mem::take(&mut cx.journal.ties));
         let fitness = scores.fitness();
         self.fitness.push(fitness);
         let genes = &members[self.candidate];

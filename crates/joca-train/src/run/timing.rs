@@ -176,9 +176,9 @@ pub fn bench_step(
     let mut perturbation = perturbation::ga(&config, &cx.streams)?;
     let train = candidate::train;
     train(&mut cx, &mut model, &mut perturbation, design, (0, 0), &mut |_, _| {})?; // warm-up
-    cx.watch = Stopwatch { check_precision: check, ..Stopwatch::measuring() };
+    cx.journal.watch = Stopwatch { check_precision: check, ..Stopwatch::measuring() };
     train(&mut cx, &mut model, &mut perturbation, design, (1, 1), &mut |_, _| {})?;
-    let t = cx.watch.breakdown.unwrap_or_default();
+    let t = cx.journal.watch.breakdown.unwrap_or_default();
     Ok(t.scaled(1.0 / t.steps.max(1) as f64))
 }
 

@@ -5,8 +5,8 @@
 //! it learns to recover from its own mistakes). Each stretch starts at settings drawn anywhere in
 //! the ACC ranges, so it also meets frames far from mid-grey. The detector does not change.
 
+use super::Context;
 use super::candidate::iris;
-use super::{Context, simulator};
 use crate::TrainError;
 use crate::control::{ExposureControl, NeuralControl, SensorLimits};
 use joca_camera::{AccRanges, AverageAe, CameraDesign, Capture, DynamicSettings};
@@ -37,7 +37,7 @@ pub(super) fn warm_start(
     designs: &[CameraDesign],
 ) -> Result<(), TrainError> {
     let ws = cx.config.warm_start;
-    if ws.is_off() || designs.is_empty() || cx.real.is_some() {
+    if ws.is_off() || designs.is_empty() || cx.scenes.recorded() {
         return Ok(());
     }
     let started = std::time::Instant::now();
@@ -49,7 +49,7 @@ pub(super) fn warm_start(
         let design = &designs[s % designs.len()];
         let illumination = Illumination::ALL[s % Illumination::ALL.len()];
         let map_seed = train_map_seed(rng.random_range(0..c.train_maps));
-        let town = simulator(&mut cx.sims, map_seed, &c, Some(illumination));
+        let town = cx.scenes.town(map_seed, Some(illumination));
         let episode: u64 = rng.random_range(0..1_000_000);
         let frames = STRETCH_FRAMES.min(ws.frames - s * STRETCH_FRAMES);
         let dt = town.frame_interval_s();

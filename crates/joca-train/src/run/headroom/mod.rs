@@ -94,7 +94,7 @@ pub fn headroom(
     config.validate()?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
     options.ladder.validate(cx.ranges, &options.ladder_file)?;
-    if cx.real.is_some() {
+    if cx.scenes.recorded() {
         return Err(TrainError::Config {
             field: "run.source".into(),
             value: config.source.to_string(),
@@ -127,7 +127,7 @@ pub fn headroom(
             (config.fixed_design()?, weights.display().to_string(), None, false)
         }
     };
-    cx.test_town = options.town;
+    cx.test.town = options.town;
     let plan = Plan::test(&config, options.town);
     let frame_interval_s = towns(&mut cx, plan)[0].frame_interval_s();
     let max_exposure_s = cx.ranges.exposure_s.max.min(frame_interval_s);
@@ -210,7 +210,7 @@ fn closed_loop_outcomes(
     plan: Plan,
     controller: TestController,
 ) -> Result<Vec<Outcome>, TrainError> {
-    cx.test_controller = controller;
+    cx.test.controller = controller;
     let camera = design.view(&cx.config.input, cx.config.lens);
     let towns = towns(cx, plan);
     let mut out = Vec::new();
@@ -230,7 +230,7 @@ fn closed_loop_outcomes(
             }
         }
     }
-    cx.test_controller = TestController::Trained;
+    cx.test.controller = TestController::Trained;
     Ok(out)
 }
 
