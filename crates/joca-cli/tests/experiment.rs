@@ -312,6 +312,15 @@ fn an_export_rebuilds_the_report_and_serves_another_grid_as_a_cache() {
     assert!(!cell.join("checkpoint").exists() && !cell.join("cell.log").exists());
     let show = std::fs::read_to_string(cell.join("test/showcase.json")).unwrap();
     assert!(show.contains("\"exposure_ms\"") && show.contains("\"boxes\":[]"), "{show}");
+    // Rows from a follow-up town's records; a results file the cells lack is refused, named.
+    let o = joca(&["report", export.to_str().unwrap(), "--results", "town2", "--no-figures"]);
+    let md = std::fs::read_to_string(export.join("report.md")).unwrap();
+    assert!(o.status.success() && md.contains("`results-town2.json`"), "{}", stderr(&o));
+    let e = stderr(&joca(&["report", export.to_str().unwrap(), "--results", "town3"]));
+    assert!(
+        e.contains("has no results-town3.json (--results town3)") && e.contains("cell "),
+        "{e}"
+    );
     // Tables only, as records are committed: no figures, the same numbers.
     let o = joca(&["report", export.to_str().unwrap(), "--no-figures"]);
     assert!(o.status.success() && stdout(&o).contains("(no figures)"), "{}", stderr(&o));

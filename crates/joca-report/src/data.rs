@@ -98,7 +98,11 @@ impl RunData {
     /// own end write them), without training records (nor showcases where its test folder is
     /// gone, as in compact records); `None` where the run has none.
     pub fn retest(dir: &Path, retest: &Retest) -> Result<Option<Self>, ReportError> {
-        let tag = retest.to_string();
+        Self::retest_tag(dir, &retest.to_string())
+    }
+
+    /// [`Self::retest`] by the tag of its files, `results-<tag>.json`.
+    pub fn retest_tag(dir: &Path, tag: &str) -> Result<Option<Self>, ReportError> {
         let results_path = dir.join(format!("results-{tag}.json"));
         let show_path = dir.join(format!("test-{tag}")).join("showcase.json");
         if !results_path.exists() {

@@ -163,7 +163,7 @@ const CONTROLS_NOTE: &str = "Closed-loop test, mean over each variant's cells ±
 /// Writes `report.md`, `report.html`, `results.csv` and `figures/` into the experiment
 /// directory from its finished cells, and returns the Markdown.
 pub fn write_experiment_report(exp_dir: &Path) -> Result<String, ReportError> {
-    write_experiment_report_with(exp_dir, ReportOptions::default())
+    write_experiment_report_with(exp_dir, &ReportOptions::default())
 }
 
 /// The commit (with `-dirty`, or `unrecorded` for cells written before provenance existed) of
@@ -185,7 +185,7 @@ fn commits(rows: &[Row]) -> Vec<(String, Vec<String>)> {
 /// `no_figures`.
 pub fn write_experiment_report_with(
     exp_dir: &Path,
-    options: ReportOptions,
+    options: &ReportOptions,
 ) -> Result<String, ReportError> {
     let manifest = Manifest::load(exp_dir)?;
     let mut rows = Vec::new();
@@ -197,7 +197,14 @@ pub fn write_experiment_report_with(
             pending.push(cell.id.clone());
             continue;
         }
-        let run = RunData::load(&Manifest::cell_dir(exp_dir, cell))?;
+        let dir = Manifest::cell_dir(exp_dir, cell);
+        let run = match &options.results {
+            None => RunData::load(&dir)?,
+            Some(tag) => RunData::retest_tag(&dir, tag)?.ok_or_else(|| {
+                let file = format!("results-{tag}.json");
+                ReportError::MissingResults { cell: cell.id.clone(), file, tag: tag.clone() }
+            })?,
+        };
         rows.push(Row {
             group: cell.group.clone(),
             label: cell.label.clone(),
@@ -232,6 +239,9 @@ pub fn write_experiment_report_with(
     );
     if !pending.is_empty() {
         let _ = write!(meta, " Not finished: {}.", pending.join(", "));
+    }
+    if let Some(tag) = &options.results {
+        let _ = write!(meta, " Every row read from the cell's `results-{tag}.json`.");
     }
     if let [machine] = crate::seeds::machines(&table.rows).as_slice()
         && machine != "unrecorded"

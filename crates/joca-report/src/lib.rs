@@ -86,6 +86,19 @@ pub enum ReportError {
         /// Each commit and the cells it computed.
         cells: String,
     },
+    /// A cell lacks the results file a report was asked to read (`--results TAG`).
+    #[error(
+        "cell {cell} has no {file} (--results {tag}): re-test it there (`joca eval`, or the grid's \
+         [follow_up]), or report without --results"
+    )]
+    MissingResults {
+        /// The cell.
+        cell: String,
+        /// The file it lacks.
+        file: String,
+        /// The tag asked for.
+        tag: String,
+    },
     /// A figure could not be drawn or encoded.
     #[error("cannot draw {path}: {reason}")]
     Draw {
@@ -114,25 +127,29 @@ fn io_err(path: &Path, source: std::io::Error) -> ReportError {
 const SWAP_LABEL: &str = "AverageAE, same design and detector";
 
 /// How `joca report` writes a report.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct ReportOptions {
     /// Report an experiment's cells of different joca commits together (refused otherwise).
     pub mixed_commits: bool,
     /// Write the tables only: no `figures/`, and report.md and report.html without them (a
     /// `figures/` folder an earlier report wrote is left as it was).
     pub no_figures: bool,
+    /// An experiment's rows from each cell's `results-<tag>.json` (a follow-up town's
+    /// `town2`, a swap's `average-127.5`, …) instead of its `results.json`; a finished cell
+    /// without it is refused, named.
+    pub results: Option<String>,
 }
 
 /// Writes `report.md`, `report.html` and `figures/` into the run directory `run_dir` and
 /// returns the Markdown.
 pub fn write_run_report(run_dir: &Path) -> Result<String, ReportError> {
-    write_run_report_with(run_dir, ReportOptions::default())
+    write_run_report_with(run_dir, &ReportOptions::default())
 }
 
 /// [`write_run_report`] as `options` say (`mixed_commits` does not apply to one run).
 pub fn write_run_report_with(
     run_dir: &Path,
-    options: ReportOptions,
+    options: &ReportOptions,
 ) -> Result<String, ReportError> {
     let run = RunData::load(run_dir)?;
     let r = &run.results;

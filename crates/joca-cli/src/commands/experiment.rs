@@ -164,7 +164,7 @@ pub fn run(args: &Args) -> Result<()> {
         .collect();
     let options =
         joca_report::ReportOptions { mixed_commits: args.mixed_commits, ..Default::default() };
-    joca_report::write_experiment_report_with(&dir, options)
+    joca_report::write_experiment_report_with(&dir, &options)
         .with_context(|| format!("cannot write the report of {}", dir.display()))?;
     println!(
         "\n{}",

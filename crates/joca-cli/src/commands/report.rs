@@ -17,6 +17,11 @@ pub struct Args {
     /// that are committed or shared.
     #[arg(long)]
     no_figures: bool,
+    /// An experiment's rows from each cell's `results-TAG.json` (e.g. `town2` for a follow-up
+    /// town, `average-127.5` for the AverageAE re-test) instead of its `results.json`; a
+    /// finished cell without the file is refused, named.
+    #[arg(long, value_name = "TAG")]
+    results: Option<String>,
 }
 
 /// Runs `joca report`.
@@ -25,15 +30,20 @@ pub fn run(args: &Args) -> Result<()> {
     let options = joca_report::ReportOptions {
         mixed_commits: args.mixed_commits,
         no_figures: args.no_figures,
+        results: args.results.clone(),
     };
     // Reports are written only into folders joca marked as its own (joca_core::output).
     match output::marked_kind(dir) {
         Some(OutputKind::Experiment) => {
-            joca_report::write_experiment_report_with(dir, options)
+            joca_report::write_experiment_report_with(dir, &options)
                 .with_context(|| format!("cannot write the report of {}", dir.display()))?;
         }
+        Some(OutputKind::Run) if args.results.is_some() => bail!(
+            "--results applies to an experiment directory; {} is a run directory",
+            dir.display()
+        ),
         Some(OutputKind::Run) if dir.join("results.json").is_file() => {
-            joca_report::write_run_report_with(dir, options)
+            joca_report::write_run_report_with(dir, &options)
                 .with_context(|| format!("cannot write the report of {}", dir.display()))?;
             if let Some(note) =
                 joca_report::RunData::load(dir).ok().and_then(|r| r.skipped_events_note())

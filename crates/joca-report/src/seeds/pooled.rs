@@ -94,6 +94,7 @@ pub fn pooled_towns_table(test: &[Row], towns: &[(u64, Vec<Row>)]) -> Vec<Vec<St
             "Δ mAP",
             "Δ AP50",
             "ours ahead (mAP)",
+            "r, test town ~ first follow-up",
         ]
         .map(str::to_owned)
         .to_vec(),
@@ -117,7 +118,33 @@ pub fn pooled_towns_table(test: &[Row], towns: &[(u64, Vec<Row>)]) -> Vec<Vec<St
             cell(mean_interval(&map)),
             cell(mean_interval(&ap50)),
             format!("{} of {} {unit}", map.iter().filter(|d| **d > 0.0).count(), map.len()),
+            correlation(of[0], of[1], |r| r.results.test.map)
+                .map_or_else(|| "–".to_owned(), |r| format!("{r:.2}")),
         ]);
     }
     if table.len() < 2 { Vec::new() } else { table }
+}
+
+/// Pearson's r between two comparisons' per-unit differences in `f`, over the units both have
+/// (do the same designs lead on both towns?); `None` with fewer than three units or no spread.
+fn correlation(
+    a: &Comparison<'_>,
+    b: &Comparison<'_>,
+    f: impl Fn(&Row) -> f64 + Copy,
+) -> Option<f64> {
+    let other = unit_differences(b, f);
+    let pairs: Vec<(f64, f64)> = unit_differences(a, f)
+        .into_iter()
+        .filter_map(|(k, x)| other.iter().find(|(o, _)| *o == k).map(|(_, y)| (x, *y)))
+        .collect();
+    if pairs.len() < 3 {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let mx = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = pairs.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = pairs.iter().map(|(x, _)| (x - mx).powi(2)).sum();
+    let syy: f64 = pairs.iter().map(|(_, y)| (y - my).powi(2)).sum();
+    (sxx > 0.0 && syy > 0.0).then(|| sxy / (sxx * syy).sqrt())
 }

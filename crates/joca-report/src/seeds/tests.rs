@@ -282,5 +282,6 @@ fn pooled_over_towns_averages_each_design_over_the_towns_then_takes_the_interval
     assert_eq!(table[1][..4], ["Calibrated", "Ours − AverageAE", "2", "2 designs"]);
     assert_eq!(table[1][4], "0.030 ± 0.508");
     assert_eq!(table[1][6], "1 of 2 designs");
+    assert_eq!(table[1][7], "–", "r needs three designs");
     assert!(pooled_towns_table(&test, &[]).is_empty());
 }
