@@ -156,15 +156,7 @@ mod tests {
     use super::*;
 
     fn row(label: &str, design: &str, seed: u64, method: Method, map: f64) -> Row {
-        let mut results = crate::table::tests::results(map, 0.3, false);
-        (results.method, results.seed) = (method, seed);
-        Row {
-            group: "Calibrated".into(),
-            label: label.into(),
-            cell: format!("{label}-{design}-{seed}"),
-            design: design.into(),
-            results,
-        }
+        crate::table::tests::row(label, method, design, seed, map)
     }
 
     #[test]

@@ -203,16 +203,10 @@ fn pairs_split_by_distance_band_and_by_machine_type_match_hand_computations() {
         recall50: map,
     };
     let row = |label: &str, method: Method, seed: u64, near: f64, far: Option<f64>, cpu: &str| {
-        let mut results = crate::table::tests::results(near, 0.3, true);
-        (results.method, results.seed, results.cpu) = (method, seed, cpu.to_owned());
-        results.test_bands = vec![band(0.0, 20.0, Some(near)), band(20.0, 50.0, far)];
-        Row {
-            group: "Calibrated".into(),
-            label: label.into(),
-            cell: format!("{label}-s{seed}"),
-            design: String::new(),
-            results,
-        }
+        let mut row = crate::table::tests::row(label, method, "", seed, near);
+        row.results.cpu = cpu.to_owned();
+        row.results.test_bands = vec![band(0.0, 20.0, Some(near)), band(20.0, 50.0, far)];
+        row
     };
     let (a, b) = ("EPYC (AVX-512)", "Xeon (AVX2)");
     let rows = vec![
@@ -255,15 +249,7 @@ fn pairs_split_by_distance_band_and_by_machine_type_match_hand_computations() {
 #[test]
 fn pooled_over_towns_averages_each_design_over_the_towns_then_takes_the_interval() {
     let row = |label: &str, method: Method, design: &str, map: f64| {
-        let mut results = crate::table::tests::results(map, 0.3, false);
-        results.method = method;
-        Row {
-            group: "Calibrated".into(),
-            label: label.into(),
-            cell: format!("{label}-{design}"),
-            design: design.into(),
-            results,
-        }
+        crate::table::tests::row(label, method, design, 0, map)
     };
     let town = |ours: [f64; 2], base: [f64; 2]| {
         vec![

@@ -3,6 +3,20 @@
 use super::*;
 use joca_record::{DesignSummary, Method, Scenario, TaskScores};
 
+/// A calibrated row of `label` (method `method`) on panel design `design` (empty: none) and
+/// seed `seed`, scoring `map`.
+pub(crate) fn row(label: &str, method: Method, design: &str, seed: u64, map: f64) -> Row {
+    let mut r = results(map, 0.3, false);
+    (r.method, r.seed) = (method, seed);
+    Row {
+        group: "Calibrated".into(),
+        label: label.into(),
+        cell: format!("{label}-{design}-s{seed}"),
+        design: design.into(),
+        results: r,
+    }
+}
+
 pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
     RunResults {
         format_version: joca_record::RESULTS_FORMAT_VERSION,
