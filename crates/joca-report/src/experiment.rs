@@ -244,7 +244,7 @@ pub fn write_experiment_report_with(
         let _ = write!(meta, " Every row read from the cell's `results-{tag}.json`.");
     }
     if let [machine] = crate::seeds::machines(&table.rows).as_slice()
-        && machine != "unrecorded"
+        && !table.rows[0].results.cpu.is_empty()
     {
         let _ = write!(meta, " Computed on {machine}.");
     }

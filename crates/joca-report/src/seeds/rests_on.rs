@@ -79,7 +79,7 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
 /// ([`crate::sections::machine_line`]) names — CPU (model and widest vector units), libtorch's kernels and
 /// subnormal handling, each named only where it is not joca's default — and the precision its
 /// perturbed frames were scored in. Training repeats bit for bit only within one.
-fn machine(r: &Row) -> String {
+pub(super) fn machine(r: &Row) -> String {
     let r = &r.results;
     let mut m = if r.cpu.is_empty() { "CPU not recorded".to_owned() } else { r.cpu.clone() };
     if r.cpu_kernels == Some(CpuKernels::Avx2) {

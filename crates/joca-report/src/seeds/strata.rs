@@ -3,10 +3,10 @@
 //! computed on (training repeats bit for bit on one machine type, not across types, so a grid
 //! resumed on another CPU mixes two populations of runs).
 
+use super::rests_on::machine;
 use crate::paired::{Comparison, comparisons};
 use crate::seeds::cell;
 use crate::table::Row;
-use joca_core::compute::CpuKernels;
 
 /// The distance bands of the rows' tests (from the first row that has any), as (from, to) m.
 fn bands(rows: &[Row]) -> Vec<(f64, f64)> {
@@ -37,20 +37,6 @@ pub(super) fn band_table(rows: &[Row]) -> Vec<Vec<String>> {
         table.push(row);
     }
     if table.len() < 2 { Vec::new() } else { table }
-}
-
-/// The machine type a row was computed on: CPU, libtorch's kernels and the scoring precision
-/// (`unrecorded` for runs older than the fields).
-pub(crate) fn machine(r: &Row) -> String {
-    let x = &r.results;
-    if x.cpu.is_empty() {
-        return "unrecorded".to_owned();
-    }
-    let kernels = x.cpu_kernels.unwrap_or(CpuKernels::Native);
-    match x.scoring_precision {
-        Some(p) => format!("{}, {kernels} kernels, scoring {p}", x.cpu),
-        None => format!("{}, {kernels} kernels", x.cpu),
-    }
 }
 
 /// The distinct machine types of `rows`, in order of appearance.

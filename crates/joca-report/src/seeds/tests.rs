@@ -226,8 +226,9 @@ fn pairs_split_by_distance_band_and_by_machine_type_match_hand_computations() {
     assert_eq!(bands[1][4], format!("{:.3} ± {:.3}", far.0, far.1));
     // Machines: five cells on a, one on b; seeds 0 and 1 paired on a, seed 2 across both.
     let (counts, split) = strata::machine_tables(&rows);
-    // A machine type names the CPU, libtorch's kernels and the scoring precision.
-    let type_of = |cpu: &str| format!("{cpu}, native kernels, scoring fp32");
+    // A machine type as the "what the answer rests on" line names it: the CPU, the kernels and
+    // subnormal handling where not joca's defaults, and the scoring precision.
+    let type_of = |cpu: &str| format!("{cpu}, scoring in fp32");
     assert_eq!(counts[1..], [vec![type_of(a), "5".into()], vec![type_of(b), "1".into()]]);
     let on_a = mean_interval(&[0.05, 0.01]);
     assert_eq!(split.len(), 3, "{split:?}");
