@@ -93,9 +93,17 @@ impl Lighting {
 
     /// Relative irradiance from sun and sky on a surface with unit normal `n`.
     pub fn sun_sky(&self, n: [f32; 3]) -> f32 {
-        let cos_sun =
-            (n[0] * self.sun_dir[0] + n[1] * self.sun_dir[1] + n[2] * self.sun_dir[2]).max(0.0);
-        self.ambient * (SUN * cos_sun + SKY * (0.5 + 0.5 * n[2]))
+        self.ambient * (SUN * self.cos_sun(n) + SKY * (0.5 + 0.5 * n[2]))
+    }
+
+    /// The sun's share of [`Lighting::sun_sky`]: what a surface with unit normal `n` loses in
+    /// the shadow of another (the sky's share stays).
+    pub fn direct_sun(&self, n: [f32; 3]) -> f32 {
+        self.ambient * SUN * self.cos_sun(n)
+    }
+
+    fn cos_sun(&self, n: [f32; 3]) -> f32 {
+        (n[0] * self.sun_dir[0] + n[1] * self.sun_dir[1] + n[2] * self.sun_dir[2]).max(0.0)
     }
 
     /// Sky radiance in DN for a view ray with vertical component `dir_z` (unit ray).

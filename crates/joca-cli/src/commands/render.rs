@@ -91,6 +91,10 @@ pub struct Args {
     /// Noise variances × this factor, 0 to 1000 (the "noise ×N" scenarios).
     #[arg(long, default_value_t = 1.0)]
     noise_scale: f64,
+    /// Let the sun cast shadows (buildings, vehicles, walkers, posts on the ground, facades and
+    /// each other).
+    #[arg(long)]
+    shadows: bool,
     /// Seed of the noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -185,6 +189,7 @@ pub fn run(args: &Args) -> Result<()> {
         max_speed_mps: args.max_speed_mps,
         illumination: args.illumination.map(Illumination::from),
         weather,
+        cast_shadows: args.shadows,
         ..SimConfig::default()
     };
     let last = args.start_s + (args.frames - 1) as f64 * config.frame_interval_s;

@@ -1,23 +1,28 @@
 //! The ground and the sky of a view, per pixel: where each ray below the horizon meets the
-//! ground (shaded by sun and sky, lamps and head lights), and the sky above it.
+//! ground (shaded by sun and sky, lamps and head lights; the sky alone where something casts a
+//! shadow on it), and the sky above it.
 
+use super::shadow::Shadows;
 use super::{CameraFrame, GROUND_FAR_M, Target, View, headlight};
 use crate::city::City;
 use crate::geometry::V3;
 use crate::lighting::{self, RADIANCE_SCALE_DN};
 
-/// Draws the ground where no object is nearer, and the sky where nothing was drawn.
+/// Draws the ground where no object is nearer, and the sky where nothing was drawn; `lamp` is
+/// the head lights' place and heading, `layers` what casts shadows (static, moving).
 pub(super) fn ground_and_sky(
     city: &City,
     view: &View<'_>,
     cam: &CameraFrame,
-    lamp: V3,
-    heading: V3,
+    (lamp, heading): (V3, V3),
+    layers: [Option<&Shadows>; 2],
     target: &mut Target,
 ) {
     let w = target.width;
     let light = &view.lighting;
     let up_irradiance = light.sun_sky([0.0, 0.0, 1.0]);
+    let up_sun = light.direct_sun([0.0, 0.0, 1.0]);
+    let mut shade = RowShadow::new(layers, w);
     let lights_on = light.lights_on();
     let k = RADIANCE_SCALE_DN;
     // Rightward slope of each column's view ray, once per view rather than once per pixel.
@@ -39,6 +44,7 @@ pub(super) fn ground_and_sky(
         }
         let inv_t = 1.0 / t;
         ground_points(cam, t, &slopes, &mut points);
+        shade.row(cam, t, y as u32 + 1);
         for (x, &(px, py, grain)) in points.iter().enumerate() {
             if target.inv_depth[row + x] >= inv_t {
                 continue; // an object is nearer than the ground here
@@ -49,14 +55,68 @@ pub(super) fn ground_and_sky(
             } else {
                 (0.0, 0.0)
             };
+            let sun_sky = if shade.mask[x] { up_irradiance - up_sun } else { up_irradiance };
             let i = (row + x) * 3;
             for ((out, rho), tint) in
                 target.colour[i..i + 3].iter_mut().zip(albedo).zip(lighting::LAMP_TINT)
             {
-                *out = k * rho * (up_irradiance + lamps * tint + head);
+                *out = k * rho * (sun_sky + lamps * tint + head);
             }
             target.inv_depth[row + x] = inv_t;
             target.id[row + x] = 0;
+        }
+    }
+}
+
+/// Which pixels of an image row see the ground in shadow, row by row.
+struct RowShadow<'a> {
+    layers: [Option<&'a Shadows>; 2],
+    /// Per column of the current row: in shadow.
+    mask: Vec<bool>,
+    /// Scratch of [`Shadows::ground_line`], one per layer.
+    seen: [Vec<u32>; 2],
+    stretches: Vec<(f32, f32)>,
+}
+
+impl<'a> RowShadow<'a> {
+    fn new(layers: [Option<&'a Shadows>; 2], width: usize) -> Self {
+        Self {
+            layers,
+            mask: vec![false; width],
+            seen: [Vec::new(), Vec::new()],
+            stretches: Vec::new(),
+        }
+    }
+
+    /// The mask of the row whose rays meet the ground at depth `t` (`stamp`: a number above
+    /// every earlier row's). The ground point of column `x` is `origin + x·dir`, as
+    /// [`ground_points`] computes it.
+    fn row(&mut self, cam: &CameraFrame, t: f32, stamp: u32) {
+        self.mask.iter_mut().for_each(|m| *m = false);
+        if self.layers[0].is_none() {
+            return;
+        }
+        let a0 = (0.5 - cam.cx) / cam.fx;
+        let origin = [
+            cam.origin.x + t * (cam.forward.x + a0 * cam.right.x),
+            cam.origin.y + t * (cam.forward.y + a0 * cam.right.y),
+        ];
+        let dir = [t * cam.right.x / cam.fx, t * cam.right.y / cam.fx];
+        let last = (self.mask.len() - 1) as f32;
+        self.stretches.clear();
+        for (layer, seen) in self.layers.iter().zip(&mut self.seen) {
+            if let Some(s) = layer {
+                s.ground_line((origin, dir), (0.0, last), (seen, stamp), &mut self.stretches);
+            }
+        }
+        let width = self.mask.len();
+        for &(lo, hi) in &self.stretches {
+            // Columns x with lo ≤ x ≤ hi.
+            let first = lo.ceil().max(0.0) as usize;
+            let end = ((hi.floor() + 1.0).max(0.0) as usize).min(width);
+            if first < end {
+                self.mask[first..end].iter_mut().for_each(|m| *m = true);
+            }
         }
     }
 }

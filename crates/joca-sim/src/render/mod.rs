@@ -25,18 +25,23 @@ pub mod fog;
 pub mod glow;
 mod ground;
 pub mod lens;
+mod light;
 pub mod rain;
 mod raster;
 mod reach;
+mod shade;
+pub mod shadow;
 
 use crate::city::City;
 use crate::geometry::{OrientedBox, Pose2, V3};
-use crate::lighting::{self, Lighting, RADIANCE_SCALE_DN};
-use crate::objects::{Material, Rgb};
+use crate::lighting::Lighting;
 use ground::ground_and_sky;
 use joca_core::PinholeCamera;
-use raster::{Shade, Vertex};
+use light::headlight;
+use light::{BoxLight, face_sun};
+use raster::{Shade, Sunlit, Vertex};
 use reach::{Reach, hidden, screen_reach};
+use shadow::{FacePlane, Shadows};
 
 /// Closest depth that is drawn, metres.
 pub const NEAR_M: f32 = 0.05;
@@ -56,6 +61,9 @@ pub struct View<'a> {
     pub lighting: Lighting,
     /// Time of this instant since the episode start, seconds.
     pub time_s: f64,
+    /// The shadows the city's static objects cast in this sun (`None`: no cast shadows; with
+    /// them, moving objects cast theirs too).
+    pub shadows: Option<&'a Shadows>,
 }
 
 /// Colour, depth and object-id buffers of one view.
@@ -171,33 +179,25 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     let cam = CameraFrame::new(view.camera, view.ego);
     let lamp_pos = view.ego.apply(HEADLIGHT_MOUNT);
     let heading = cam.forward;
+    let with_colour = !target.colour.is_empty();
     target.coverage.iter_mut().for_each(|c| *c = 0);
     target.inv_depth.iter_mut().for_each(|d| *d = 0.0);
     target.id.iter_mut().for_each(|i| *i = 0);
 
-    let (tan_h, tan_v) = (
-        (view.camera.width_px as f32 / 2.0) / cam.fx,
-        (view.camera.height_px as f32 / 2.0) / cam.fy,
-    );
+    let frustum = Frustum::new(view, &cam);
+    // Cast shadows where the sun is up: with the lamps on (dusk, night, a tunnel) it is not.
+    let statics = view.shadows.filter(|_| with_colour && !view.lighting.lights_on());
+    let moving = statics.and_then(|_| moving_shadows(city, view, &frustum));
+    let layers = [statics, moving.as_ref()];
     let mut visible: Vec<(f32, usize)> = Vec::with_capacity(512);
     for (index, object) in city.objects.iter().enumerate() {
-        let pose = object.position_at(view.time_s);
-        let c = cam.camera_from_world(V3::new(pose.x, pose.y, 1.0));
-        let r = object.radius_m + 1.0;
-        // Sphere-against-frustum rejection (sides, near, range).
-        if c.z < -r || c.z > DRAW_RANGE_M + r {
-            continue;
+        if let Some(depth) = frustum.holds(object, view.time_s, 0.0) {
+            visible.push((depth, index));
         }
-        let slack_h = r * (1.0 + tan_h * tan_h).sqrt();
-        let slack_v = r * (1.0 + tan_v * tan_v).sqrt() + object.radius_m;
-        if c.x.abs() > c.z * tan_h + slack_h || c.y.abs() > c.z * tan_v + slack_v {
-            continue;
-        }
-        visible.push((c.z, index));
     }
     // Nearest first: farther surfaces then mostly fail the depth test before being shaded.
     visible.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    let no_shade = |_, _| Shade::Constant([0.0; 3]);
+    let no_shade = |_, _| (Shade::Constant([0.0; 3]), None);
     // Hidden boxes of an id-only target, whose coverage may still be needed.
     let mut hidden_boxes: Vec<(u32, OrientedBox, (V3, V3))> = Vec::new();
     for (_, index) in visible {
@@ -215,7 +215,7 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
             } else if target.colour.is_empty() {
                 draw_faces(&cam, &b, axes, &no_shade, id, target);
             } else {
-                let light = BoxLight::new(city, view, lamp_pos, heading, &b);
+                let light = BoxLight::new(city, view, lamp_pos, heading, &b, layers);
                 let shade = |face, n| light.shade(material, face, n);
                 draw_faces(&cam, &b, axes, &shade, id, target);
             }
@@ -230,9 +230,57 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
             draw_faces(&cam, &b, axes, &no_shade, id, target);
         }
     }
-    if !target.colour.is_empty() {
-        ground_and_sky(city, view, &cam, lamp_pos, heading, target);
+    if with_colour {
+        ground_and_sky(city, view, &cam, (lamp_pos, heading), layers, target);
     }
+}
+
+/// The camera's view volume, for rejecting objects by their bounding spheres.
+struct Frustum<'c> {
+    cam: &'c CameraFrame,
+    tan_h: f32,
+    tan_v: f32,
+}
+
+impl<'c> Frustum<'c> {
+    fn new(view: &View<'_>, cam: &'c CameraFrame) -> Self {
+        Self {
+            cam,
+            tan_h: (view.camera.width_px as f32 / 2.0) / cam.fx,
+            tan_v: (view.camera.height_px as f32 / 2.0) / cam.fy,
+        }
+    }
+
+    /// The depth of `object` at `time_s` if a sphere around it, `extra` metres wider than its
+    /// own, may reach the view (sides, near, range); `None` if it cannot.
+    fn holds(&self, object: &crate::objects::Object, time_s: f64, extra: f32) -> Option<f32> {
+        let pose = object.position_at(time_s);
+        let c = self.cam.camera_from_world(V3::new(pose.x, pose.y, 1.0));
+        let r = object.radius_m + 1.0 + extra;
+        if c.z < -r || c.z > DRAW_RANGE_M + r {
+            return None;
+        }
+        let slack_h = r * (1.0 + self.tan_h * self.tan_h).sqrt();
+        let slack_v = r * (1.0 + self.tan_v * self.tan_v).sqrt() + object.radius_m;
+        let outside =
+            c.x.abs() > c.z * self.tan_h + slack_h || c.y.abs() > c.z * self.tan_v + slack_v;
+        (!outside).then_some(c.z)
+    }
+}
+
+/// The shadows of the moving objects (vehicles, walkers) at this instant that can fall into
+/// view: a shadow lies within the object's height over the sun's slope of the object, so the
+/// object's sphere widened by that much must reach the view.
+fn moving_shadows(city: &City, view: &View<'_>, frustum: &Frustum<'_>) -> Option<Shadows> {
+    let s = view.lighting.sun_dir;
+    let slope = s[2] / (s[0] * s[0] + s[1] * s[1]).sqrt().max(1e-6);
+    let boxes = city
+        .objects
+        .iter()
+        .filter(|o| !o.motion.is_static())
+        .filter(|o| frustum.holds(o, view.time_s, 2.0 * o.radius_m / slope).is_some())
+        .flat_map(|o| o.boxes_at(view.time_s).map(|(b, _)| b));
+    Shadows::new(boxes, view.lighting.sun_dir)
 }
 
 /// Which object each pixel of `view` sees and how many pixels each object's camera-facing faces
@@ -243,34 +291,14 @@ pub fn render_ids(city: &City, view: &View<'_>, target: &mut Target) {
     render(city, view, target);
 }
 
-/// Relative irradiance from the ego head lights on a surface at `p` with normal `n`
-/// (`n = None`: a horizontal ground point, lit at grazing incidence).
-fn headlight(lamp: V3, heading: V3, p: V3, n: Option<V3>) -> f32 {
-    let v = p - lamp;
-    let d2 = v.dot(v).max(1.0);
-    let d = d2.sqrt();
-    let along = v.dot(heading) / d;
-    let cos_half = lighting::EGO_HEADLIGHT_HALF_ANGLE.cos();
-    if along <= cos_half {
-        return 0.0;
-    }
-    // Smooth edge of the beam.
-    let cone = ((along - cos_half) / (1.0 - cos_half) * 3.0).min(1.0);
-    let incidence = match n {
-        Some(n) => (-(v.dot(n)) / d).max(0.0),
-        None => (lamp.z - p.z).max(0.0) / d,
-    };
-    lighting::EGO_HEADLIGHT * cone * incidence / d2
-}
-
 /// The camera-facing faces of one box (`axes`: its [`OrientedBox::axes`]): corners, texture
 /// coordinates and rasterisation; `shade` gives each face's colouring from its index and
 /// outward normal.
-fn draw_faces(
+fn draw_faces<'a>(
     cam: &CameraFrame,
     b: &OrientedBox,
     (f, l): (V3, V3),
-    shade: &dyn Fn(usize, V3) -> Shade,
+    shade: &dyn Fn(usize, V3) -> (Shade, Option<Sunlit<'a>>),
     id: u32,
     target: &mut Target,
 ) {
@@ -297,87 +325,13 @@ fn draw_faces(
             let c = cam.camera_from_world(p);
             Vertex { cam: c, u: (su + 1.0) * hu, v: (sv + 1.0) * hv }
         });
-        raster::draw_polygon(&verts, cam, &|| shade(face_index, n), id, target);
-    }
-}
-
-/// What lights one box: the lamps' irradiance at its foot, computed once per box, and what each
-/// face needs to add its own sun, sky and head-light terms.
-struct BoxLight<'a> {
-    view: &'a View<'a>,
-    lamp: V3,
-    heading: V3,
-    b: &'a OrientedBox,
-    lights_on: bool,
-    lamp_ground: f32,
-}
-
-impl<'a> BoxLight<'a> {
-    fn new(city: &City, view: &'a View<'a>, lamp: V3, heading: V3, b: &'a OrientedBox) -> Self {
-        let lights_on = view.lighting.lights_on();
-        let lamp_ground =
-            if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
-        Self { view, lamp, heading, b, lights_on, lamp_ground }
-    }
-
-    /// The colouring of face `face_index` (outward normal `n`): irradiance at the face centre
-    /// from sun and sky by orientation, lamps from above (half on vertical faces), head lights
-    /// by distance and incidence, then the material.
-    fn shade(&self, material: Material, face_index: usize, n: V3) -> Shade {
-        let h = self.b.half;
-        let hn = [h.x, h.x, h.y, h.y, h.z][face_index];
-        let centre = self.b.centre + n * hn;
-        let sun_sky = self.view.lighting.sun_sky([n.x, n.y, n.z]);
-        let lamp_share = if face_index == 4 { 1.0 } else { 0.5 };
-        let head =
-            if self.lights_on { headlight(self.lamp, self.heading, centre, Some(n)) } else { 0.0 };
-        let irradiance: Rgb = std::array::from_fn(|ch| {
-            sun_sky + lamp_share * self.lamp_ground * lighting::LAMP_TINT[ch] + head
-        });
-        shade_for(material, face_index, &irradiance, self.lights_on)
-    }
-}
-
-fn shade_for(material: Material, face_index: usize, e: &Rgb, lights_on: bool) -> Shade {
-    let k = RADIANCE_SCALE_DN;
-    let lit = |rho: Rgb| -> Rgb { std::array::from_fn(|c| k * rho[c] * e[c]) };
-    match material {
-        Material::Flat(rho) => Shade::Constant(lit(rho)),
-        Material::Lamp if !lights_on => Shade::Constant(lit([0.5; 3])),
-        Material::Lamp | Material::Emissive(_) => {
-            let radiance =
-                if let Material::Emissive(r) = material { r } else { crate::objects::LAMP };
-            let r = lit([0.1; 3]);
-            Shade::Constant(std::array::from_fn(|c| radiance[c] + r[c]))
-        }
-        Material::Sign(kind) => {
-            if face_index == 0 {
-                Shade::Sign {
-                    kind,
-                    white: lit([0.75; 3]),
-                    red: lit([0.55, 0.04, 0.04]),
-                    blue: lit([0.04, 0.12, 0.5]),
-                    yellow: lit([0.7, 0.55, 0.05]),
-                    dark: lit([0.05; 3]),
-                }
-            } else {
-                Shade::Constant(lit(crate::objects::METAL))
-            }
-        }
-        Material::Facade { wall, glass, pitch_u_m, pitch_v_m, lit_seed } => {
-            if face_index == 4 {
-                Shade::Constant(lit(wall.map(|v| v * 0.6)))
-            } else {
-                Shade::Facade {
-                    wall: lit(wall),
-                    glass: lit(glass),
-                    glow: lighting::WINDOW_GLOW,
-                    inv_pitch_u: 1.0 / pitch_u_m,
-                    inv_pitch_v: 1.0 / pitch_v_m,
-                    seed: lit_seed.wrapping_add(face_index as u32 * 7919),
-                }
-            }
-        }
+        let origin = centre - ua * hu - va * hv;
+        let shade = || {
+            let (shade, sunlit) = shade(face_index, n);
+            let face = FacePlane { origin, ua, va, n, size: [2.0 * hu, 2.0 * hv] };
+            (shade, sunlit.and_then(|s| face_sun(s, b, (&face, face_index))))
+        };
+        raster::draw_polygon(&verts, cam, &shade, id, target);
     }
 }
 

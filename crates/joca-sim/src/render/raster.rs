@@ -1,10 +1,68 @@
 //! Triangle rasterisation with a z-buffer: near-plane clipping, edge functions, perspective-
 //! correct depth and texture coordinates, and the per-pixel material patterns.
 
+pub(crate) use super::shade::Shade;
+use super::shadow::{Polygon, Shadows};
 use super::{CameraFrame, NEAR_M, Target};
-use crate::city::fast_floor;
 use crate::geometry::V3;
 use crate::objects::Rgb;
+
+/// How a face's pixels change where the sun does not reach them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Sunlit<'a> {
+    /// Factor per colour channel of a pixel in shadow.
+    pub(crate) dim: Rgb,
+    /// What casts the shadows (static, moving).
+    pub(crate) layers: [Option<&'a Shadows>; 2],
+}
+
+/// A face that the sun lights and other boxes shadow in part: the shadows as polygons in its
+/// texture coordinates, and what a pixel in shadow keeps.
+#[derive(Debug, Clone)]
+pub(crate) struct FaceSun {
+    pub(crate) dim: Rgb,
+    pub(crate) polygons: Vec<Polygon>,
+}
+
+impl FaceSun {
+    /// Marks in `mask` (one entry per pixel of the span from column `x0` to `x1` of the row
+    /// whose centre is at `yc`) the pixels whose centres lie in a shadow. A polygon's edge
+    /// `a·u + b·v ≤ c` is, with `u = U/W`, `v = V/W` and `W = 1/z > 0` all linear on the
+    /// screen, the linear inequality `a·U + b·V − c·W ≤ 0`: one bound on the column.
+    fn mask_span(
+        &self,
+        planes: [&Plane; 3],
+        yc: f64,
+        (x0, x1): (usize, usize),
+        mask: &mut Vec<bool>,
+    ) {
+        let [uz, vz, iz] = planes;
+        mask.clear();
+        mask.resize(x1 + 1 - x0, false);
+        for polygon in &self.polygons {
+            let (mut lo, mut hi) = (x0 as f64 + 0.5, x1 as f64 + 0.5);
+            for &[a, b, c] in polygon.planes() {
+                let (a, b, c) = (f64::from(a), f64::from(b), f64::from(c));
+                let rate = a * uz.a + b * vz.a - c * iz.a;
+                let at0 = a * (uz.b * yc + uz.c) + b * (vz.b * yc + vz.c) - c * (iz.b * yc + iz.c);
+                if rate > 0.0 {
+                    hi = hi.min(-at0 / rate);
+                } else if rate < 0.0 {
+                    lo = lo.max(-at0 / rate);
+                } else if at0 > 0.0 {
+                    hi = f64::NEG_INFINITY;
+                }
+            }
+            let (first, last) = centre_span_f64(lo, hi, x1 + 1);
+            if first <= last {
+                mask[first as usize - x0..=last as usize - x0].iter_mut().for_each(|m| *m = true);
+            }
+        }
+    }
+}
+
+/// What colours a face: its material's shading, and its shadows if the sun lights it.
+pub(crate) type FaceShading = (Shade, Option<FaceSun>);
 
 /// A polygon corner in camera coordinates with its texture coordinates (metres on the face).
 #[derive(Debug, Clone, Copy)]
@@ -12,92 +70,6 @@ pub(crate) struct Vertex {
     pub(crate) cam: V3,
     pub(crate) u: f32,
     pub(crate) v: f32,
-}
-
-/// How the pixels of one face are coloured (radiance already includes the face's lighting).
-#[derive(Debug, Clone, Copy)]
-pub(crate) enum Shade {
-    Constant(Rgb),
-    Facade { wall: Rgb, glass: Rgb, glow: Rgb, inv_pitch_u: f32, inv_pitch_v: f32, seed: u32 },
-    Sign { kind: u8, white: Rgb, red: Rgb, blue: Rgb, yellow: Rgb, dark: Rgb },
-}
-
-impl Shade {
-    #[inline(always)]
-    fn at(&self, u: f32, v: f32) -> Rgb {
-        match *self {
-            Shade::Constant(c) => c,
-            Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed } => {
-                let (cu, cv) = (u * inv_pitch_u, v * inv_pitch_v);
-                let (iu, iv) = (fast_floor(cu), fast_floor(cv));
-                let (fu, fv) = (cu - iu as f32, cv - iv as f32);
-                if cv > 0.3 && (0.2..0.8).contains(&fu) && (0.28..0.82).contains(&fv) {
-                    let lit = cell_hash(iu, iv, seed) < 0.3;
-                    if lit {
-                        [glass[0] + glow[0], glass[1] + glow[1], glass[2] + glow[2]]
-                    } else {
-                        glass
-                    }
-                } else {
-                    wall
-                }
-            }
-            Shade::Sign { kind, white, red, blue, yellow, dark } => {
-                // Plate coordinates in [-0.5, 0.5]², t upwards.
-                let (s, t) = (u / 0.7 - 0.5, v / 0.7 - 0.5);
-                let r = (s * s + t * t).sqrt();
-                match kind {
-                    0 => {
-                        // Prohibition: red ring, white centre.
-                        if r < 0.31 {
-                            white
-                        } else if r < 0.45 {
-                            red
-                        } else {
-                            dark
-                        }
-                    }
-                    1 => {
-                        // Mandatory: blue disc with a white upward arrow.
-                        let shaft = s.abs() < 0.06 && (-0.28..0.08).contains(&t);
-                        let head = (0.08..0.3).contains(&t) && s.abs() < (0.3 - t) * 0.8;
-                        if r < 0.45 { if shaft || head { white } else { blue } } else { dark }
-                    }
-                    2 => {
-                        // Warning: red-bordered white triangle, point up.
-                        let outer = t > -0.42 && s.abs() < (0.45 - t) * 0.58;
-                        let inner = t > -0.3 && s.abs() < (0.3 - t) * 0.58;
-                        if inner {
-                            white
-                        } else if outer {
-                            red
-                        } else {
-                            dark
-                        }
-                    }
-                    _ => {
-                        // Priority road: yellow diamond with a white border.
-                        let d = s.abs() + t.abs();
-                        if d < 0.3 {
-                            yellow
-                        } else if d < 0.45 {
-                            white
-                        } else {
-                            dark
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-fn cell_hash(x: i32, y: i32, seed: u32) -> f32 {
-    let mut h = (x as u32).wrapping_mul(0x27d4_eb2d) ^ (y as u32).wrapping_mul(0x1656_67b1) ^ seed;
-    h ^= h >> 15;
-    h = h.wrapping_mul(0x85eb_ca6b);
-    h ^= h >> 13;
-    (h >> 8) as f32 / (1u32 << 24) as f32
 }
 
 /// The first and last pixel index `k` in `0..size` whose centre `k + 0.5` lies in `[lo, hi]`
@@ -122,7 +94,7 @@ pub(crate) fn centre_span_f64(lo: f64, hi: f64, size: usize) -> (f64, f64) {
 pub(crate) fn draw_polygon(
     verts: &[Vertex],
     cam: &CameraFrame,
-    shade: &dyn Fn() -> Shade,
+    shade: &dyn Fn() -> FaceShading,
     id: u32,
     target: &mut Target,
 ) {
@@ -229,11 +201,42 @@ fn fill(
     }
 }
 
+/// [`fill`] for a face partly in shadow: where `mask` (one entry per pixel of the span) is set,
+/// the colour is multiplied by `dim`; `colour_at(z, u/z, v/z)`.
+#[inline(always)]
+fn fill_masked(
+    depth: &mut [f32],
+    ids: &mut [u32],
+    colour: &mut [f32],
+    id: u32,
+    s: Step,
+    (mask, dim): (&[bool], Rgb),
+    colour_at: impl Fn(f32, f32, f32) -> Rgb,
+) {
+    let Step { mut inv_z, d_inv_z, mut u, du, mut v, dv } = s;
+    let pixels = depth.iter_mut().zip(ids).zip(colour.chunks_exact_mut(3)).zip(mask);
+    for (((d, i), rgb), &shadowed) in pixels {
+        if inv_z > *d {
+            *d = inv_z;
+            *i = id;
+            let c = colour_at(1.0 / inv_z, u, v);
+            if shadowed {
+                rgb.copy_from_slice(&[c[0] * dim[0], c[1] * dim[1], c[2] * dim[2]]);
+            } else {
+                rgb.copy_from_slice(&c);
+            }
+        }
+        inv_z += d_inv_z;
+        u += du;
+        v += dv;
+    }
+}
+
 /// Rasterises a convex polygon, sampling at pixel centres. Each row's covered span is solved
 /// from the edge inequalities (no per-pixel inside test), and 1/z, u/z, v/z are planes in
 /// screen space, so a pixel costs one reciprocal and a depth test. Set-up is in f64 so that
 /// polygons reaching far outside the image (close to the camera) stay watertight.
-fn convex(p: &[Projected], shade: &dyn Fn() -> Shade, id: u32, target: &mut Target) {
+fn convex(p: &[Projected], shade: &dyn Fn() -> FaceShading, id: u32, target: &mut Target) {
     let n = p.len();
     // Many faces that pass the box test cover no pixel centre themselves: they end here,
     // before any set-up or shading.
@@ -273,8 +276,9 @@ fn convex(p: &[Projected], shade: &dyn Fn() -> Shade, id: u32, target: &mut Targ
     }
     let tri = [&p[0], &p[best.1], &p[best.1 + 1]];
     let iz = Plane::through(tri, |v| v.inv_z, best.0);
-    let shade = &shade();
-    let textured = !matches!(shade, Shade::Constant(_));
+    let (shade, sun) = shade();
+    let shade = &shade;
+    let textured = !matches!(shade, Shade::Constant(_)) || sun.is_some();
     let (uz, vz) = if textured {
         (Plane::through(tri, |v| v.u_over_z, best.0), Plane::through(tri, |v| v.v_over_z, best.0))
     } else {
@@ -282,6 +286,7 @@ fn convex(p: &[Projected], shade: &dyn Fn() -> Shade, id: u32, target: &mut Targ
     };
     let constant = if let Shade::Constant(c) = shade { *c } else { [0.0; 3] };
     let mut covered = 0u32;
+    let mut mask = Vec::new();
     // An id-only target (the ground-truth pass) has no colour buffer.
     let with_colour = !target.colour.is_empty();
     for y in y0 as usize..=y1 as usize {
@@ -320,6 +325,13 @@ fn convex(p: &[Projected], shade: &dyn Fn() -> Shade, id: u32, target: &mut Targ
             let colour = &mut target.colour[span.start * 3..span.end * 3];
             let step = Step { inv_z, d_inv_z, u, du, v, dv };
             // One loop per kind of shading, so that the pixel loop does not branch on it.
+            if let Some(sun) = &sun {
+                sun.mask_span([&uz, &vz, &iz], yc, (x0, x1), &mut mask);
+                fill_masked(depth, ids, colour, id, step, (&mask, sun.dim), |z, u, v| {
+                    shade.at(u * z, v * z)
+                });
+                continue;
+            }
             match *shade {
                 Shade::Constant(_) => fill(depth, ids, colour, id, step, |_, _| constant),
                 Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed } => {

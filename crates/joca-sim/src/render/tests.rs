@@ -72,7 +72,13 @@ fn a_rejected_box_covers_no_pixel() {
                     u: 0.0,
                     v: 0.0,
                 });
-            raster::draw_polygon(&verts, &cam, &|| Shade::Constant([0.0; 3]), 1, &mut target);
+            raster::draw_polygon(
+                &verts,
+                &cam,
+                &|| (Shade::Constant([0.0; 3]), None),
+                1,
+                &mut target,
+            );
         }
         if rejects {
             rejected += 1;
@@ -202,6 +208,7 @@ fn a_reused_target_renders_as_a_fresh_one() {
                 sun_dir: [0.3, 0.2, 0.93],
             },
             time_s: rng.random_range(0.0..60.0),
+            shadows: None,
         }
     }
     let (mut colour, mut ids) = (Target::new(96, 72, objects), Target::ids_only(96, 72, objects));
@@ -256,6 +263,7 @@ fn skipping_hidden_boxes_changes_no_pixel() {
                 sun_dir: [0.3, 0.2, 0.93],
             },
             time_s: rng.random_range(0.0..60.0),
+            shadows: None,
         };
         let (mut with, mut without) =
             (Target::new(160, 120, objects), Target::new(160, 120, objects));

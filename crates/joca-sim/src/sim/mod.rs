@@ -3,11 +3,13 @@
 use crate::city::{City, CityConfig};
 use crate::ego::EgoTrajectory;
 use crate::lighting::{Illumination, Lighting};
+use crate::render::shadow::Shadows;
 use crate::render::{self, Target, View};
 use joca_core::rng::SeedStreams;
 use joca_core::weather::Weather;
 mod grid;
 mod pool;
+mod shadows;
 mod truth;
 mod weather;
 
@@ -102,6 +104,10 @@ pub struct SimConfig {
     /// sub-frame; within the test's tolerance of the exact one, see the simulator's tests). Holds
     /// for the lens's defocus and for fog's glow.
     pub optics_per_subframe: bool,
+    /// Let the sun cast shadows: buildings, vehicles, walkers, signs and lamp posts shadow the
+    /// ground, facades and each other (the shadowed surface keeps the sky's share). Off: every
+    /// surface is lit by its angle to the sun alone.
+    pub cast_shadows: bool,
 }
 
 impl Default for SimConfig {
@@ -116,6 +122,7 @@ impl Default for SimConfig {
             visibility: VisibilityRules::default(),
             weather: Weather::Clear,
             optics_per_subframe: false,
+            cast_shadows: false,
         }
     }
 }
@@ -139,6 +146,8 @@ pub struct Simulator {
     config: SimConfig,
     city: City,
     episodes: Mutex<HashMap<u64, Arc<Episode>>>,
+    /// The static city's shadows by sun direction (its bits), most recently used last.
+    shadows: Mutex<Vec<([u32; 3], Arc<Shadows>)>>,
 }
 
 impl Simulator {
@@ -146,12 +155,12 @@ impl Simulator {
     pub fn new(config: SimConfig) -> Self {
         let streams = SeedStreams::new(config.map_seed);
         let city = City::generate(&config.city, &mut streams.stream("city"));
-        Self { config, city, episodes: Mutex::new(HashMap::new()) }
+        Self::with_city(config, city)
     }
 
     /// A simulator over a given city (e.g. a hand-built test scene).
     pub fn with_city(config: SimConfig, city: City) -> Self {
-        Self { config, city, episodes: Mutex::new(HashMap::new()) }
+        Self { config, city, episodes: Mutex::new(HashMap::new()), shadows: Mutex::new(Vec::new()) }
     }
 
     /// Replaces episode `index` with a scripted one.
@@ -209,6 +218,7 @@ impl Simulator {
                 sun_dir: episode.sun_dir,
             },
             time_s,
+            shadows: None,
         }
     }
 
@@ -219,7 +229,8 @@ impl Simulator {
         time_s: f64,
         target: &mut Target,
     ) {
-        let view = self.view(episode, camera, time_s);
+        let shadows = self.static_shadows(episode);
+        let view = View { shadows: shadows.as_deref(), ..self.view(episode, camera, time_s) };
         render::render(&self.city, &view, target);
         // The air first, then the lens: fog acts along the ray, the blur on what reaches it.
         self.air(target, camera, &view);

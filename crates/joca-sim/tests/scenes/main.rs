@@ -11,6 +11,7 @@ mod determinism;
 mod geometry;
 mod optics;
 mod radiometry;
+mod shadows;
 
 use common::{Agreement, shortcut_against_exact};
 use joca_core::{Class, FrameRequest, FrameSource, PinholeCamera, Shot};
