@@ -126,6 +126,11 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
             "run.f_number = { min = 2, max = 16 } is invalid: 16 to 16 with lens = \"pinhole\"",
         ),
         ("aperture = \"iris\"", "unknown variant `iris`, expected `fixed` or `dynamic`"),
+        // Cast shadows are on or off (issue 74).
+        (
+            "cast_shadows = \"yes\"",
+            "invalid type: string \"yes\", expected a boolean\nin `cast_shadows`",
+        ),
         (
             "aperture = \"dynamic\"",
             "run.aperture = \"dynamic\" is invalid: \"fixed\" unless lens = \"thin\"",

@@ -13,8 +13,9 @@ use serde::{Deserialize, Serialize};
 /// older `render_scale` protocol, see [`RunResults::input_note`]). Version 2 adds the lens, the
 /// weather and the design's f-number; a file that uses none of them is written as version 1,
 /// which a reader of version 1 reads correctly ([`RunResults::layout_version`]). Version 3 adds
-/// the controller-set aperture (`aperture`, `f_number_by_illumination`).
-pub const RESULTS_FORMAT_VERSION: u32 = 3;
+/// the controller-set aperture (`aperture`, `f_number_by_illumination`); version 4 cast shadows
+/// (`cast_shadows`), which an older reader would otherwise drop in silence.
+pub const RESULTS_FORMAT_VERSION: u32 = 4;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -95,6 +96,9 @@ pub struct RunResults {
     /// The weather of training and test (absent: clear air).
     #[serde(default, skip_serializing_if = "is_clear")]
     pub weather: Weather,
+    /// Whether the sun cast shadows in training and test (absent: no).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub cast_shadows: bool,
     /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
     #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
     pub aperture: ApertureControl,
@@ -154,6 +158,9 @@ impl RunResults {
     /// aperture, 2 where it uses a field of version 2 (a thin lens, weather, a design's
     /// f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if self.cast_shadows {
+            return 4;
+        }
         if !self.aperture.is_fixed() {
             return 3;
         }

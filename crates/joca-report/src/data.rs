@@ -283,7 +283,7 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
         assert!(e.contains("results.json") && e.contains("format_version 7 is newer"), "{e}");
-        assert!(e.contains("0 to 3"), "{e}");
+        assert!(e.contains("0 to 4"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
@@ -303,5 +303,11 @@ mod tests {
         let stops: Vec<_> = r.by_illumination.f_numbers().collect();
         assert_eq!(stops, [(Light::Day, 8.0), (Light::Night, 1.4)]);
         assert_eq!(r.layout_version(), 3);
+        // Layout 4 (cast shadows) is read.
+        value["format_version"] = 4.into();
+        value["cast_shadows"] = true.into();
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.cast_shadows, r.layout_version()), (4, true, 4));
     }
 }

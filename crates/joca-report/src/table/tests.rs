@@ -61,6 +61,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         test_detector: None,
         lens: Default::default(),
         weather: Default::default(),
+        cast_shadows: false,
         aperture: Default::default(),
         perturbation_ties: None,
     }

@@ -132,6 +132,11 @@ pub struct RunConfig {
     /// object is a miss.
     #[serde(default, skip_serializing_if = "is_clear")]
     pub weather: Weather,
+    /// Let the sun cast shadows in every training and test town (`true` or `false`, default
+    /// false): buildings, vehicles, walkers, signs and posts shadow the ground, facades and each
+    /// other by day, the shadowed surface keeping the sky's share. Simulator only.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub cast_shadows: bool,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.
@@ -255,6 +260,9 @@ impl RunConfig {
         }
         if self.weather != Weather::Clear && self.source.is_recording() {
             return bad("weather", format!("\"{}\"", self.weather), "\"clear\" with a recording");
+        }
+        if self.cast_shadows && self.source.is_recording() {
+            return bad("cast_shadows", "true".into(), "false with a recording");
         }
         if self.lens == LensModel::Thin && self.source.is_recording() {
             return bad(

@@ -266,6 +266,7 @@ pub(super) fn test_design(
         perturbation_ties: (state.ties.searches > 0).then_some(state.ties),
         lens: config.lens,
         weather: config.weather,
+        cast_shadows: config.cast_shadows,
         aperture: config.aperture,
         validation,
         provenance: Some(Provenance::of_this_build(&config.identity())),

@@ -41,6 +41,7 @@ impl SceneSource {
             max_speed_mps: config.max_speed_mps,
             visibility: config.reference.rules(),
             weather: config.weather,
+            cast_shadows: config.cast_shadows,
             ..SimConfig::default()
         };
         Self { template, towns: HashMap::new(), real }

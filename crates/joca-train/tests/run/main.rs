@@ -55,6 +55,7 @@ fn tiny(method: Method) -> RunConfig {
         f_number: Default::default(),
         aperture: Default::default(),
         weather: Default::default(),
+        cast_shadows: false,
         train_maps: 2,
         max_speed_mps: 15.0,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },

@@ -10,7 +10,7 @@ use joca_train::{DesignSpec, FNumberRange, Method, RunConfig, Source};
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 24] = [
+    let cases: [(Edit, &str); 25] = [
         (
             |c| {
                 c.design = Some(DesignSpec {
@@ -67,6 +67,13 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
             },
             "run.lens = \"thin\" is invalid: \"pinhole\" with a recording (recorded frames have \
              no depth to defocus by)",
+        ),
+        (
+            |c| {
+                c.cast_shadows = true;
+                c.source = Source::Folder("/data/rec".into());
+            },
+            "run.cast_shadows = true is invalid: false with a recording",
         ),
         (|c| c.max_speed_mps = -5.0, "run.max_speed_mps = -5 is invalid: 0 to 40"),
         (|c| c.detector.width = 0, "run.detector.width = 0 is invalid: 4 to 128"),
