@@ -15,6 +15,7 @@ use serde_json::json;
 use std::path::{Path, PathBuf};
 
 mod choices;
+mod range;
 pub use choices::{Light, ResamplerArg};
 
 /// Arguments of `joca render`.
@@ -217,8 +218,8 @@ pub fn run(args: &Args) -> Result<()> {
     let episode = sim.episode(args.episode);
     print_header(args, &episode, sensor, &camera, &design);
     println!(
-        "{:>6} {:>7} {:>8} {:>7} {:>9} {:>6} {:>6} {:>5} {:>4}",
-        "frame", "t s", "E ms", "G dB", "mean DN", "speed", "boxes", "180°", "sub"
+        "{:>6} {:>7} {:>8} {:>7} {:>9} {:>6} {:>6} {:>5} {:>4} {:>8}",
+        "frame", "t s", "E ms", "G dB", "mean DN", "speed", "boxes", "180°", "sub", "range dB"
     );
     let mut settings = fixed.unwrap_or(DynamicSettings::new(
         Calibration::DEFAULT.exposure_s,
@@ -227,6 +228,7 @@ pub fn run(args: &Args) -> Result<()> {
     let mut images = Vec::new();
     let mut annotations = Vec::new();
     let mut shown = Vec::new();
+    let mut ranges = Vec::new();
     for k in 0..args.frames {
         let t = args.start_s + k as f64 * sim.frame_interval_s();
         let request = FrameRequest {
@@ -245,8 +247,9 @@ pub fn run(args: &Args) -> Result<()> {
         let name = format!("{k:06}.png");
         io::write_png(&frames_dir.join(&name), &image)?;
         let sub = frame.subframes;
+        ranges.push(range::radiance_range_db(&frame.hdr));
         println!(
-            "{:>6} {:>7.2} {:>8.2} {:>7.1} {:>9.1} {:>6.1} {:>6} {:>5} {:>4}",
+            "{:>6} {:>7.2} {:>8.2} {:>7.1} {:>9.1} {:>6.1} {:>6} {:>5} {:>4} {:>8.1}",
             k,
             t,
             ms_from_s(settings.exposure_s),
@@ -255,7 +258,8 @@ pub fn run(args: &Args) -> Result<()> {
             episode.ego.speed_at(t),
             frame.boxes.len(),
             frame.visible_180,
-            sub
+            sub,
+            ranges[k]
         );
         images.push(coco_image(args, k, &image, t, settings, frame.visible_180, lens));
         // Ignore regions go out as COCO crowd regions, so that pycocotools, `joca metrics` and a
@@ -277,6 +281,11 @@ pub fn run(args: &Args) -> Result<()> {
     }
     write_outputs(&out, images, annotations, &shown, sim.frame_interval_s())?;
     staged.finish()?;
+    println!(
+        "in-frame dynamic range (the scene's radiance before exposure, 99.5th over 0.5th \
+         percentile): {}",
+        range::spread(&ranges)
+    );
     println!(
         "wrote {} frames, annotations.json, contact_sheet.png and sequence.gif to {}",
         args.frames,
