@@ -128,6 +128,14 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
         ("aperture = \"iris\"", "unknown variant `iris`, expected `fixed` or `dynamic`"),
         // Cast shadows are on or off (issue 74).
         (
+            "sun_elevation = { min_deg = 10, max_deg = 95 }",
+            "run.sun_elevation = { min_deg = 10, max_deg = 95 } is invalid: 2 to 90 degrees",
+        ),
+        (
+            "sun_elevation = { min = 10, max = 30 }",
+            "expected `min_deg` or `max_deg`\nin `sun_elevation`",
+        ),
+        (
             "cast_shadows = \"yes\"",
             "invalid type: string \"yes\", expected a boolean\nin `cast_shadows`",
         ),

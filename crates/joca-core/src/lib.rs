@@ -31,6 +31,7 @@ mod named;
 pub mod optics;
 pub mod output;
 pub mod rng;
+pub mod sun;
 pub mod units;
 pub mod weather;
 

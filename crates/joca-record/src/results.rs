@@ -3,6 +3,7 @@
 use crate::{ByLight, Method, Provenance, Scenario, Source, TestController};
 use joca_camera::{ApertureControl, DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
+use joca_core::sun::SunElevation;
 use joca_core::weather::Weather;
 use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
@@ -14,7 +15,8 @@ use serde::{Deserialize, Serialize};
 /// weather and the design's f-number; a file that uses none of them is written as version 1,
 /// which a reader of version 1 reads correctly ([`RunResults::layout_version`]). Version 3 adds
 /// the controller-set aperture (`aperture`, `f_number_by_illumination`); version 4 cast shadows
-/// (`cast_shadows`), which an older reader would otherwise drop in silence.
+/// (`cast_shadows`) and the sun's elevation range (`sun_elevation`), which an older reader would
+/// otherwise drop in silence.
 pub const RESULTS_FORMAT_VERSION: u32 = 4;
 
 /// Test results of a run (`results.json`).
@@ -99,6 +101,9 @@ pub struct RunResults {
     /// Whether the sun cast shadows in training and test (absent: no).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub cast_shadows: bool,
+    /// The sun's elevation range, degrees (absent: 45 to 55).
+    #[serde(default, skip_serializing_if = "SunElevation::is_default")]
+    pub sun_elevation: SunElevation,
     /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
     #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
     pub aperture: ApertureControl,
@@ -158,7 +163,7 @@ impl RunResults {
     /// aperture, 2 where it uses a field of version 2 (a thin lens, weather, a design's
     /// f-number), else 1.
     pub fn layout_version(&self) -> u32 {
-        if self.cast_shadows {
+        if self.cast_shadows || !self.sun_elevation.is_default() {
             return 4;
         }
         if !self.aperture.is_fixed() {

@@ -41,7 +41,7 @@ mod sim;
 pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
 pub use joca_core::weather::Weather;
-pub use lighting::{Illumination, TUNNEL_PHASE_S};
+pub use lighting::{Illumination, SunElevation, TUNNEL_PHASE_S};
 pub use sim::{
     Episode, MAX_SUBFRAMES, REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, ShutterGrid, SimConfig,
     Simulator, VisibilityRules, reference_camera,

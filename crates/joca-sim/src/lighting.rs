@@ -9,6 +9,8 @@
 //! magnitude; street lamps, lit windows and vehicle lights then dominate, giving the high dynamic
 //! range of real night scenes.
 
+pub use joca_core::sun::SunElevation;
+
 /// DN per unit reflectance per unit relative irradiance.
 pub const RADIANCE_SCALE_DN: f32 = 226.0;
 /// Direct sun irradiance on a surface facing it, relative units.

@@ -9,14 +9,16 @@ use joca_camera::{
 };
 use joca_core::optics::{CALIBRATION_F_NUMBER, Lens};
 use joca_core::units::{ms_from_s, s_from_ms};
-use joca_core::{FrameRequest, FrameSource, PinholeCamera, Rgb8Image, SeedStreams};
-use joca_sim::{Illumination, SimConfig, Simulator, Weather};
+use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
+use joca_sim::{Illumination, SimConfig, Simulator, SunElevation, Weather};
 use serde_json::json;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 mod choices;
+mod outputs;
 mod range;
 pub use choices::{Light, ResamplerArg};
+use outputs::{coco_image, write_outputs};
 
 /// Arguments of `joca render`.
 #[derive(Debug, clap::Args)]
@@ -96,6 +98,10 @@ pub struct Args {
     /// each other).
     #[arg(long)]
     shadows: bool,
+    /// The sun's elevation, degrees above the horizon (2 to 90) [default: drawn per episode
+    /// from 45 to 55].
+    #[arg(long)]
+    sun_elevation_deg: Option<f32>,
     /// Seed of the noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -173,6 +179,28 @@ fn optics(args: &Args, sensor: &joca_camera::Sensor) -> Result<(Option<Lens>, We
     Ok((lens, weather))
 }
 
+/// The simulator's settings of `args`, with the weather `optics` checked.
+fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
+    let sun_elevation = match args.sun_elevation_deg {
+        Some(deg) => {
+            let sun = SunElevation::at(deg);
+            sun.check()
+                .map_err(|e| anyhow::anyhow!("--sun-elevation-deg {deg} is invalid: {e}"))?;
+            sun
+        }
+        None => SunElevation::default(),
+    };
+    Ok(SimConfig {
+        map_seed: args.map_seed,
+        max_speed_mps: args.max_speed_mps,
+        illumination: args.illumination.map(Illumination::from),
+        weather,
+        cast_shadows: args.shadows,
+        sun_elevation,
+        ..SimConfig::default()
+    })
+}
+
 /// Runs `joca render`.
 pub fn run(args: &Args) -> Result<()> {
     let (sensor, input, fixed) = checked(args)?;
@@ -185,14 +213,7 @@ pub fn run(args: &Args) -> Result<()> {
         f_number: lens.map_or(CALIBRATION_F_NUMBER, |l| l.f_number),
     };
     let camera = PinholeCamera { lens, ..design.pinhole(&input) };
-    let config = SimConfig {
-        map_seed: args.map_seed,
-        max_speed_mps: args.max_speed_mps,
-        illumination: args.illumination.map(Illumination::from),
-        weather,
-        cast_shadows: args.shadows,
-        ..SimConfig::default()
-    };
+    let config = sim_config(args, weather)?;
     let last = args.start_s + (args.frames - 1) as f64 * config.frame_interval_s;
     if args.start_s < 0.0 || last > config.episode_s {
         bail!(
@@ -302,11 +323,15 @@ fn print_header(
     camera: &PinholeCamera,
     design: &CameraDesign,
 ) {
+    let sun = episode.sun_dir;
     println!(
-        "map {} episode {} ({}), {} {}x{} px, f = {} mm (HFoV {:.1}°), mount x = {} m z = {} m",
+        "map {} episode {} ({}, sun {:.1}° high{}), {} {}x{} px, f = {} mm (HFoV {:.1}°), mount \
+         x = {} m z = {} m",
         args.map_seed,
         args.episode,
         episode.illumination.name(),
+        sun[2].asin().to_degrees(),
+        if args.shadows { ", casting shadows" } else { "" },
         sensor.name,
         camera.width_px,
         camera.height_px,
@@ -324,59 +349,4 @@ fn print_header(
     if let Some(r) = args.rain_mm_h {
         println!("rain: {r} mm/h");
     }
-}
-
-/// Frame `k`'s COCO image entry, with joca's fields (time, settings, lens, fog).
-fn coco_image(
-    args: &Args,
-    k: usize,
-    image: &Rgb8Image,
-    t: f64,
-    settings: DynamicSettings,
-    visible_180: u32,
-    lens: Option<Lens>,
-) -> serde_json::Value {
-    let mut entry = json!({
-        "id": k + 1, "file_name": format!("frames/{k:06}.png"),
-        "width": image.width(), "height": image.height(),
-        "episode": args.episode, "time_s": t, "timestamp_s": t,
-        "exposure_s": settings.exposure_s, "gain_db": settings.gain_db,
-        "visible_180": visible_180,
-    });
-    if let Some(l) = lens {
-        entry["f_number"] = json!(l.f_number);
-        entry["focus_m"] = json!(l.focus_m);
-    }
-    if let Some(v) = args.fog_visibility_m {
-        entry["fog_visibility_m"] = json!(v);
-    }
-    if let Some(r) = args.rain_mm_h {
-        entry["rain_mm_h"] = json!(r);
-    }
-    entry
-}
-
-/// `annotations.json` (COCO, with joca's frame fields), the contact sheet and the animation.
-fn write_outputs(
-    out: &Path,
-    images: Vec<serde_json::Value>,
-    annotations: Vec<serde_json::Value>,
-    shown: &[Rgb8Image],
-    frame_interval_s: f64,
-) -> Result<()> {
-    let categories: Vec<_> = joca_core::Class::ALL
-        .iter()
-        .map(|c| json!({"id": c.coco_id(), "name": c.name()}))
-        .collect();
-    let coco = json!({"images": images, "annotations": annotations, "categories": categories});
-    io::write_atomic(
-        &out.join("annotations.json"),
-        serde_json::to_string_pretty(&coco)?.as_bytes(),
-    )?;
-    let sheet_frames: Vec<Rgb8Image> =
-        shown.iter().step_by(shown.len().div_ceil(16).max(1)).cloned().collect();
-    let sheet = draw::tile(&sheet_frames, 4);
-    io::write_png(&out.join("contact_sheet.png"), &sheet)?;
-    io::write_gif(&out.join("sequence.gif"), shown, (frame_interval_s * 100.0).round() as u16)?;
-    Ok(())
 }

@@ -62,6 +62,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         lens: Default::default(),
         weather: Default::default(),
         cast_shadows: false,
+        sun_elevation: Default::default(),
         aperture: Default::default(),
         perturbation_ties: None,
     }

@@ -2,7 +2,7 @@
 
 use crate::city::{City, CityConfig};
 use crate::ego::EgoTrajectory;
-use crate::lighting::{Illumination, Lighting};
+use crate::lighting::{Illumination, Lighting, SunElevation};
 use crate::render::shadow::Shadows;
 use crate::render::{self, Target, View};
 use joca_core::rng::SeedStreams;
@@ -108,6 +108,8 @@ pub struct SimConfig {
     /// ground, facades and each other (the shadowed surface keeps the sky's share). Off: every
     /// surface is lit by its angle to the sun alone.
     pub cast_shadows: bool,
+    /// The sun's elevations, drawn per episode.
+    pub sun_elevation: SunElevation,
 }
 
 impl Default for SimConfig {
@@ -123,6 +125,7 @@ impl Default for SimConfig {
             weather: Weather::Clear,
             optics_per_subframe: false,
             cast_shadows: false,
+            sun_elevation: SunElevation::default(),
         }
     }
 }
@@ -191,8 +194,7 @@ impl Simulator {
                 });
                 let phase_s = rng.random_range(0.0..24.0);
                 let azimuth: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-                // Sun 45–55° above the horizon: white paper on the ground reads 203–225 DN.
-                let elevation: f32 = rng.random_range(45f32.to_radians()..55f32.to_radians());
+                let elevation = self.config.sun_elevation.draw(&mut rng);
                 let sun_dir = [
                     elevation.cos() * azimuth.cos(),
                     elevation.cos() * azimuth.sin(),

@@ -267,6 +267,7 @@ pub(super) fn test_design(
         lens: config.lens,
         weather: config.weather,
         cast_shadows: config.cast_shadows,
+        sun_elevation: config.sun_elevation,
         aperture: config.aperture,
         validation,
         provenance: Some(Provenance::of_this_build(&config.identity())),

@@ -42,6 +42,7 @@ impl SceneSource {
             visibility: config.reference.rules(),
             weather: config.weather,
             cast_shadows: config.cast_shadows,
+            sun_elevation: config.sun_elevation,
             ..SimConfig::default()
         };
         Self { template, towns: HashMap::new(), real }

@@ -56,6 +56,7 @@ fn tiny(method: Method) -> RunConfig {
         aperture: Default::default(),
         weather: Default::default(),
         cast_shadows: false,
+        sun_elevation: Default::default(),
         train_maps: 2,
         max_speed_mps: 15.0,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },

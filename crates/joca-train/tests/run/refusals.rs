@@ -2,7 +2,7 @@
 
 use super::tiny;
 use joca_camera::LensModel;
-use joca_sim::Weather;
+use joca_sim::{SunElevation, Weather};
 use joca_train::{DesignSpec, FNumberRange, Method, RunConfig, Source};
 
 /// Every numeric field of `[run]` has a finite range; a value outside it, NaN or infinite, is
@@ -10,7 +10,7 @@ use joca_train::{DesignSpec, FNumberRange, Method, RunConfig, Source};
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 25] = [
+    let cases: [(Edit, &str); 27] = [
         (
             |c| {
                 c.design = Some(DesignSpec {
@@ -74,6 +74,16 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
                 c.source = Source::Folder("/data/rec".into());
             },
             "run.cast_shadows = true is invalid: false with a recording",
+        ),
+        (
+            |c| c.sun_elevation = SunElevation { min_deg: 1.0, max_deg: 30.0 },
+            "run.sun_elevation = { min_deg = 1, max_deg = 30 } is invalid: 2 to 90 degrees, \
+             min_deg at most max_deg",
+        ),
+        (
+            |c| c.sun_elevation = SunElevation { min_deg: 40.0, max_deg: 20.0 },
+            "run.sun_elevation = { min_deg = 40, max_deg = 20 } is invalid: 2 to 90 degrees, \
+             min_deg at most max_deg",
         ),
         (|c| c.max_speed_mps = -5.0, "run.max_speed_mps = -5 is invalid: 0 to 40"),
         (|c| c.detector.width = 0, "run.detector.width = 0 is invalid: 4 to 128"),
