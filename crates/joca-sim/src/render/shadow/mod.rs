@@ -44,14 +44,17 @@ struct Caster {
     /// The reciprocal of the sun direction in the box's frame (forward, left, up); 0 for a
     /// component under 1e-6 in size (the ray runs parallel to those faces).
     inv: [f32; 3],
+    /// The box's eight corners ([`corners`]), for the shadows it casts on faces.
+    corners: [V3; 8],
 }
 
 impl Caster {
-    fn new(b: &OrientedBox, sun: V3) -> Self {
+    fn new(b: &OrientedBox, corners: [V3; 8], sun: V3) -> Self {
         let (forward, left) = b.axes();
         let dir = [sun.dot(forward), sun.dot(left), sun.z];
         let inv = dir.map(|d| if d.abs() < 1e-6 { 0.0 } else { 1.0 / d });
-        Self { centre: b.centre, forward, left, half: [b.half.x, b.half.y, b.half.z], inv }
+        let half = [b.half.x, b.half.y, b.half.z];
+        Self { centre: b.centre, forward, left, half, inv, corners }
     }
 
     /// Whether this is box `b` (the same floats: the same object part at the same instant).
@@ -72,13 +75,7 @@ impl Caster {
         if (self.centre - face.origin).dot(face.n) <= -radius {
             return None;
         }
-        let corners: [V3; 8] = std::array::from_fn(|c| {
-            let s = |bit: usize| if c >> bit & 1 == 1 { 1.0 } else { -1.0 };
-            self.centre
-                + self.forward * (s(0) * self.half[0])
-                + self.left * (s(1) * self.half[1])
-                + V3::new(0.0, 0.0, s(2) * self.half[2])
-        });
+        let corners = self.corners;
         let d = corners.map(|c| (c - face.origin).dot(face.n));
         if d.iter().all(|&d| d <= GRAZE_M) {
             return None;
@@ -192,7 +189,7 @@ impl Shadows {
             sun,
             e1,
             e2,
-            casters: boxes.iter().map(|b| Caster::new(b, sun)).collect(),
+            casters: boxes.iter().zip(&corners).map(|(b, c)| Caster::new(b, *c, sun)).collect(),
             plane: Bins::new(&plane_rects, PLANE_CELL_M),
             ground: Bins::new(&ground_rects, GROUND_CELL_M),
             polygons,
