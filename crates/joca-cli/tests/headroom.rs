@@ -106,3 +106,76 @@ fn a_run_directory_adds_its_trained_controller() {
     let o = cli!("headroom", run, "--config", ladder);
     assert!(stderr(&o).contains("only [ladder] is read"), "{}", stderr(&o));
 }
+
+/// A two-design panel in cast shadows: `tiny` with `frames` scored frames per episode.
+fn tiny_panel(frames: usize, extra_run: &str) -> String {
+    format!(
+        "title = \"tiny\"\npreset = \"quick\"\nscenarios = [\"calibrated\"]\ntowns = [2]\n\
+         episodes = 4\nframes = {frames}\n[run]\ncast_shadows = true\n{extra_run}\n[ladder]\n\
+         steps = 2\nstep_stops = 4.0\ntargets_dn = []\n[panel]\ndesigns = [\n\
+         {{ id = \"flir\", camera = \"flir\" }},\n\
+         {{ id = \"imx287\", sensor = \"IMX287\", focal_length_mm = 10.0, x_m = 2.14, z_m = 1.7 }},\n]\n"
+    )
+}
+
+#[test]
+fn a_panel_is_measured_resumed_and_tabulated_in_its_own_world() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("panel.toml");
+    std::fs::write(&file, tiny_panel(1, "")).unwrap();
+    let out = dir.path().join("hp");
+    let o = cli!("headroom --jobs 2 --panel", file, "--out", out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = std::fs::read_to_string(out.join("calibrated-town2.md")).unwrap();
+    assert!(table.contains("2 records (paired; calibrated, town 2, cast shadows)"), "{table}");
+    let record = out.join("calibrated/town2/imx287");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(record.join("headroom.json")).unwrap())
+            .unwrap();
+    assert_eq!((r["cast_shadows"].as_bool(), r["format_version"].as_u64()), (Some(true), Some(2)));
+    assert_eq!((r["town"].as_u64(), r["frames"].as_u64()), (Some(2), Some(4)));
+    assert!(out.join("calibrated/town2/flir.log").is_file());
+    // Again: nothing left to run, the same table.
+    let o = cli!("headroom --panel", file, "--out", out);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 to run"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(out.join("calibrated-town2.md")).unwrap(), table);
+    // Another panel into the same folder is refused; the records stay.
+    std::fs::write(&file, tiny_panel(2, "")).unwrap();
+    let o = cli!("headroom --panel", file, "--out", out);
+    assert!(stderr(&o).contains("another panel"), "{}", stderr(&o));
+    assert!(record.join("headroom.json").is_file());
+    // A record in another world is not paired with these.
+    let other = dir.path().join("default-light.json");
+    let text = std::fs::read_to_string(record.join("headroom.json")).unwrap();
+    std::fs::write(&other, text.replace("\"cast_shadows\": true,", "")).unwrap();
+    let o = cli!("headroom --table", record, other);
+    assert!(stderr(&o).contains("cast_shadows differs"), "{}", stderr(&o));
+}
+
+#[test]
+fn bad_panels_are_refused_naming_the_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("mine.toml");
+    let out = dir.path().join("never");
+    let good = tiny_panel(1, "");
+    for (text, words) in [
+        (good.replace("towns = [2]", "towns = [1]"), vec!["towns holds 1", "2 to 9999"]),
+        (good.replace("towns = [2]", "towns = []"), vec!["towns = []"]),
+        (good.replace("scenarios = [\"calibrated\"]", "scenarios = [\"fog\"]"), vec!["fog"]),
+        (good.replace("episodes = 4", "episodes = 0"), vec!["episodes = 0"]),
+        (good.replace("title", "titel"), vec!["unknown field `titel`"]),
+        (tiny_panel(1, "threads = \"two\""), vec!["[run]", "threads"]),
+        (tiny_panel(1, "design = 3"), vec!["[run] design is set by [panel]"]),
+        (good.replace("steps = 2", "steps = 0"), vec!["ladder.steps", "1 to 64"]),
+        (good.replace("camera = \"flir\"", "camera = \"nikon\""), vec!["nikon"]),
+    ] {
+        std::fs::write(&file, &text).unwrap();
+        let o = cli!("headroom --panel", file, "--out", out);
+        let e = stderr(&o);
+        assert!(!o.status.success() && e.contains("mine.toml"), "{text}: {e}");
+        for w in words {
+            assert!(e.contains(w), "{text}: {e}");
+        }
+        assert!(!out.join("calibrated").exists(), "{text}: measured anyway");
+    }
+}

@@ -3,12 +3,15 @@
 //! controllers, each scored, and what the best choices in hindsight would score.
 
 use crate::{DesignSummary, Light, Provenance, Scenario, Settings};
+use joca_core::sun::SunElevation;
 use joca_metrics::TaskScores;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// The layout version of `headroom.json` this joca writes and reads.
-pub const HEADROOM_FORMAT_VERSION: u32 = 1;
+/// The newest layout version of `headroom.json` this joca reads and writes. Version 2 adds the
+/// world's light (`cast_shadows`, `sun_elevation`); a record in the default world is written as
+/// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]).
+pub const HEADROOM_FORMAT_VERSION: u32 = 2;
 
 /// What one design and detector leave to a controller (`headroom.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -19,6 +22,12 @@ pub struct HeadroomRecord {
     pub scenario: Scenario,
     /// The test family's town driven (0: the test town).
     pub town: u64,
+    /// Whether the sun cast shadows (absent: no).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub cast_shadows: bool,
+    /// The sun's elevation range, degrees (absent: 45 to 55).
+    #[serde(default, skip_serializing_if = "SunElevation::is_default")]
+    pub sun_elevation: SunElevation,
     /// The design.
     pub design: DesignSummary,
     /// The detector: `trained` (a run's own, from its checkpoint) or the weights file.
@@ -77,6 +86,26 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
+    /// The lowest layout version that holds this record: 2 where the world's light is not the
+    /// default one, else 1.
+    pub fn layout_version(&self) -> u32 {
+        if self.cast_shadows || !self.sun_elevation.is_default() { 2 } else { 1 }
+    }
+
+    /// The world the frames were rendered in, for a reader: `default light`, or what differs
+    /// (`cast shadows, sun 10–30°`).
+    pub fn world(&self) -> String {
+        let mut parts = Vec::new();
+        if self.cast_shadows {
+            parts.push("cast shadows".to_owned());
+        }
+        if !self.sun_elevation.is_default() {
+            let e = self.sun_elevation;
+            parts.push(format!("sun {}–{}°", e.min_deg, e.max_deg));
+        }
+        if parts.is_empty() { "default light".into() } else { parts.join(", ") }
+    }
+
     /// The policy named `name`.
     pub fn policy(&self, name: &str) -> Option<&PolicyScores> {
         self.policies.iter().find(|p| p.policy == name)

@@ -29,13 +29,14 @@ pub fn headroom_markdown(r: &HeadroomRecord) -> String {
     let d = &r.design;
     let _ = writeln!(
         s,
-        "# Headroom: {} behind {:.2} mm at x {:.2} m, z {:.2} m; {}, town {}, detector {}\n",
+        "# Headroom: {} behind {:.2} mm at x {:.2} m, z {:.2} m; {}, town {}{}, detector {}\n",
         d.sensor,
         d.focal_length_mm,
         d.x_m,
         d.z_m,
         r.scenario.name(),
         r.town,
+        if r.layout_version() > 1 { format!(", {}", r.world()) } else { String::new() },
         r.detector
     );
     let _ = writeln!(
@@ -111,9 +112,12 @@ pub fn headroom_summary_markdown(records: &[HeadroomRecord]) -> String {
     let _ = writeln!(
         s,
         "Each policy's mAP@[.5:.95] minus AverageAE at mid-grey on the same design, detector and \
-         frames; mean ± 95 % Student t over {} records (paired); ahead: records where the \
-         difference is above 0. † chosen in hindsight.\n",
-        records.len()
+         frames; mean ± 95 % Student t over {} records (paired; {}, town {}, {}); ahead: \
+         records where the difference is above 0. † chosen in hindsight.\n",
+        records.len(),
+        first.scenario.name(),
+        first.town,
+        first.world()
     );
     let header: Vec<String> = lights.iter().map(|l| l.name().to_owned()).collect();
     let _ = writeln!(s, "| policy | overall | ahead | {} |", header.join(" | "));

@@ -13,7 +13,7 @@
 mod cache;
 mod checks;
 mod order;
-mod panel;
+pub mod panel;
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};

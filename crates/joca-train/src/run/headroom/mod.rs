@@ -143,10 +143,12 @@ pub fn headroom(
         controllers.push((c, closed_loop_outcomes(&mut cx, &mut model, &design, plan, c)?));
     }
     let policies = policies::score(&rungs, &ladder, &controllers);
-    Ok(HeadroomRecord {
+    let mut record = HeadroomRecord {
         format_version: HEADROOM_FORMAT_VERSION,
         scenario: config.scenario,
         town: options.town,
+        cast_shadows: config.cast_shadows,
+        sun_elevation: config.sun_elevation,
         design: summary(&design, config.hardware_search()),
         detector,
         run,
@@ -155,7 +157,9 @@ pub fn headroom(
         policies,
         cpu: cpu_description(),
         provenance: Provenance::of_this_build(&(config.identity(), &options.ladder)),
-    })
+    };
+    record.format_version = record.layout_version();
+    Ok(record)
 }
 
 /// Every scored test instant captured at every rung: `[rung][frame]`. An instant is rendered

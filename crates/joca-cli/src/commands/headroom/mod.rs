@@ -1,6 +1,8 @@
 //! `joca headroom`: the room any exposure controller has on a design and detector — a run's
 //! (from its checkpoint) or a fixed design's with detector weights — and the table of several
-//! such measurements paired by design.
+//! such measurements paired by design; `--panel` measures every design of a panel file.
+
+mod panel;
 
 use crate::config;
 use anyhow::{Context, Result, anyhow, bail};
@@ -18,6 +20,13 @@ pub struct Args {
     /// Tabulate earlier measurements: each policy minus AverageAE at mid-grey, paired over them.
     #[arg(long)]
     table: bool,
+    /// Measure every design of a panel file (its scenarios, towns, `[run]`, `[ladder]` and
+    /// `[panel]`) into `--out`, then tabulate each scenario and town; again to resume.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["table", "design", "config", "scenario"])]
+    panel: Option<PathBuf>,
+    /// With `--panel`: measurements run at once, each a child process.
+    #[arg(long, default_value_t = 1)]
+    jobs: usize,
     /// Without a run directory: the preset whose `[run]` the design is measured with.
     #[arg(long, default_value = "standard")]
     preset: String,
@@ -51,6 +60,13 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     if args.table {
         return table(args);
+    }
+    if let Some(file) = &args.panel {
+        if !args.paths.is_empty() {
+            bail!("--panel: the panel file names the designs; give no run directory");
+        }
+        let Some(out) = &args.out else { bail!("--out: required with --panel") };
+        return panel::run(file, out, args.jobs);
     }
     let (ladder, ladder_file) = ladder(args.config.as_deref())?;
     let scenario =
@@ -164,8 +180,14 @@ fn table(args: &Args) -> Result<()> {
     if args.paths.is_empty() {
         bail!("--table: give the folders (or headroom.json files) of earlier measurements");
     }
-    let mut records = Vec::new();
-    for p in &args.paths {
+    write_table(&args.paths, args.out.as_deref())
+}
+
+/// Reads the records at `paths` (folders or `headroom.json` files), refuses records not measured
+/// alike, prints their paired table and writes it to `out`.
+fn write_table(paths: &[PathBuf], out: Option<&Path>) -> Result<()> {
+    let mut records: Vec<(PathBuf, joca_report::HeadroomRecord)> = Vec::new();
+    for p in paths {
         let file = if p.is_dir() { p.join("headroom.json") } else { p.clone() };
         let text = std::fs::read_to_string(&file)
             .with_context(|| format!("cannot read {}", file.display()))?;
@@ -179,13 +201,42 @@ fn table(args: &Args) -> Result<()> {
                 joca_report::HEADROOM_FORMAT_VERSION
             );
         }
-        records.push(record);
+        if let Some((first, r0)) = records.first()
+            && let Some(field) = unlike(r0, &record)
+        {
+            bail!(
+                "{} and {} were not measured alike ({field} differs): a paired table needs one \
+                 scenario, town, world, frame count and ladder; tabulate them separately",
+                first.display(),
+                file.display()
+            );
+        }
+        records.push((file, record));
     }
+    let records: Vec<_> = records.into_iter().map(|(_, r)| r).collect();
     let text = joca_report::headroom_summary_markdown(&records);
-    if let Some(out) = &args.out {
+    if let Some(out) = out {
         joca_core::fs::write_atomic(out, text.as_bytes())
             .with_context(|| format!("cannot write {}", out.display()))?;
     }
     print!("{text}");
     Ok(())
+}
+
+/// The first field in which two records' measurements differ, if any.
+fn unlike(
+    a: &joca_report::HeadroomRecord,
+    b: &joca_report::HeadroomRecord,
+) -> Option<&'static str> {
+    [
+        ("scenario", a.scenario != b.scenario),
+        ("town", a.town != b.town),
+        ("cast_shadows", a.cast_shadows != b.cast_shadows),
+        ("sun_elevation", a.sun_elevation != b.sun_elevation),
+        ("frames", a.frames != b.frames),
+        ("ladder", a.ladder != b.ladder),
+    ]
+    .into_iter()
+    .find(|(_, differs)| *differs)
+    .map(|(name, _)| name)
 }
