@@ -79,6 +79,14 @@ pub fn form(
     let clipped = match clip {
         ClipGradient::Clamp => noisy.clamp(0.0, 255.0),
         ClipGradient::StraightThrough => &noisy + (noisy.clamp(0.0, 255.0) - &noisy).detach(),
+        ClipGradient::Smooth => {
+            // Forward: the clamp. Backward: the soft clip x − τ·softplus((x − 255)/τ) +
+            // τ·softplus(−x/τ), whose slope σ((255 − x)/τ) − σ(−x/τ) is ½ at either edge.
+            let tau = SMOOTH_CLIP_DN;
+            let soft = &noisy - ((&noisy - 255.0) / tau).softplus() * tau
+                + (-&noisy / tau).softplus() * tau;
+            noisy.clamp(0.0, 255.0).detach() + (&soft - soft.detach())
+        }
     };
     // floor(x + 0.5) as the 8-bit formation rounds, with the gradient of the identity.
     let rounded = (&clipped + 0.5).floor();
@@ -96,7 +104,14 @@ pub enum ClipGradient {
     /// The identity's (straight-through): saturated pixels pass their gradient as if unclipped,
     /// so the loss can ask for less light where the frame is white.
     StraightThrough,
+    /// A soft clip's ([`SMOOTH_CLIP_DN`] wide): a pixel passes a share of its gradient that
+    /// falls smoothly from 1 inside the range to ½ at 0 and 255 and to e⁻¹ ≈ 0.27 one width
+    /// beyond; the frame itself is still clipped hard.
+    Smooth,
 }
+
+/// The width τ of the smooth clip's knee, DN.
+pub const SMOOTH_CLIP_DN: f64 = 16.0;
 
 /// The frame as the detector's input scaling (`DN / 255 − 0.5`).
 pub fn to_detector_input(frame_dn: &Tensor) -> Tensor {

@@ -57,8 +57,9 @@ fn same_noise_sample_gives_the_same_frame() {
     assert!(g.grad().double_value(&[0]) > 0.0);
 }
 
-/// Where every pixel saturates, the clamp passes no gradient to the exposure — the loss cannot
-/// ask a white frame for less light — and the straight-through clip passes the unclipped one.
+/// Where every pixel saturates far beyond the white point, the clamp (and the smooth clip) pass
+/// no gradient to the exposure — the loss cannot ask a white frame for less light — and the
+/// straight-through clip passes the unclipped one.
 #[test]
 fn a_saturated_frame_passes_gradient_only_straight_through() {
     let (w, h) = (8, 6);
@@ -87,6 +88,42 @@ fn a_saturated_frame_passes_gradient_only_straight_through() {
     // d(sum I)/dE = sum(I)/E with I = 800 DN in every value.
     let expected = (w * h * 3) as f64 * 800.0 / 20e-3;
     assert!((grad(ClipGradient::StraightThrough) / expected - 1.0).abs() < 1e-3);
+    // The soft clip's slope at 800 DN is σ((255 − 800)/16) − σ(−800/16) ≈ e^−34: deep in
+    // saturation it is as blind as the clamp.
+    let smooth = grad(ClipGradient::Smooth);
+    assert!(smooth.abs() < expected * 1e-12, "{smooth}");
+}
+
+/// Just above the white point the soft clip passes about half the gradient, closed form: at
+/// 256 DN before clipping σ(−1/16) − σ(−256/16) of the identity's.
+#[test]
+fn the_smooth_clip_passes_a_share_near_the_white_point() {
+    let (w, h) = (4, 4);
+    let i0 = HdrImage::from_vec(w, h, vec![64.0; w * h * 3]).unwrap();
+    let formation = ImageFormation::new(Calibration::DEFAULT).unwrap();
+    let z = vec![0.0f32; w * h * 3];
+    let scene = Scene {
+        i0: i0.data(),
+        normals: &z,
+        width: w,
+        height: h,
+        pixel_pitch_um: 3.75,
+        light_factor: 1.0,
+        iris: None,
+    };
+    let grad = |clip| {
+        // Four times the calibration exposure: 256 DN before clipping.
+        let e = Tensor::from_slice(&[20e-3f32]).set_requires_grad(true);
+        let g = Tensor::from_slice(&[10.0f32]).set_requires_grad(true);
+        let frame = form(&scene, &e, &g, &formation, clip, Device::Cpu);
+        assert_eq!(frame.max().double_value(&[]), 255.0);
+        frame.sum(Kind::Float).backward();
+        e.grad().double_value(&[0])
+    };
+    let sigma = |x: f64| 1.0 / (1.0 + (-x).exp());
+    let share = sigma(-1.0 / 16.0) - sigma(-256.0 / 16.0);
+    let ratio = grad(ClipGradient::Smooth) / grad(ClipGradient::StraightThrough);
+    assert!((ratio / share - 1.0).abs() < 1e-3, "{ratio} vs {share}");
 }
 
 /// An open aperture: the tensor formation with the scene's light factor (N0/N)² gives the frame
