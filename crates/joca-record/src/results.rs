@@ -202,8 +202,8 @@ impl RunResults {
         }
     }
 
-    /// The optics and the air beyond the paper's, for a report: `""`, or e.g. ` through a thin
-    /// lens, in fog:300`.
+    /// The optics, air and sunlight beyond the paper's, for a report: `""`, or e.g. ` through a
+    /// thin lens, in fog:300, the sun casting shadows`.
     pub fn conditions_note(&self) -> String {
         let mut note = String::new();
         if self.lens == LensModel::Thin {
@@ -211,6 +211,13 @@ impl RunResults {
         }
         if self.weather != Weather::Clear {
             note.push_str(&format!(", in {}", self.weather));
+        }
+        if self.cast_shadows {
+            note.push_str(", the sun casting shadows");
+        }
+        if !self.sun_elevation.is_default() {
+            let e = self.sun_elevation;
+            note.push_str(&format!(", the sun at {}–{}° elevation", e.min_deg, e.max_deg));
         }
         note
     }
