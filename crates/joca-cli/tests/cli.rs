@@ -268,6 +268,8 @@ fn render_refuses_bad_names_and_impossible_mounts() {
         (&["--fog-visibility-m=-5"][..], "--fog-visibility-m = -5: allowed 10 to 100000 m"),
         (&["--focus-m", "5"][..], "--f-number"),
         (&["--rain-mm-h=-1"][..], "--rain-mm-h = -1: allowed 0.1 to 200 mm/h"),
+        (&["--glare", "1"][..], "--glare 1 is invalid: allowed 0 (none) to below 1"),
+        (&["--glare", "0.02", "--glare-scale-deg", "40"][..], "--glare-scale-deg 40 is invalid"),
     ] {
         let mut args = vec!["render", "--frames", "1", "--out", o_str];
         args.extend_from_slice(flags);

@@ -26,6 +26,7 @@ mod boxes;
 pub mod compute;
 mod frame;
 pub mod fs;
+pub mod glare;
 mod image;
 mod named;
 pub mod optics;

@@ -3,6 +3,7 @@
 //! controllers, each scored, and what the best choices in hindsight would score.
 
 use crate::{DesignSummary, Light, Provenance, Scenario, Settings};
+use joca_core::glare::Glare;
 use joca_core::sun::SunElevation;
 use joca_metrics::TaskScores;
 use serde::{Deserialize, Serialize};
@@ -10,8 +11,9 @@ use std::collections::BTreeMap;
 
 /// The newest layout version of `headroom.json` this joca reads and writes. Version 2 adds the
 /// world's light (`cast_shadows`, `sun_elevation`); a record in the default world is written as
-/// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]).
-pub const HEADROOM_FORMAT_VERSION: u32 = 2;
+/// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]);
+/// version 3 the lens's veiling glare (`glare`).
+pub const HEADROOM_FORMAT_VERSION: u32 = 3;
 
 /// What one design and detector leave to a controller (`headroom.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -28,6 +30,9 @@ pub struct HeadroomRecord {
     /// The sun's elevation range, degrees (absent: 45 to 55).
     #[serde(default, skip_serializing_if = "SunElevation::is_default")]
     pub sun_elevation: SunElevation,
+    /// The lens's veiling glare (absent: none).
+    #[serde(default, skip_serializing_if = "Glare::is_default")]
+    pub glare: Glare,
     /// The design.
     pub design: DesignSummary,
     /// The detector: `trained` (a run's own, from its checkpoint) or the weights file.
@@ -86,10 +91,16 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
-    /// The lowest layout version that holds this record: 2 where the world's light is not the
-    /// default one, else 1.
+    /// The lowest layout version that holds this record: 3 with veiling glare, 2 where the
+    /// world's light is not the default one, else 1.
     pub fn layout_version(&self) -> u32 {
-        if self.cast_shadows || !self.sun_elevation.is_default() { 2 } else { 1 }
+        if !self.glare.is_default() {
+            3
+        } else if self.cast_shadows || !self.sun_elevation.is_default() {
+            2
+        } else {
+            1
+        }
     }
 
     /// The world the frames were rendered in, for a reader: `default light`, or what differs
@@ -102,6 +113,10 @@ impl HeadroomRecord {
         if !self.sun_elevation.is_default() {
             let e = self.sun_elevation;
             parts.push(format!("sun {}–{}°", e.min_deg, e.max_deg));
+        }
+        if !self.glare.is_off() {
+            let g = self.glare;
+            parts.push(format!("glare {} % ({}°)", g.fraction * 100.0, g.scale_deg));
         }
         if parts.is_empty() { "default light".into() } else { parts.join(", ") }
     }

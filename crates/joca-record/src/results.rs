@@ -3,6 +3,7 @@
 use crate::{ByLight, Method, Provenance, Scenario, Source, TestController};
 use joca_camera::{ApertureControl, DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
+use joca_core::glare::Glare;
 use joca_core::sun::SunElevation;
 use joca_core::weather::Weather;
 use joca_metrics::{BandScores, TaskScores};
@@ -16,8 +17,8 @@ use serde::{Deserialize, Serialize};
 /// which a reader of version 1 reads correctly ([`RunResults::layout_version`]). Version 3 adds
 /// the controller-set aperture (`aperture`, `f_number_by_illumination`); version 4 cast shadows
 /// (`cast_shadows`) and the sun's elevation range (`sun_elevation`), which an older reader would
-/// otherwise drop in silence.
-pub const RESULTS_FORMAT_VERSION: u32 = 4;
+/// otherwise drop in silence; version 5 the lens's veiling glare (`glare`).
+pub const RESULTS_FORMAT_VERSION: u32 = 5;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -104,6 +105,9 @@ pub struct RunResults {
     /// The sun's elevation range, degrees (absent: 45 to 55).
     #[serde(default, skip_serializing_if = "SunElevation::is_default")]
     pub sun_elevation: SunElevation,
+    /// The lenses' veiling glare in training and test (absent: none).
+    #[serde(default, skip_serializing_if = "Glare::is_default")]
+    pub glare: Glare,
     /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
     #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
     pub aperture: ApertureControl,
@@ -159,10 +163,14 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 3 where the controller set the
+    /// The lowest layout version that holds this record: 5 with veiling glare, 4 with cast
+    /// shadows or another sun, 3 where the controller set the
     /// aperture, 2 where it uses a field of version 2 (a thin lens, weather, a design's
     /// f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if !self.glare.is_default() {
+            return 5;
+        }
         if self.cast_shadows || !self.sun_elevation.is_default() {
             return 4;
         }
@@ -218,6 +226,14 @@ impl RunResults {
         if !self.sun_elevation.is_default() {
             let e = self.sun_elevation;
             note.push_str(&format!(", the sun at {}–{}° elevation", e.min_deg, e.max_deg));
+        }
+        if !self.glare.is_off() {
+            let g = self.glare;
+            note.push_str(&format!(
+                ", veiling glare {} % (scale {}°)",
+                g.fraction * 100.0,
+                g.scale_deg
+            ));
         }
         note
     }

@@ -283,7 +283,7 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
         assert!(e.contains("results.json") && e.contains("format_version 7 is newer"), "{e}");
-        assert!(e.contains("0 to 4"), "{e}");
+        assert!(e.contains("0 to 5"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
@@ -316,5 +316,12 @@ mod tests {
         assert!(
             r.conditions_note().ends_with(", the sun casting shadows, the sun at 10–20° elevation")
         );
+        // Layout 5 (veiling glare) is read and named.
+        value["format_version"] = 5.into();
+        value["glare"] = serde_json::json!({ "fraction": 0.02, "scale_deg": 1.5 });
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.layout_version()), (5, 5));
+        assert!(r.conditions_note().ends_with(", veiling glare 2 % (scale 1.5°)"));
     }
 }

@@ -10,7 +10,7 @@ use joca_camera::{
 use joca_core::optics::{CALIBRATION_F_NUMBER, Lens};
 use joca_core::units::{ms_from_s, s_from_ms};
 use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
-use joca_sim::{Illumination, SimConfig, Simulator, SunElevation, Weather};
+use joca_sim::{Glare, Illumination, SimConfig, Simulator, SunElevation, Weather};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -102,6 +102,13 @@ pub struct Args {
     /// from 45 to 55].
     #[arg(long)]
     sun_elevation_deg: Option<f32>,
+    /// The lens's veiling glare: the share of the light spread over the sensor, 0 to below 1
+    /// [default: 0, none].
+    #[arg(long, default_value_t = 0.0)]
+    glare: f32,
+    /// The glare spread's angular scale θ0, degrees (0.1 to 20).
+    #[arg(long, default_value_t = Glare::DEFAULT_SCALE_DEG)]
+    glare_scale_deg: f32,
     /// Seed of the noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -190,6 +197,12 @@ fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
         }
         None => SunElevation::default(),
     };
+    let glare = Glare { fraction: args.glare, scale_deg: args.glare_scale_deg };
+    glare.check().map_err(|(field, allowed)| {
+        let flag = if field == "fraction" { "glare" } else { "glare-scale-deg" };
+        let value = if field == "fraction" { args.glare } else { args.glare_scale_deg };
+        anyhow::anyhow!("--{flag} {value} is invalid: allowed {allowed}")
+    })?;
     Ok(SimConfig {
         map_seed: args.map_seed,
         max_speed_mps: args.max_speed_mps,
@@ -197,6 +210,7 @@ fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
         weather,
         cast_shadows: args.shadows,
         sun_elevation,
+        glare,
         ..SimConfig::default()
     })
 }
@@ -342,6 +356,13 @@ fn print_header(
     );
     if let Some(l) = camera.lens {
         println!("lens f/{} focused at {:.2} m", l.f_number, l.focus_m);
+    }
+    if args.glare > 0.0 {
+        println!(
+            "veiling glare: {} % of the light spread, scale {}°",
+            args.glare * 100.0,
+            args.glare_scale_deg
+        );
     }
     if let Some(v) = args.fog_visibility_m {
         println!("fog: visibility {v} m");

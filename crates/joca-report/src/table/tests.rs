@@ -63,6 +63,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         weather: Default::default(),
         cast_shadows: false,
         sun_elevation: Default::default(),
+        glare: Default::default(),
         aperture: Default::default(),
         perturbation_ties: None,
     }

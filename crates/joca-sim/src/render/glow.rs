@@ -258,7 +258,7 @@ pub fn fog_glow_integrated(
     }
 }
 
-mod blur;
+pub(crate) mod blur;
 #[cfg(test)]
 mod tests;
 

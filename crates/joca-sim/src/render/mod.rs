@@ -22,6 +22,7 @@
 //! uses both (visible pixels over covered pixels is the visible fraction).
 
 pub mod fog;
+pub mod glare;
 pub mod glow;
 mod ground;
 pub mod lens;

@@ -5,6 +5,7 @@ use crate::ego::EgoTrajectory;
 use crate::lighting::{Illumination, Lighting, SunElevation};
 use crate::render::shadow::Shadows;
 use crate::render::{self, Target, View};
+use joca_core::glare::Glare;
 use joca_core::rng::SeedStreams;
 use joca_core::weather::Weather;
 mod grid;
@@ -64,6 +65,8 @@ pub struct SimConfig {
     pub cast_shadows: bool,
     /// The sun's elevations, drawn per episode.
     pub sun_elevation: SunElevation,
+    /// The lens's veiling glare (none by default).
+    pub glare: Glare,
 }
 
 impl Default for SimConfig {
@@ -80,6 +83,7 @@ impl Default for SimConfig {
             optics_per_subframe: false,
             cast_shadows: false,
             sun_elevation: SunElevation::default(),
+            glare: Glare::default(),
         }
     }
 }
@@ -275,6 +279,11 @@ impl Simulator {
                     for (colour, camera) in colours.iter_mut().zip(&cameras) {
                         render::lens::defocus_colour(colour, &mid.inv_depth, w, h, camera);
                     }
+                }
+                // The lens's veiling glare: linear and the same at every instant, so once on
+                // the shutter-integrated frame is exact.
+                for colour in &mut colours {
+                    render::glare::veiling_glare(colour, (w, h), camera, &self.config.glare);
                 }
                 pool::give([mid]);
                 (weights, colours)

@@ -103,3 +103,39 @@ fn defocus_of_the_integrated_frame_matches_defocus_per_sub_frame() {
         assert!(off * 100 < 3 * values, "{off} of {values} values off by > 5 %");
     }
 }
+
+/// Veiling glare in the simulator: the glared frame is the glare of the frame without it (once
+/// on the shutter-integrated frame), it keeps all but what leaves the frame, and it lifts the
+/// night's darks around the lamps and head lights; the closed forms are `render::glare`'s.
+#[test]
+fn glare_veils_a_night_street_and_keeps_its_light() {
+    use joca_sim::Glare;
+    let request = FrameRequest { episode: 1, time_s: 3.0, exposure_s: 20e-3, motion_scale: 1.0 };
+    let cam = camera(240, 160, 200.0, [0.43, 0.0, 1.65]);
+    let glare = Glare { fraction: 0.05, scale_deg: 1.0 };
+    let world = |glare| {
+        Simulator::new(SimConfig {
+            illumination: Some(Illumination::Night),
+            map_seed: 4,
+            glare,
+            ..SimConfig::default()
+        })
+    };
+    let off = world(Glare::default()).render(&cam, &request).unwrap();
+    let on = world(glare).render(&cam, &request).unwrap();
+    assert_eq!(on.boxes, off.boxes);
+    let mut expect = off.hdr.data().to_vec();
+    joca_sim::render::glare::veiling_glare(&mut expect, (240, 160), &cam, &glare);
+    for (a, b) in on.hdr.data().iter().zip(&expect) {
+        assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{a} against {b}");
+    }
+    let sum = |d: &[f32]| d.iter().map(|&v| f64::from(v)).sum::<f64>();
+    let (before, after) = (sum(off.hdr.data()), sum(on.hdr.data()));
+    assert!(after <= before && after >= (1.0 - 0.05) * before, "{after} of {before}");
+    let dark = |d: &[f32]| {
+        let mut v = d.to_vec();
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 200]
+    };
+    assert!(dark(on.hdr.data()) > dark(off.hdr.data()), "the darks are not lifted");
+}

@@ -13,7 +13,7 @@ use joca_core::optics::F_NUMBER_RANGE;
 use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
-use joca_sim::{SunElevation, Weather};
+use joca_sim::{Glare, SunElevation, Weather};
 use serde::{Deserialize, Deserializer, Serialize};
 
 pub use learning::{AccOutput, WarmStart};
@@ -142,6 +142,11 @@ pub struct RunConfig {
     /// white reads 203–225 DN). Simulator only.
     #[serde(default, skip_serializing_if = "SunElevation::is_default")]
     pub sun_elevation: SunElevation,
+    /// Every lens's veiling glare in training and test (`glare = { fraction, scale_deg }`:
+    /// the share of the light spread, 0 to below 1, default 0 = none; the spread's angular
+    /// scale, 0.1 to 20 degrees, default 1). Simulator only.
+    #[serde(default, skip_serializing_if = "Glare::is_default")]
+    pub glare: Glare,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.
@@ -193,7 +198,7 @@ fn paper_acc_lr() -> f64 {
 }
 
 impl RunConfig {
-    /// The world's part of [`RunConfig::validate`]: the weather, the sun and its shadows (the
+    /// The world's part of [`RunConfig::validate`]: the weather, the sun and its shadows, the lens's glare (the
     /// simulator's alone: a recording has its own).
     fn validate_world(&self) -> Result<(), TrainError> {
         let bad = |field: &str, value: String, allowed: &str| {
@@ -222,6 +227,16 @@ impl RunConfig {
         }
         if self.cast_shadows && self.source.is_recording() {
             return bad("cast_shadows", "true".into(), "false with a recording");
+        }
+        if let Err((field, allowed)) = self.glare.check() {
+            let value = match field {
+                "fraction" => self.glare.fraction,
+                _ => self.glare.scale_deg,
+            };
+            return bad(&format!("glare.{field}"), value.to_string(), &allowed);
+        }
+        if !self.glare.is_off() && self.source.is_recording() {
+            return bad("glare", "a fraction above 0".into(), "none with a recording");
         }
         Ok(())
     }

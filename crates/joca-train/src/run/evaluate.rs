@@ -268,6 +268,7 @@ pub(super) fn test_design(
         weather: config.weather,
         cast_shadows: config.cast_shadows,
         sun_elevation: config.sun_elevation,
+        glare: config.glare,
         aperture: config.aperture,
         validation,
         provenance: Some(Provenance::of_this_build(&config.identity())),

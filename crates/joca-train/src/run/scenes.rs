@@ -43,6 +43,7 @@ impl SceneSource {
             weather: config.weather,
             cast_shadows: config.cast_shadows,
             sun_elevation: config.sun_elevation,
+            glare: config.glare,
             ..SimConfig::default()
         };
         Self { template, towns: HashMap::new(), real }

@@ -2,7 +2,7 @@
 
 use super::tiny;
 use joca_camera::LensModel;
-use joca_sim::{SunElevation, Weather};
+use joca_sim::{Glare, SunElevation, Weather};
 use joca_train::{DesignSpec, FNumberRange, Method, RunConfig, Source};
 
 /// Every numeric field of `[run]` has a finite range; a value outside it, NaN or infinite, is
@@ -118,4 +118,37 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
         assert!(e == message || (message.ends_with(": ") && e.starts_with(message)), "{e}");
     }
     assert!(tiny(Method::Joca).validate().is_ok());
+}
+
+/// The lens's veiling glare: a fraction outside [0, 1), a scale outside 0.1–20°, or glare on a
+/// recording is refused naming the field and the range.
+#[test]
+fn bad_glare_is_refused_naming_the_field_and_the_range() {
+    type Edit = fn(&mut RunConfig);
+    let cases: [(Edit, &str); 4] = [
+        (
+            |c| c.glare = Glare { fraction: 1.0, scale_deg: 1.0 },
+            "run.glare.fraction = 1 is invalid: 0 (none) to below 1",
+        ),
+        (
+            |c| c.glare = Glare { fraction: -0.1, scale_deg: 1.0 },
+            "run.glare.fraction = -0.1 is invalid: 0 (none) to below 1",
+        ),
+        (
+            |c| c.glare = Glare { fraction: 0.02, scale_deg: 45.0 },
+            "run.glare.scale_deg = 45 is invalid: 0.1 to 20 degrees",
+        ),
+        (
+            |c| {
+                c.glare = Glare { fraction: 0.02, scale_deg: 1.0 };
+                c.source = Source::Folder("/data/rec".into());
+            },
+            "run.glare = a fraction above 0 is invalid: none with a recording",
+        ),
+    ];
+    for (edit, message) in cases {
+        let mut c = tiny(Method::Joca);
+        edit(&mut c);
+        assert_eq!(c.validate().unwrap_err().to_string(), message);
+    }
 }

@@ -1,12 +1,12 @@
-//! `joca bench render`: the simulator's frames, and what the lens, the weather and cast shadows
-//! add to them.
+//! `joca bench render`: the simulator's frames, and what the lens, the weather, cast shadows
+//! and glare add to them.
 
 use super::best_of;
 use anyhow::Result;
 use joca_core::optics::Lens;
 use joca_core::{FrameRequest, FrameSource, PinholeCamera};
 use joca_sim::render::shadow::Shadows;
-use joca_sim::{Illumination, SimConfig, Simulator, Weather};
+use joca_sim::{Glare, Illumination, SimConfig, Simulator, Weather};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -87,7 +87,8 @@ pub(super) fn bench_render(repeats: usize) -> Result<()> {
             of view, run beside the sub-frames and timed alone in the last column)"
     );
     bench_optics(&times, exposure_s)?;
-    bench_shadows(&times, exposure_s)
+    bench_shadows(&times, exposure_s)?;
+    bench_glare(&times, exposure_s)
 }
 
 /// The bench's camera: an IMX172 (6.2 × 4.65 mm) behind 3.6 mm at the nuScenes-like mount, an
@@ -221,5 +222,44 @@ fn bench_shadows(times: &[f64], exposure_s: f64) -> Result<()> {
         statics().count(),
         shadows.map_or(0, |s| s.entries())
     );
+    Ok(())
+}
+
+/// Veiling glare (2 %, 1°) against none, by day and at night, at two frame sizes on 2 threads:
+/// the same frames, best of 3, ratios of one run.
+fn bench_glare(times: &[f64], exposure_s: f64) -> Result<()> {
+    let requests = frames_at(times, exposure_s);
+    println!("\nveiling glare 2 % at 1°, 2 threads, the same {} frames, best of 3", times.len());
+    println!("{:<8} {:<10} {:>12} {:>12} {:>10}", "light", "output", "off ms", "on ms", "ratio");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
+    let glare = Glare { fraction: 0.02, scale_deg: 1.0 };
+    for (light, w, h) in [
+        (Illumination::Day, 320, 240),
+        (Illumination::Day, 640, 480),
+        (Illumination::Night, 320, 240),
+    ] {
+        let camera = imx172_behind_3_6_mm(w, h);
+        let ms = [Glare::default(), glare].map(|glare| {
+            let sim = Simulator::new(SimConfig {
+                illumination: Some(light),
+                glare,
+                ..SimConfig::default()
+            });
+            let render_all = || {
+                for r in &requests {
+                    black_box(sim.render(&camera, r).map(|f| f.boxes.len()).unwrap_or(0));
+                }
+            };
+            best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
+        });
+        let output = format!("{w}x{h}");
+        println!(
+            "{:<8} {output:<10} {:>12.2} {:>12.2} {:>9.2}x",
+            light.name(),
+            ms[0],
+            ms[1],
+            ms[1] / ms[0]
+        );
+    }
     Ok(())
 }

@@ -233,6 +233,7 @@ fn unlike(
         ("town", a.town != b.town),
         ("cast_shadows", a.cast_shadows != b.cast_shadows),
         ("sun_elevation", a.sun_elevation != b.sun_elevation),
+        ("glare", a.glare != b.glare),
         ("frames", a.frames != b.frames),
         ("ladder", a.ladder != b.ladder),
     ]

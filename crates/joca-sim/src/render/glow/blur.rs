@@ -37,26 +37,30 @@ pub(super) fn sum_of_gaussians(
             } else {
                 block_mean(&|p| source(k, p), (width, height), 1 << j)
             };
-            let s = f64::from(1u32 << j);
-            // What the block mean ((s² − 1)/12) and the doublings back (4^i/6 each) add.
-            let added =
-                (s * s - 1.0) / 12.0 + (1..=j).map(|i| 4f64.powi(i as i32) / 6.0).sum::<f64>();
-            let var = (sigma * sigma - added).max(0.25 * s * s) / (s * s);
-            blur_rgb(&mut plane, size(j), var.sqrt());
+            blur_rgb(&mut plane, size(j), sigma_on_level(sigma, j));
             sum.par_iter_mut().zip(&plane).for_each(|(v, p)| add(v, *p));
         }
     }
     sum
 }
 
-fn add(v: &mut Rgb, x: Rgb) {
+/// The σ, in grid pixels of level `j` (step 2^j), that blurs a Gaussian of `sigma_px` fine
+/// pixels there: less what the block mean ((s² − 1)/12) and the doublings back (4^i/6 each)
+/// add, at least half a grid pixel.
+pub(crate) fn sigma_on_level(sigma_px: f64, j: usize) -> f64 {
+    let s = f64::from(1u32 << j);
+    let added = (s * s - 1.0) / 12.0 + (1..=j).map(|i| 4f64.powi(i as i32) / 6.0).sum::<f64>();
+    ((sigma_px * sigma_px - added).max(0.25 * s * s) / (s * s)).sqrt()
+}
+
+pub(crate) fn add(v: &mut Rgb, x: Rgb) {
     v.iter_mut().zip(x).for_each(|(a, b)| *a += b);
 }
 
 /// The pyramid level (grid step 2^j) for a Gaussian of `sigma_px`: the coarsest that keeps σ at
 /// least 4 grid pixels wide (so losing where in a block the light fell moves it by at most σ/8)
 /// and at least 8 pixels on the grid's short side.
-pub(super) fn level_for(sigma_px: f64, short_px: usize) -> usize {
+pub(crate) fn level_for(sigma_px: f64, short_px: usize) -> usize {
     let mut j = 0;
     while 4.0 * f64::from(2u32 << j) <= sigma_px && short_px >> (j + 1) >= 8 {
         j += 1;
@@ -85,7 +89,11 @@ fn block_mean(
 
 /// A grid of `coarse` size, bilinearly doubled to `fine` size (each fine pixel centred at half
 /// a coarse pixel's steps; edges clamped).
-fn upsample2(grid: &[Rgb], (cw, ch): (usize, usize), (fw, fh): (usize, usize)) -> Vec<Rgb> {
+pub(crate) fn upsample2(
+    grid: &[Rgb],
+    (cw, ch): (usize, usize),
+    (fw, fh): (usize, usize),
+) -> Vec<Rgb> {
     let at = |i: usize, lim: usize| -> (usize, usize, f32) {
         let u = ((i as f32 + 0.5) / 2.0 - 0.5).clamp(0.0, (lim - 1) as f32);
         let i0 = (u as usize).min(lim.saturating_sub(2));
@@ -117,7 +125,7 @@ pub(super) fn extended_box(var: f64) -> (usize, f64) {
 
 /// Blurs a `w × h` RGB plane in place by a Gaussian of `sigma` pixels (three extended-box
 /// passes a direction).
-fn blur_rgb(plane: &mut [Rgb], (w, h): (usize, usize), sigma: f64) {
+pub(crate) fn blur_rgb(plane: &mut [Rgb], (w, h): (usize, usize), sigma: f64) {
     let (r, alpha) = extended_box(sigma * sigma / 3.0);
     plane.par_chunks_mut(w).for_each_init(Vec::new, |pad, row| {
         for _ in 0..3 {

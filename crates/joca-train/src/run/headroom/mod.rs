@@ -149,6 +149,7 @@ pub fn headroom(
         town: options.town,
         cast_shadows: config.cast_shadows,
         sun_elevation: config.sun_elevation,
+        glare: config.glare,
         design: summary(&design, config.hardware_search()),
         detector,
         run,
