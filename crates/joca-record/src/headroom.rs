@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 /// The newest layout version of `headroom.json` this joca reads and writes. Version 2 adds the
 /// world's light (`cast_shadows`, `sun_elevation`); a record in the default world is written as
 /// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]);
-/// version 3 the lens's veiling glare (`glare`).
+/// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`).
 pub const HEADROOM_FORMAT_VERSION: u32 = 3;
 
 /// What one design and detector leave to a controller (`headroom.json`).
@@ -33,6 +33,9 @@ pub struct HeadroomRecord {
     /// The lens's veiling glare (absent: none).
     #[serde(default, skip_serializing_if = "Glare::is_default")]
     pub glare: Glare,
+    /// Whether the sky showed the sun's disc (absent: no).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub sun_disc: bool,
     /// The design.
     pub design: DesignSummary,
     /// The detector: `trained` (a run's own, from its checkpoint) or the weights file.
@@ -91,10 +94,10 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
-    /// The lowest layout version that holds this record: 3 with veiling glare, 2 where the
+    /// The lowest layout version that holds this record: 3 with veiling glare or the sun's disc, 2 where the
     /// world's light is not the default one, else 1.
     pub fn layout_version(&self) -> u32 {
-        if !self.glare.is_default() {
+        if !self.glare.is_default() || self.sun_disc {
             3
         } else if self.cast_shadows || !self.sun_elevation.is_default() {
             2
@@ -113,6 +116,9 @@ impl HeadroomRecord {
         if !self.sun_elevation.is_default() {
             let e = self.sun_elevation;
             parts.push(format!("sun {}–{}°", e.min_deg, e.max_deg));
+        }
+        if self.sun_disc {
+            parts.push("sun's disc".to_owned());
         }
         if !self.glare.is_off() {
             let g = self.glare;

@@ -17,7 +17,8 @@ use serde::{Deserialize, Serialize};
 /// which a reader of version 1 reads correctly ([`RunResults::layout_version`]). Version 3 adds
 /// the controller-set aperture (`aperture`, `f_number_by_illumination`); version 4 cast shadows
 /// (`cast_shadows`) and the sun's elevation range (`sun_elevation`), which an older reader would
-/// otherwise drop in silence; version 5 the lens's veiling glare (`glare`).
+/// otherwise drop in silence; version 5 the lens's veiling glare (`glare`) and the sun's disc
+/// (`sun_disc`).
 pub const RESULTS_FORMAT_VERSION: u32 = 5;
 
 /// Test results of a run (`results.json`).
@@ -108,6 +109,9 @@ pub struct RunResults {
     /// The lenses' veiling glare in training and test (absent: none).
     #[serde(default, skip_serializing_if = "Glare::is_default")]
     pub glare: Glare,
+    /// Whether the sky showed the sun's disc (absent: no).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub sun_disc: bool,
     /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
     #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
     pub aperture: ApertureControl,
@@ -163,12 +167,12 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 5 with veiling glare, 4 with cast
+    /// The lowest layout version that holds this record: 5 with veiling glare or the sun's disc, 4 with cast
     /// shadows or another sun, 3 where the controller set the
     /// aperture, 2 where it uses a field of version 2 (a thin lens, weather, a design's
     /// f-number), else 1.
     pub fn layout_version(&self) -> u32 {
-        if !self.glare.is_default() {
+        if !self.glare.is_default() || self.sun_disc {
             return 5;
         }
         if self.cast_shadows || !self.sun_elevation.is_default() {
@@ -226,6 +230,9 @@ impl RunResults {
         if !self.sun_elevation.is_default() {
             let e = self.sun_elevation;
             note.push_str(&format!(", the sun at {}–{}° elevation", e.min_deg, e.max_deg));
+        }
+        if self.sun_disc {
+            note.push_str(", the sun's disc in the sky");
         }
         if !self.glare.is_off() {
             let g = self.glare;

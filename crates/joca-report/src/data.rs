@@ -319,9 +319,14 @@ mod tests {
         // Layout 5 (veiling glare) is read and named.
         value["format_version"] = 5.into();
         value["glare"] = serde_json::json!({ "fraction": 0.02, "scale_deg": 1.5 });
+        value["sun_disc"] = true.into();
         std::fs::write(&path, value.to_string()).unwrap();
         let r = RunData::load(dir.path()).unwrap().results;
         assert_eq!((r.format_version, r.layout_version()), (5, 5));
-        assert!(r.conditions_note().ends_with(", veiling glare 2 % (scale 1.5°)"));
+        let note = r.conditions_note();
+        assert!(
+            note.ends_with(", the sun's disc in the sky, veiling glare 2 % (scale 1.5°)"),
+            "{note}"
+        );
     }
 }

@@ -102,6 +102,9 @@ pub struct Args {
     /// from 45 to 55].
     #[arg(long)]
     sun_elevation_deg: Option<f32>,
+    /// Draw the sun's disc where the camera sees it by day (with a low `--sun-elevation-deg`).
+    #[arg(long)]
+    sun: bool,
     /// The lens's veiling glare: the share of the light spread over the sensor, 0 to below 1
     /// [default: 0, none].
     #[arg(long, default_value_t = 0.0)]
@@ -211,6 +214,7 @@ fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
         cast_shadows: args.shadows,
         sun_elevation,
         glare,
+        sun_disc: args.sun,
         ..SimConfig::default()
     })
 }
@@ -345,7 +349,12 @@ fn print_header(
         args.episode,
         episode.illumination.name(),
         sun[2].asin().to_degrees(),
-        if args.shadows { ", casting shadows" } else { "" },
+        match (args.shadows, args.sun) {
+            (false, false) => "",
+            (true, false) => ", casting shadows",
+            (false, true) => ", its disc drawn",
+            (true, true) => ", its disc drawn, casting shadows",
+        },
         sensor.name,
         camera.width_px,
         camera.height_px,

@@ -64,6 +64,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         cast_shadows: false,
         sun_elevation: Default::default(),
         glare: Default::default(),
+        sun_disc: false,
         aperture: Default::default(),
         perturbation_ties: None,
     }

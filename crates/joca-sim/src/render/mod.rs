@@ -32,6 +32,7 @@ mod raster;
 mod reach;
 mod shade;
 pub mod shadow;
+pub mod sun;
 
 use crate::city::City;
 use crate::geometry::{OrientedBox, Pose2, V3};
@@ -65,6 +66,8 @@ pub struct View<'a> {
     /// The shadows the city's static objects cast in this sun (`None`: no cast shadows; with
     /// them, moving objects cast theirs too).
     pub shadows: Option<&'a Shadows>,
+    /// Draw the sun's disc where it is in view (see [`sun`]).
+    pub sun_disc: bool,
 }
 
 /// Colour, depth and object-id buffers of one view.
@@ -233,6 +236,9 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     }
     if with_colour {
         ground_and_sky(city, view, &cam, (lamp_pos, heading), layers, target);
+        if view.sun_disc {
+            sun::draw_sun(view, &cam, target);
+        }
     }
 }
 

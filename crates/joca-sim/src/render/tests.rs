@@ -209,6 +209,7 @@ fn a_reused_target_renders_as_a_fresh_one() {
             },
             time_s: rng.random_range(0.0..60.0),
             shadows: None,
+            sun_disc: false,
         }
     }
     let (mut colour, mut ids) = (Target::new(96, 72, objects), Target::ids_only(96, 72, objects));
@@ -264,6 +265,7 @@ fn skipping_hidden_boxes_changes_no_pixel() {
             },
             time_s: rng.random_range(0.0..60.0),
             shadows: None,
+            sun_disc: false,
         };
         let (mut with, mut without) =
             (Target::new(160, 120, objects), Target::new(160, 120, objects));

@@ -67,6 +67,8 @@ pub struct SimConfig {
     pub sun_elevation: SunElevation,
     /// The lens's veiling glare (none by default).
     pub glare: Glare,
+    /// Draw the sun's disc where the view sees it (by day; off: the sky has no sun).
+    pub sun_disc: bool,
 }
 
 impl Default for SimConfig {
@@ -84,6 +86,7 @@ impl Default for SimConfig {
             cast_shadows: false,
             sun_elevation: SunElevation::default(),
             glare: Glare::default(),
+            sun_disc: false,
         }
     }
 }
@@ -179,6 +182,7 @@ impl Simulator {
             },
             time_s,
             shadows: None,
+            sun_disc: self.config.sun_disc,
         }
     }
 

@@ -12,6 +12,7 @@ mod geometry;
 mod optics;
 mod radiometry;
 mod shadows;
+mod sun;
 
 use common::{Agreement, shortcut_against_exact};
 use joca_core::{Class, FrameRequest, FrameSource, PinholeCamera, Shot};

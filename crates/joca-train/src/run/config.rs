@@ -147,6 +147,12 @@ pub struct RunConfig {
     /// scale, 0.1 to 20 degrees, default 1). Simulator only.
     #[serde(default, skip_serializing_if = "Glare::is_default")]
     pub glare: Glare,
+    /// Draw the sun's disc where a camera sees it by day (`true` or `false`, default false):
+    /// about 46,000 times as bright as white paper in its light, so it clips any camera and,
+    /// with `glare`, veils the frame. In view only where the sun stands low (`sun_elevation`).
+    /// Simulator only.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub sun_disc: bool,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.
@@ -234,6 +240,9 @@ impl RunConfig {
                 _ => self.glare.scale_deg,
             };
             return bad(&format!("glare.{field}"), value.to_string(), &allowed);
+        }
+        if self.sun_disc && self.source.is_recording() {
+            return bad("sun_disc", "true".into(), "false with a recording");
         }
         if !self.glare.is_off() && self.source.is_recording() {
             return bad("glare", "a fraction above 0".into(), "none with a recording");

@@ -269,6 +269,7 @@ pub(super) fn test_design(
         cast_shadows: config.cast_shadows,
         sun_elevation: config.sun_elevation,
         glare: config.glare,
+        sun_disc: config.sun_disc,
         aperture: config.aperture,
         validation,
         provenance: Some(Provenance::of_this_build(&config.identity())),

@@ -44,6 +44,7 @@ impl SceneSource {
             cast_shadows: config.cast_shadows,
             sun_elevation: config.sun_elevation,
             glare: config.glare,
+            sun_disc: config.sun_disc,
             ..SimConfig::default()
         };
         Self { template, towns: HashMap::new(), real }

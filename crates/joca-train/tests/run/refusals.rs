@@ -120,12 +120,12 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     assert!(tiny(Method::Joca).validate().is_ok());
 }
 
-/// The lens's veiling glare: a fraction outside [0, 1), a scale outside 0.1–20°, or glare on a
-/// recording is refused naming the field and the range.
+/// The lens's veiling glare and the sun's disc: a fraction outside [0, 1), a scale outside
+/// 0.1–20°, or either on a recording is refused naming the field and the range.
 #[test]
 fn bad_glare_is_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 4] = [
+    let cases: [(Edit, &str); 5] = [
         (
             |c| c.glare = Glare { fraction: 1.0, scale_deg: 1.0 },
             "run.glare.fraction = 1 is invalid: 0 (none) to below 1",
@@ -144,6 +144,13 @@ fn bad_glare_is_refused_naming_the_field_and_the_range() {
                 c.source = Source::Folder("/data/rec".into());
             },
             "run.glare = a fraction above 0 is invalid: none with a recording",
+        ),
+        (
+            |c| {
+                c.sun_disc = true;
+                c.source = Source::Folder("/data/rec".into());
+            },
+            "run.sun_disc = true is invalid: false with a recording",
         ),
     ];
     for (edit, message) in cases {

@@ -234,6 +234,7 @@ fn unlike(
         ("cast_shadows", a.cast_shadows != b.cast_shadows),
         ("sun_elevation", a.sun_elevation != b.sun_elevation),
         ("glare", a.glare != b.glare),
+        ("sun_disc", a.sun_disc != b.sun_disc),
         ("frames", a.frames != b.frames),
         ("ladder", a.ladder != b.ladder),
     ]

@@ -150,6 +150,7 @@ pub fn headroom(
         cast_shadows: config.cast_shadows,
         sun_elevation: config.sun_elevation,
         glare: config.glare,
+        sun_disc: config.sun_disc,
         design: summary(&design, config.hardware_search()),
         detector,
         run,

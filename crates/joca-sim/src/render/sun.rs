@@ -1,0 +1,85 @@
+//! The sun's disc where the view sees the sky: the sun's irradiance spread over its solid angle.
+//!
+//! A white surface facing the sun reads `RADIANCE_SCALE_DN·SUN·ambient` (the renderer's unit:
+//! radiance of a white Lambertian surface, E/π), so the disc's radiance is
+//! `π·RADIANCE_SCALE_DN·SUN·ambient / Ω_sun` with `Ω_sun = π·ρ²` (ρ = [`SUN_RADIUS_RAD`]): about
+//! 46,000 times the white surface, which clips any camera that exposes for the street. Drawn
+//! only while the street lamps are off (by day and in the tunnel schedule's daylight), over the
+//! sky alone (a nearer surface hides it); each pixel near the disc takes the share of its
+//! 16 × 16 sub-samples whose view rays lie within the sun's angular radius (the disc spans
+//! 2 pixels at a focal length of 200 px), so its light on the frame is the sun's irradiance to
+//! within the sub-sampling.
+
+use super::{CameraFrame, Target, View};
+use crate::lighting::{RADIANCE_SCALE_DN, SUN};
+
+/// The sun's angular radius, radians (0.2665°).
+pub const SUN_RADIUS_RAD: f32 = 4.651e-3;
+
+/// Sub-samples per pixel side.
+const SUB: usize = 16;
+
+/// The disc's radiance, DN, at ambient level `ambient` (1 by day).
+pub fn disc_radiance(ambient: f32) -> f32 {
+    let solid_angle = std::f32::consts::PI * SUN_RADIUS_RAD * SUN_RADIUS_RAD;
+    std::f32::consts::PI * RADIANCE_SCALE_DN * SUN * ambient / solid_angle
+}
+
+/// Draws the sun's disc over the sky of `target` (nothing where it is out of view, behind a
+/// surface, or while the lamps are on).
+pub(super) fn draw_sun(view: &View<'_>, cam: &CameraFrame, target: &mut Target) {
+    let light = &view.lighting;
+    if light.lights_on() {
+        return;
+    }
+    let d = light.sun_dir;
+    let depth = d[0] * cam.forward.x + d[1] * cam.forward.y + d[2] * cam.forward.z;
+    if depth <= 0.0 {
+        return;
+    }
+    let right = d[0] * cam.right.x + d[1] * cam.right.y + d[2] * cam.right.z;
+    // The camera looks horizontally: image down is world −z.
+    let (u, v) = (cam.cx + cam.fx * right / depth, cam.cy - cam.fy * d[2] / depth);
+    // A box around the disc: its radius through the pinhole is at most f·ρ/depth² off axis.
+    let (rx, ry) =
+        (cam.fx * SUN_RADIUS_RAD / depth.powi(2), cam.fy * SUN_RADIUS_RAD / depth.powi(2));
+    let (w, h) = (target.width as f32, target.height as f32);
+    if u + rx < 0.0 || u - rx > w || v + ry < 0.0 || v - ry > h {
+        return;
+    }
+    let cos_radius = SUN_RADIUS_RAD.cos();
+    // Whether the view ray through image point (sx, sy) lies within the disc.
+    let in_disc = |sx: f32, sy: f32| {
+        let (a, b) = ((sx - cam.cx) / cam.fx, (sy - cam.cy) / cam.fy);
+        let ray = [
+            cam.forward.x + a * cam.right.x,
+            cam.forward.y + a * cam.right.y,
+            cam.forward.z + a * cam.right.z - b,
+        ];
+        let dot = ray[0] * d[0] + ray[1] * d[1] + ray[2] * d[2];
+        dot >= cos_radius * (ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]).sqrt()
+    };
+    let radiance = disc_radiance(light.ambient);
+    let (x0, x1) =
+        ((u - rx - 1.0).floor().max(0.0) as usize, ((u + rx + 1.0).ceil().min(w)) as usize);
+    let (y0, y1) =
+        ((v - ry - 1.0).floor().max(0.0) as usize, ((v + ry + 1.0).ceil().min(h)) as usize);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let p = y * target.width + x;
+            if target.inv_depth[p] != 0.0 {
+                continue;
+            }
+            let inside = (0..SUB * SUB)
+                .filter(|&s| {
+                    let sx = x as f32 + ((s % SUB) as f32 + 0.5) / SUB as f32;
+                    in_disc(sx, y as f32 + ((s / SUB) as f32 + 0.5) / SUB as f32)
+                })
+                .count();
+            let cover = inside as f32 / (SUB * SUB) as f32;
+            for c in &mut target.colour[p * 3..p * 3 + 3] {
+                *c += cover * (radiance - *c);
+            }
+        }
+    }
+}
