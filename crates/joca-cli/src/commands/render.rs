@@ -102,7 +102,8 @@ pub struct Args {
     /// from 45 to 55].
     #[arg(long)]
     sun_elevation_deg: Option<f32>,
-    /// Draw the sun's disc where the camera sees it by day (with a low `--sun-elevation-deg`).
+    /// The sun in the sky by day: the sky brighter towards it, its disc where the camera sees it
+    /// (with a low `--sun-elevation-deg`).
     #[arg(long)]
     sun: bool,
     /// The lens's veiling glare: the share of the light spread over the sensor, 0 to below 1

@@ -66,7 +66,7 @@ pub struct View<'a> {
     /// The shadows the city's static objects cast in this sun (`None`: no cast shadows; with
     /// them, moving objects cast theirs too).
     pub shadows: Option<&'a Shadows>,
-    /// Draw the sun's disc where it is in view (see [`sun`]).
+    /// The sun in the sky: the aureole and the disc where it is in view (see [`sun`]).
     pub sun_disc: bool,
 }
 

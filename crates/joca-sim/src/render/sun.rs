@@ -1,5 +1,13 @@
-//! The sun's disc where the view sees the sky: the sun's irradiance spread over its solid angle.
+//! The sun in the sky: the sky brighter towards it, and its disc where the view sees it.
 //!
+//! **The aureole.** By day each sky pixel's radiance is multiplied by the CIE standard clear
+//! sky's scattering indicatrix (CIE S 011/E:2003, ISO 15469, sky type 12: c = 10, d = −3,
+//! e = 0.45) at its angle χ from the sun, relative to its value 90° away:
+//! `f(χ) = 1 + 10·(e^{−3χ} − e^{−3π/2}) + 0.45·cos²χ` ([`indicatrix`]): 11.4 times next to the
+//! sun, 1.36 opposite it, unchanged 90° away. The sky's gradation from horizon to zenith stays
+//! the renderer's own; surfaces are still lit by the sky's uniform share.
+//!
+//! **The disc.**
 //! A white surface facing the sun reads `RADIANCE_SCALE_DN·SUN·ambient` (the renderer's unit:
 //! radiance of a white Lambertian surface, E/π), so the disc's radiance is
 //! `π·RADIANCE_SCALE_DN·SUN·ambient / Ω_sun` with `Ω_sun = π·ρ²` (ρ = [`SUN_RADIUS_RAD`]): about
@@ -25,14 +33,21 @@ pub fn disc_radiance(ambient: f32) -> f32 {
     std::f32::consts::PI * RADIANCE_SCALE_DN * SUN * ambient / solid_angle
 }
 
-/// Draws the sun's disc over the sky of `target` (nothing where it is out of view, behind a
-/// surface, or while the lamps are on).
+/// The CIE clear sky's indicatrix at angle `chi` (radians) from the sun, relative to 90° away.
+pub fn indicatrix(chi: f32) -> f32 {
+    let c = chi.cos();
+    1.0 + 10.0 * ((-3.0 * chi).exp() - (-1.5 * std::f32::consts::PI).exp()) + 0.45 * c * c
+}
+
+/// Brightens the sky of `target` towards the sun and draws the sun's disc over it (nothing
+/// while the lamps are on; no disc where it is out of view or behind a surface).
 pub(super) fn draw_sun(view: &View<'_>, cam: &CameraFrame, target: &mut Target) {
     let light = &view.lighting;
     if light.lights_on() {
         return;
     }
     let d = light.sun_dir;
+    aureole(d, cam, target);
     let depth = d[0] * cam.forward.x + d[1] * cam.forward.y + d[2] * cam.forward.z;
     if depth <= 0.0 {
         return;
@@ -81,5 +96,27 @@ pub(super) fn draw_sun(view: &View<'_>, cam: &CameraFrame, target: &mut Target) 
                 *c += cover * (radiance - *c);
             }
         }
+    }
+}
+
+/// Multiplies every sky pixel of `target` by the indicatrix at its view ray's angle from the
+/// sun (direction `d`).
+fn aureole(d: [f32; 3], cam: &CameraFrame, target: &mut Target) {
+    let w = target.width;
+    for (p, colour) in target.colour.chunks_exact_mut(3).enumerate() {
+        if target.inv_depth[p] != 0.0 {
+            continue;
+        }
+        let a = ((p % w) as f32 + 0.5 - cam.cx) / cam.fx;
+        let b = ((p / w) as f32 + 0.5 - cam.cy) / cam.fy;
+        let ray = [
+            cam.forward.x + a * cam.right.x,
+            cam.forward.y + a * cam.right.y,
+            cam.forward.z + a * cam.right.z - b,
+        ];
+        let norm = (ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]).sqrt();
+        let cos = (ray[0] * d[0] + ray[1] * d[1] + ray[2] * d[2]) / norm;
+        let f = indicatrix(cos.clamp(-1.0, 1.0).acos());
+        colour.iter_mut().for_each(|c| *c *= f);
     }
 }

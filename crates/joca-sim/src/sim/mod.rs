@@ -67,7 +67,8 @@ pub struct SimConfig {
     pub sun_elevation: SunElevation,
     /// The lens's veiling glare (none by default).
     pub glare: Glare,
-    /// Draw the sun's disc where the view sees it (by day; off: the sky has no sun).
+    /// The sun in the sky by day: the sky brighter towards it and its disc where the view sees
+    /// it (off: the sky has no sun).
     pub sun_disc: bool,
 }
 

@@ -1,6 +1,7 @@
-//! The sun's disc: its light on the frame is the sun's irradiance (π·RADIANCE_SCALE_DN·SUN in
-//! the renderer's unit), it sits where the sun's direction projects, a nearer surface hides
-//! it, and without `sun_disc` (or while the lamps are on) the sky has none.
+//! The sun in the sky: its disc's light on the frame is the sun's irradiance
+//! (π·RADIANCE_SCALE_DN·SUN in the renderer's unit) where the sun's direction projects, the sky
+//! brightens towards it as the CIE clear sky, a nearer surface hides the disc, and without
+//! `sun_disc` (or while the lamps are on) the sky has neither.
 
 use super::*;
 
@@ -32,27 +33,55 @@ fn frame(objects: &[Object], light: Illumination, elevation_deg: f32, sun_disc: 
 fn the_sun_s_disc_carries_the_sun_s_irradiance_where_it_projects() {
     let (with, without) =
         (frame(&[], Illumination::Day, 10.0, true), frame(&[], Illumination::Day, 10.0, false));
-    // Σ (L − sky)·Ω_pixel over the frame, Ω_pixel = cos³θ/f² at the pixel's angle θ off axis.
+    // Σ (L − f·sky)·Ω_pixel within 5 px of the disc (f: the aureole's indicatrix, which the
+    // sky there carries), Ω_pixel = cos³θ/f² at the pixel's angle θ off axis.
+    let e = 10f64.to_radians();
+    let (cu, cv) = (160.0, 120.0 - 200.0 * e.tan());
     let mut light = 0.0f64;
     let (mut sx, mut sy, mut sw) = (0.0f64, 0.0f64, 0.0f64);
     for (p, (a, b)) in with.chunks_exact(3).zip(without.chunks_exact(3)).enumerate() {
-        let d = f64::from(a[0] - b[0]);
-        let (a, b) =
-            (((p % 320) as f64 + 0.5 - 160.0) / 200.0, ((p / 320) as f64 + 0.5 - 120.0) / 200.0);
-        light += d * (1.0 + a * a + b * b).powf(-1.5) / (200.0 * 200.0);
-        sx += d * ((p % 320) as f64 + 0.5);
-        sy += d * ((p / 320) as f64 + 0.5);
+        let (x, y) = ((p % 320) as f64 + 0.5, (p / 320) as f64 + 0.5);
+        if (x - cu).hypot(y - cv) > 5.0 {
+            continue;
+        }
+        let (ta, tb) = ((x - 160.0) / 200.0, (y - 120.0) / 200.0);
+        let norm = (1.0 + ta * ta + tb * tb).sqrt();
+        let chi = ((e.cos() - tb * e.sin()) / norm).clamp(-1.0, 1.0).acos();
+        let d = f64::from(a[0]) - f64::from(b[0] * joca_sim::render::sun::indicatrix(chi as f32));
+        light += d / norm.powi(3) / (200.0 * 200.0);
+        sx += d * x;
+        sy += d * y;
         sw += d;
     }
     let sun = std::f64::consts::PI * f64::from(RADIANCE_SCALE_DN * SUN);
     assert!((light / sun - 1.0).abs() < 0.01, "{light} against {sun}");
     // Its centre: straight ahead, 200·tan 10° above the horizon row.
     let (u, v) = (sx / sw, sy / sw);
-    let expect_v = 120.0 - 200.0 * 10f64.to_radians().tan();
-    assert!((u - 160.0).abs() < 0.05 && (v - expect_v).abs() < 0.05, "({u}, {v})");
-    // Nothing else changed.
-    let changed = with.iter().zip(&without).filter(|(a, b)| a != b).count();
-    assert!(changed <= 3 * 9, "{changed} values changed");
+    assert!((u - cu).abs() < 0.05 && (v - cv).abs() < 0.05, "({u}, {v})");
+}
+
+/// The sky away from the disc reads the renderer's sky times the CIE clear sky's indicatrix at
+/// each pixel's angle from the sun; the ground does not change.
+#[test]
+fn the_sky_brightens_towards_the_sun_as_the_cie_clear_sky() {
+    use joca_sim::render::sun::indicatrix;
+    let (with, without) =
+        (frame(&[], Illumination::Day, 10.0, true), frame(&[], Illumination::Day, 10.0, false));
+    let e = 10f64.to_radians();
+    let sun = [e.cos(), 0.0, e.sin()];
+    for (x, y) in [(160usize, 60usize), (170, 80), (20, 10), (300, 100), (160, 5)] {
+        // The pixel's view ray: +x ahead, +y to the left, up for rows above 120.
+        let (a, b) = ((x as f64 + 0.5 - 160.0) / 200.0, (y as f64 + 0.5 - 120.0) / 200.0);
+        let norm = (1.0 + a * a + b * b).sqrt();
+        let chi = ((sun[0] - b * sun[2]) / norm).acos();
+        let p = (y * 320 + x) * 3;
+        let ratio = with[p] / without[p];
+        let expect = indicatrix(chi as f32);
+        assert!((ratio / expect - 1.0).abs() < 1e-4, "({x}, {y}): {ratio} against {expect}");
+    }
+    assert!(indicatrix(0.0) > 11.0 && (indicatrix(std::f32::consts::FRAC_PI_2) - 1.0).abs() < 1e-6);
+    let ground = 200 * 320 * 3;
+    assert_eq!(with[ground..], without[ground..]);
 }
 
 #[test]

@@ -147,9 +147,10 @@ pub struct RunConfig {
     /// scale, 0.1 to 20 degrees, default 1). Simulator only.
     #[serde(default, skip_serializing_if = "Glare::is_default")]
     pub glare: Glare,
-    /// Draw the sun's disc where a camera sees it by day (`true` or `false`, default false):
-    /// about 46,000 times as bright as white paper in its light, so it clips any camera and,
-    /// with `glare`, veils the frame. In view only where the sun stands low (`sun_elevation`).
+    /// The sun in the sky by day (`true` or `false`, default false): the sky brightens towards
+    /// it (the CIE clear sky's indicatrix) and its disc is drawn where a camera sees it, about
+    /// 46,000 times as bright as white paper in its light, so it clips any camera and, with
+    /// `glare`, veils the frame. In view only where the sun stands low (`sun_elevation`).
     /// Simulator only.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub sun_disc: bool,
