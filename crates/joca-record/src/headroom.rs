@@ -94,8 +94,8 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
-    /// The lowest layout version that holds this record: 3 with veiling glare or the sun's disc, 2 where the
-    /// world's light is not the default one, else 1.
+    /// The lowest layout version that holds this record: 3 with veiling glare or the sun's disc,
+    /// 2 where the world's light is not the default one, else 1.
     pub fn layout_version(&self) -> u32 {
         if !self.glare.is_default() || self.sun_disc {
             3

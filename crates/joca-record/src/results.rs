@@ -167,10 +167,9 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 5 with veiling glare or the sun's disc, 4 with cast
-    /// shadows or another sun, 3 where the controller set the
-    /// aperture, 2 where it uses a field of version 2 (a thin lens, weather, a design's
-    /// f-number), else 1.
+    /// The lowest layout version that holds this record: 5 with veiling glare or the sun's disc,
+    /// 4 with cast shadows or another sun, 3 where the controller set the aperture, 2 where it
+    /// uses a field of version 2 (a thin lens, weather, a design's f-number), else 1.
     pub fn layout_version(&self) -> u32 {
         if !self.glare.is_default() || self.sun_disc {
             return 5;

@@ -5,9 +5,10 @@
 //! twice the frame's diagonal), in angle through the pinhole's focal length (r_px / f_px: exact
 //! near a source, approximate tens of degrees away), each weighted by its band of the mixing
 //! distribution, on the pyramid of block means of fog's glow ([`super::glow`]); the bands of
-//! σ ≤ 1 pixel stay on their pixel. As for the glow, light spread beyond the frame is lost and the scene
-//! beyond it sends none: a uniform field reads `1 − g·(share beyond the frame)` of itself, a
-//! little less towards the edges (the glare of what lies outside the view is not rendered).
+//! σ ≤ 1 pixel stay on their pixel. As for the glow, light spread beyond the frame is lost and
+//! the scene beyond it sends none: a uniform field reads `1 − g·(share beyond the frame)` of
+//! itself, a little less towards the edges (the glare of what lies outside the view is not
+//! rendered).
 
 use super::glow::blur::{Rgb, add, blur_rgb, sigma_on_level, upsample2};
 use joca_core::PinholeCamera;

@@ -205,8 +205,8 @@ fn paper_acc_lr() -> f64 {
 }
 
 impl RunConfig {
-    /// The world's part of [`RunConfig::validate`]: the weather, the sun and its shadows, the lens's glare (the
-    /// simulator's alone: a recording has its own).
+    /// The world's part of [`RunConfig::validate`]: the weather, the sun and its shadows, the
+    /// lens's glare (the simulator's alone: a recording has its own).
     fn validate_world(&self) -> Result<(), TrainError> {
         let bad = |field: &str, value: String, allowed: &str| {
             Err(TrainError::Config {
