@@ -1,0 +1,54 @@
+//! The world's part of a run's configuration check: the weather, the sun and its shadows, the
+//! lens's glare — the simulator's alone, since a recording has its own.
+
+use super::RunConfig;
+use crate::TrainError;
+use joca_sim::Weather;
+
+impl RunConfig {
+    /// The world's part of [`RunConfig::validate`]: the weather, the sun and its shadows, the
+    /// lens's glare (the simulator's alone: a recording has its own).
+    pub(super) fn validate_world(&self) -> Result<(), TrainError> {
+        let bad = |field: &str, value: String, allowed: &str| {
+            Err(TrainError::Config {
+                field: format!("run.{field}"),
+                value,
+                allowed: allowed.into(),
+            })
+        };
+        if let Err(e) = self.weather.check() {
+            return bad("weather", format!("\"{}\"", self.weather), &e);
+        }
+        if self.weather != Weather::Clear && self.source.is_recording() {
+            return bad("weather", format!("\"{}\"", self.weather), "\"clear\" with a recording");
+        }
+        if let Err(e) = self.sun_elevation.check() {
+            let s = self.sun_elevation;
+            return bad(
+                "sun_elevation",
+                format!("{{ min_deg = {}, max_deg = {} }}", s.min_deg, s.max_deg),
+                &e,
+            );
+        }
+        if !self.sun_elevation.is_default() && self.source.is_recording() {
+            return bad("sun_elevation", "a range".into(), "the default with a recording");
+        }
+        if self.cast_shadows && self.source.is_recording() {
+            return bad("cast_shadows", "true".into(), "false with a recording");
+        }
+        if let Err((field, allowed)) = self.glare.check() {
+            let value = match field {
+                "fraction" => self.glare.fraction,
+                _ => self.glare.scale_deg,
+            };
+            return bad(&format!("glare.{field}"), value.to_string(), &allowed);
+        }
+        if self.sun_disc && self.source.is_recording() {
+            return bad("sun_disc", "true".into(), "false with a recording");
+        }
+        if !self.glare.is_off() && self.source.is_recording() {
+            return bad("glare", "a fraction above 0".into(), "none with a recording");
+        }
+        Ok(())
+    }
+}
