@@ -10,7 +10,7 @@
 //! itself, a little less towards the edges (the glare of what lies outside the view is not
 //! rendered).
 
-use super::glow::blur::{Rgb, add, blur_rgb, sigma_on_level, upsample2};
+use super::glow::blur::{Rgb, add, block_mean, blur_rgb, sigma_on_level, upsample2};
 use joca_core::PinholeCamera;
 use joca_core::glare::Glare;
 use rayon::prelude::*;
@@ -49,7 +49,7 @@ fn level(sigma_px: f64, short_px: usize) -> usize {
 }
 
 /// The pyramid of 2 × 2 block means of a frame (outside the frame counts as 0), levels 0 to
-/// `top`, each with its size.
+/// `top`, each with its size: each level the block mean of the one below.
 fn pyramid(
     colour: &[f32],
     (width, height): (usize, usize),
@@ -61,16 +61,8 @@ fn pyramid(
     )];
     for _ in 0..top {
         let (fine, (fw, fh)) = &levels[levels.len() - 1];
-        let (cw, ch) = (fw.div_ceil(2), fh.div_ceil(2));
-        let mut coarse = vec![[0.0f32; 3]; cw * ch];
-        coarse.par_chunks_mut(cw).enumerate().for_each(|(cy, row)| {
-            for y in 2 * cy..(2 * cy + 2).min(*fh) {
-                for x in 0..*fw {
-                    add(&mut row[x / 2], fine[y * fw + x].map(|v| v * 0.25));
-                }
-            }
-        });
-        levels.push((coarse, (cw, ch)));
+        let coarse = block_mean(&|p| fine[p], (*fw, *fh), 2);
+        levels.push((coarse, (fw.div_ceil(2), fh.div_ceil(2))));
     }
     levels
 }

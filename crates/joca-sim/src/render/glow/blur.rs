@@ -69,7 +69,7 @@ pub(crate) fn level_for(sigma_px: f64, short_px: usize) -> usize {
 }
 
 /// `source` averaged over `s × s` blocks (outside the frame counts as 0).
-fn block_mean(
+pub(crate) fn block_mean(
     source: &(impl Fn(usize) -> Rgb + Sync),
     (width, height): (usize, usize),
     s: usize,
