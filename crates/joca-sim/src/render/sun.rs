@@ -64,16 +64,7 @@ pub(super) fn draw_sun(view: &View<'_>, cam: &CameraFrame, target: &mut Target) 
     }
     let cos_radius = SUN_RADIUS_RAD.cos();
     // Whether the view ray through image point (sx, sy) lies within the disc.
-    let in_disc = |sx: f32, sy: f32| {
-        let (a, b) = ((sx - cam.cx) / cam.fx, (sy - cam.cy) / cam.fy);
-        let ray = [
-            cam.forward.x + a * cam.right.x,
-            cam.forward.y + a * cam.right.y,
-            cam.forward.z + a * cam.right.z - b,
-        ];
-        let dot = ray[0] * d[0] + ray[1] * d[1] + ray[2] * d[2];
-        dot >= cos_radius * (ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]).sqrt()
-    };
+    let in_disc = |sx: f32, sy: f32| cos_to_sun(cam, d, sx, sy) >= cos_radius;
     let radiance = disc_radiance(light.ambient);
     let (x0, x1) =
         ((u - rx - 1.0).floor().max(0.0) as usize, ((u + rx + 1.0).ceil().min(w)) as usize);
@@ -107,16 +98,21 @@ fn aureole(d: [f32; 3], cam: &CameraFrame, target: &mut Target) {
         if target.inv_depth[p] != 0.0 {
             continue;
         }
-        let a = ((p % w) as f32 + 0.5 - cam.cx) / cam.fx;
-        let b = ((p / w) as f32 + 0.5 - cam.cy) / cam.fy;
-        let ray = [
-            cam.forward.x + a * cam.right.x,
-            cam.forward.y + a * cam.right.y,
-            cam.forward.z + a * cam.right.z - b,
-        ];
-        let norm = (ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]).sqrt();
-        let cos = (ray[0] * d[0] + ray[1] * d[1] + ray[2] * d[2]) / norm;
+        let cos = cos_to_sun(cam, d, (p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
         let f = indicatrix(cos.clamp(-1.0, 1.0).acos());
         colour.iter_mut().for_each(|c| *c *= f);
     }
+}
+
+/// The cosine of the angle between the sun (direction `d`) and the view ray through image point
+/// (`sx`, `sy`) of the horizontal camera `cam` (image down is world −z).
+fn cos_to_sun(cam: &CameraFrame, d: [f32; 3], sx: f32, sy: f32) -> f32 {
+    let (a, b) = ((sx - cam.cx) / cam.fx, (sy - cam.cy) / cam.fy);
+    let ray = [
+        cam.forward.x + a * cam.right.x,
+        cam.forward.y + a * cam.right.y,
+        cam.forward.z + a * cam.right.z - b,
+    ];
+    let norm = (ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]).sqrt();
+    (ray[0] * d[0] + ray[1] * d[1] + ray[2] * d[2]) / norm
 }
