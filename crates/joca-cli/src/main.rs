@@ -114,6 +114,11 @@ fn main() -> ExitCode {
         eprintln!("error: {err}");
         return ExitCode::FAILURE;
     }
+    // SAFETY: as above (no other thread yet).
+    #[allow(unsafe_code)]
+    unsafe {
+        joca_nn::device::prepare_process();
+    }
     let cli = Cli::parse();
     // Every command runs on a worker of rayon's pool, not on the main thread: a parallel loop
     // started from outside the pool hands its work to a sleeping worker and waits to be woken,

@@ -6,6 +6,7 @@
 //! of framework types.
 //!
 //! - [`Engine`] fixes the device and the thread count that every reproducible run records.
+//! - [`device`] — which device a run computes on (`cpu`, `cuda:N`, `auto`) and what it is.
 //! - [`kernels`] — which of libtorch's CPU code paths run (AVX2 by default, on every machine).
 //! - [`detector`] — the CenterNet-style detector, its loss and decoding.
 //! - [`acc`] — NeuralAE, the adaptive camera control network.
@@ -26,6 +27,7 @@
 
 pub mod acc;
 pub mod detector;
+pub mod device;
 mod error;
 pub mod formation;
 pub mod joint;
@@ -68,6 +70,24 @@ impl Engine {
         tch::set_num_threads(i32::try_from(threads).unwrap_or(i32::MAX));
         tch::manual_seed(0);
         Self { device: Device::Cpu, threads }
+    }
+
+    /// An engine on the device `choice` resolves to on this machine ([`device::resolve`]), with
+    /// `threads` intra-op threads for the CPU's share of the work. On a GPU, libtorch's
+    /// deterministic algorithms are switched on. Call it before any other libtorch call of the
+    /// process: libtorch looks for its CUDA part once.
+    pub fn open(choice: device::DeviceChoice, threads: usize) -> Result<Self, NnError> {
+        let device = device::resolve(choice, device::probe)?;
+        if device.is_cuda() {
+            device::cuda::set_deterministic(true).map_err(NnError::Config)?;
+        }
+        let engine = Self::cpu(threads);
+        Ok(Self { device, ..engine })
+    }
+
+    /// The device as a record states it: `cpu`, or the GPU's index, name, memory and driver.
+    pub fn describe(&self) -> String {
+        device::describe(self.device)
     }
 
     /// The device tensors are placed on.
