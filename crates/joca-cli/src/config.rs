@@ -20,6 +20,13 @@ pub fn count<const LO: usize, const HI: usize>(text: &str) -> Result<usize, Stri
     }
 }
 
+/// A command-line device (clap value parser): `cpu`, `cuda`, `cuda:N` or `auto`; anything else
+/// is refused naming the allowed values. Whether the machine has it is checked when the
+/// command opens its engine.
+pub fn device(text: &str) -> Result<joca_nn::device::DeviceChoice, String> {
+    text.parse().map_err(|e: joca_nn::NnError| e.to_string())
+}
+
 /// The presets shipped with joca, by name.
 pub const PRESETS: [(&str, &str); 3] = [
     ("quick", include_str!("../../../presets/quick.toml")),

@@ -149,6 +149,34 @@ pub fn describe(device: tch::Device) -> String {
     }
 }
 
+/// The GPU a record's networks ran on ([`describe`]); `None` on the CPU, which a record states
+/// by its CPU's name.
+pub fn gpu_description(device: tch::Device) -> Option<String> {
+    device.is_cuda().then(|| describe(device))
+}
+
+/// Waits for a device's queued work before a clock is read (`joca bench step`'s parts): a GPU
+/// computes asynchronously, so without it one part's time would be counted in the next's.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DeviceSync(Option<i64>);
+
+impl DeviceSync {
+    /// For `device` (nothing to wait for on the CPU).
+    pub fn of(device: tch::Device) -> Self {
+        match device {
+            tch::Device::Cuda(i) => Self(i64::try_from(i).ok()),
+            _ => Self(None),
+        }
+    }
+
+    /// Returns once the device has finished its queued work.
+    pub fn wait(&self) {
+        if let Some(i) = self.0 {
+            tch::Cuda::synchronize(i);
+        }
+    }
+}
+
 /// Process-wide settings a GPU run needs before CUDA starts (cuBLAS reads its workspace size
 /// once): `CUBLAS_WORKSPACE_CONFIG=:4096:8` unless the user set it. Harmless on a CPU.
 ///

@@ -94,6 +94,11 @@ impl JointModel {
         }
     }
 
+    /// The device the networks compute on.
+    pub fn device(&self) -> Device {
+        self.device
+    }
+
     /// The longest exposure a frame can have (the ACC range's maximum by default; a shorter
     /// frame interval lowers it).
     pub fn set_max_exposure(&mut self, max_exposure_s: f64) {

@@ -90,6 +90,12 @@ impl Engine {
         device::describe(self.device)
     }
 
+    /// Waits until the device has finished the work queued so far (a GPU computes
+    /// asynchronously; the CPU has nothing to wait for): call it before reading a clock.
+    pub fn synchronize(&self) {
+        device::DeviceSync::of(self.device).wait();
+    }
+
     /// The device tensors are placed on.
     pub fn device(&self) -> Device {
         self.device

@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 /// world's light (`cast_shadows`, `sun_elevation`); a record in the default world is written as
 /// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]);
 /// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`).
-pub const HEADROOM_FORMAT_VERSION: u32 = 3;
+pub const HEADROOM_FORMAT_VERSION: u32 = 4;
 
 /// What one design and detector leave to a controller (`headroom.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -53,6 +53,9 @@ pub struct HeadroomRecord {
     pub policies: Vec<PolicyScores>,
     /// The CPU the numbers were computed on.
     pub cpu: String,
+    /// The GPU the detector ran on (as [`crate::RunResults::device`]); absent: the CPU.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
     /// Which joca, commit and configuration computed the record.
     pub provenance: Provenance,
 }
@@ -97,7 +100,9 @@ impl HeadroomRecord {
     /// The lowest layout version that holds this record: 3 with veiling glare or the sun's disc,
     /// 2 where the world's light is not the default one, else 1.
     pub fn layout_version(&self) -> u32 {
-        if !self.glare.is_default() || self.sun_disc {
+        if self.device.is_some() {
+            4
+        } else if !self.glare.is_default() || self.sun_disc {
             3
         } else if self.cast_shadows || !self.sun_elevation.is_default() {
             2

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 /// (`cast_shadows`) and the sun's elevation range (`sun_elevation`), which an older reader would
 /// otherwise drop in silence; version 5 the lens's veiling glare (`glare`) and the sun's disc
 /// (`sun_disc`).
-pub const RESULTS_FORMAT_VERSION: u32 = 5;
+pub const RESULTS_FORMAT_VERSION: u32 = 6;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -77,6 +77,10 @@ pub struct RunResults {
     /// repeats bit for bit on the same machine type, not across types. Empty in older runs.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub cpu: String,
+    /// The GPU the networks ran on (index, name, memory, driver, libtorch's CUDA runtime);
+    /// absent where they ran on the CPU.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
     /// The controller the test drove the design with when it was not the run's own (`joca eval
     /// --controller average:DN`, written `average-DN`); absent for the run's own test.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -171,6 +175,9 @@ impl RunResults {
     /// 4 with cast shadows or another sun, 3 where the controller set the aperture, 2 where it
     /// uses a field of version 2 (a thin lens, weather, a design's f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if self.device.is_some() {
+            return 6;
+        }
         if !self.glare.is_default() || self.sun_disc {
             return 5;
         }

@@ -283,7 +283,7 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
         assert!(e.contains("results.json") && e.contains("format_version 7 is newer"), "{e}");
-        assert!(e.contains("0 to 5"), "{e}");
+        assert!(e.contains("0 to 6"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
@@ -327,6 +327,19 @@ mod tests {
         assert!(
             note.ends_with(", the sun's disc in the sky, veiling glare 2 % (scale 1.5°)"),
             "{note}"
+        );
+        // Layout 6 (the networks on a GPU) is read, and the report's machine line names it.
+        value["format_version"] = 6.into();
+        value["cpu"] = "AMD EPYC (AVX2, FMA)".into();
+        value["device"] = "cuda:0: NVIDIA H100 80GB HBM3, 79.2 GiB, driver CUDA 13.0".into();
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.layout_version()), (6, 6));
+        let line = crate::sections::machine_line(&r);
+        assert!(
+            line.contains("AMD EPYC (AVX2, FMA)")
+                && line.contains("networks on cuda:0: NVIDIA H100"),
+            "{line}"
         );
     }
 }

@@ -48,7 +48,7 @@ pub fn headroom_markdown(r: &HeadroomRecord) -> String {
         r.ladder.len(),
         r.ladder.first().map_or(f64::NAN, |s| s.exposure_gain_ms()),
         r.ladder.last().map_or(f64::NAN, |s| s.exposure_gain_ms()),
-        r.cpu,
+        r.device.as_ref().map_or(r.cpu.clone(), |gpu| format!("{} and {gpu}", r.cpu)),
         r.provenance.joca_version,
         r.provenance.commit_label()
     );

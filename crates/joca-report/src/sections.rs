@@ -13,8 +13,9 @@ pub(crate) fn machine_line(r: &RunResults) -> String {
     if r.cpu.is_empty() {
         return String::new();
     }
+    let gpu = r.device.as_ref().map_or(String::new(), |d| format!(", the networks on {d}"));
     format!(
-        "Computed on {} with libtorch's {} kernels{} (numbers repeat on this machine type).",
+        "Computed on {} with libtorch's {} kernels{}{gpu} (numbers repeat on this machine type).",
         r.cpu,
         r.cpu_kernels.unwrap_or(CpuKernels::Native),
         if r.denormals == Some(Denormals::Flush) {

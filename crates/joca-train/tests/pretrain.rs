@@ -21,6 +21,7 @@ fn tiny() -> PretrainConfig {
     PretrainConfig {
         seed: 7,
         threads: 1,
+        device: Default::default(),
         steps: 12,
         batch: 1,
         precision: Precision::Fp32,

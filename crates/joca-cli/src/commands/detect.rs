@@ -30,6 +30,9 @@ pub struct Args {
     /// libtorch threads, 1 to 64.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=64))]
     threads: u64,
+    /// What the detector runs on: cpu, cuda (the first GPU), cuda:N or auto.
+    #[arg(long, default_value = "cpu", value_parser = crate::config::device)]
+    device: joca_nn::device::DeviceChoice,
 }
 
 #[derive(Debug, Deserialize)]
@@ -45,6 +48,8 @@ struct Image {
 
 /// Runs `joca detect`.
 pub fn run(args: &Args) -> Result<()> {
+    // First: libtorch looks for its CUDA part once, before anything else asks it.
+    let engine = Engine::open(args.device, usize::try_from(args.threads)?)?;
     let mut config = DetectorConfig::of_weights(&args.weights)
         .with_context(|| format!("cannot load {}", args.weights.display()))?;
     config.width = args.width.unwrap_or(config.width);
@@ -66,7 +71,6 @@ pub fn run(args: &Args) -> Result<()> {
             .map_err(|e| anyhow!("{}: image {}: {e}", args.images.display(), image.id))?;
         paths.push(path);
     }
-    let engine = Engine::cpu(usize::try_from(args.threads)?);
     let mut model = DetectorModel::new(&engine, config, AdamConfig::DETECTOR);
     model
         .load_weights(&args.weights)

@@ -46,6 +46,10 @@ pub struct Args {
     /// `test-detector-start/`.
     #[arg(long, value_enum, default_value_t = Detector::Trained)]
     detector: Detector,
+    /// What the networks compute on: cpu, cuda (the first GPU), cuda:N or auto (a GPU if one is
+    /// usable, else the CPU) [default: the run's `device`, cpu].
+    #[arg(long, value_parser = crate::config::device)]
+    device: Option<joca_nn::device::DeviceChoice>,
 }
 
 /// Runs `joca eval`.
@@ -61,6 +65,7 @@ pub fn run(args: &Args) -> Result<()> {
         town: args.town,
         controller,
         start_detector: args.detector == Detector::Start,
+        device: args.device,
     };
     let (r, test_dir) = evaluate_run(&args.run_dir, &options)
         .with_context(|| format!("cannot evaluate {}", args.run_dir.display()))?;

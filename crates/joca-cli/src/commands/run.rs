@@ -38,6 +38,10 @@ pub struct Args {
     /// Frames to test on in real-image mode [default: the training folder].
     #[arg(long, value_parser = Source::parse)]
     test_source: Option<Source>,
+    /// What the networks compute on: cpu, cuda (the first GPU), cuda:N or auto (a GPU if one is
+    /// usable, else the CPU) [default: the configuration's `device`, cpu].
+    #[arg(long, value_parser = crate::config::device)]
+    device: Option<joca_nn::device::DeviceChoice>,
 }
 
 /// Runs `joca run`.
@@ -55,12 +59,19 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(s) = &args.test_source {
         cfg.test_source.clone_from(s);
     }
+    if let Some(d) = args.device {
+        cfg.device = d;
+    }
     // A bad value is refused here, naming the file, before a run directory exists.
     let source = match &args.config {
         Some(path) => format!("{} over preset {}", path.display(), args.preset),
         None => format!("preset {}", args.preset),
     };
     cfg.validate().with_context(|| format!("invalid [run] in {source}"))?;
+    // Whether this machine has the device, before a run directory exists (and before any other
+    // libtorch call: libtorch looks for its CUDA part once).
+    joca_nn::device::resolve(cfg.device, joca_nn::device::probe)
+        .with_context(|| format!("[run] device in {source} or --device"))?;
     let real = cfg.source.is_recording();
     let out = args.out.clone().unwrap_or_else(|| {
         let mode = if real { "-real" } else { "" };
@@ -112,6 +123,15 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         cfg.input.resampler,
         out.display()
     );
+    if !cfg.device.is_cpu() {
+        let device = joca_nn::device::resolve(cfg.device, joca_nn::device::probe)?;
+        println!(
+            "device: {} ({} asked) for the detector, NeuralAE and the differentiable formation; \
+                rendering and the 8-bit formation on the CPU",
+            joca_nn::device::describe(device),
+            cfg.device
+        );
+    }
     let kernels = joca_nn::kernels::chosen();
     println!(
         "cpu: {}; denormals: {}; kernels: {} ({})",
@@ -127,7 +147,11 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
                  type, not across types",
         }
     );
-    let scoring = cfg.scoring_precision.on_this_cpu();
+    let scoring = if cfg.device.is_cpu() {
+        cfg.scoring_precision.on_this_cpu()
+    } else {
+        cfg.scoring_precision
+    };
     if scoring != cfg.scoring_precision {
         println!(
             "scoring_precision: the perturbed frames are scored in fp32 (bf16 is used only where \
@@ -135,7 +159,9 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         );
     } else {
         let name = scoring.name();
-        let why = if scoring == joca_nn::detector::Precision::Bf16 {
+        let why = if scoring == joca_nn::detector::Precision::Bf16 && !cfg.device.is_cpu() {
+            " (on a GPU: native)"
+        } else if scoring == joca_nn::detector::Precision::Bf16 {
             " (native on this CPU)"
         } else {
             ""

@@ -24,6 +24,10 @@ pub struct Args {
     /// Override the thread count (1 to 64).
     #[arg(long, value_parser = crate::config::count::<1, 64>)]
     threads: Option<usize>,
+    /// What the detector trains on: cpu, cuda (the first GPU), cuda:N or auto (a GPU if one is
+    /// usable, else the CPU) [default: the configuration's `device`, cpu].
+    #[arg(long, value_parser = crate::config::device)]
+    device: Option<joca_nn::device::DeviceChoice>,
     /// Where to write the trained weights (safetensors). The run directory (log, checkpoint,
     /// results) is this path with `.run` in place of the extension.
     #[arg(long)]
@@ -42,8 +46,14 @@ pub fn run(args: &Args) -> Result<()> {
     if let Some(t) = args.threads {
         cfg.threads = t;
     }
+    if let Some(d) = args.device {
+        cfg.device = d;
+        // Whether this machine has it, before a run directory exists.
+        joca_nn::device::resolve(d, joca_nn::device::probe).context("--device")?;
+    }
     let run_dir = args.out.with_extension("run");
-    let precision = cfg.precision.on_this_cpu();
+    // On a GPU bfloat16 is native; the CPU's case is known before the engine opens.
+    let precision = if cfg.device.is_cpu() { cfg.precision.on_this_cpu() } else { cfg.precision };
     if precision != cfg.precision {
         println!(
             "precision: bf16 asked for, but this CPU has no native bfloat16 (AVX-512 BF16); \

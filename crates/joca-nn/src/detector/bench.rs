@@ -111,6 +111,7 @@ pub fn training_step_times(
         opt.zero_grad();
         loss.total.backward();
         opt.step();
+        engine.synchronize();
     })
 }
 

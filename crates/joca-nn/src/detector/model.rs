@@ -94,6 +94,11 @@ impl DetectorModel {
         }
     }
 
+    /// The device the network computes on.
+    pub fn device(&self) -> Device {
+        self.device
+    }
+
     /// The network (for the NeuralAE, which reads its features).
     pub fn network(&self) -> &Detector {
         &self.net

@@ -28,6 +28,9 @@ pub trait PrecisionExt {
     /// The precision to compute in on this CPU: bfloat16 only where it is native
     /// ([`native_bf16`]), float32 otherwise.
     fn on_this_cpu(self) -> Precision;
+    /// The precision to compute in on `device`: on a GPU as asked (bfloat16 is native on
+    /// every GPU libtorch 2.13's CUDA 13 build supports), on the CPU [`Self::on_this_cpu`].
+    fn on_device(self, device: tch::Device) -> Precision;
     /// The tensor type of activations.
     fn kind(self) -> Kind;
 }
@@ -35,6 +38,10 @@ pub trait PrecisionExt {
 impl PrecisionExt for Precision {
     fn on_this_cpu(self) -> Precision {
         if self == Precision::Bf16 && !native_bf16() { Precision::Fp32 } else { self }
+    }
+
+    fn on_device(self, device: tch::Device) -> Precision {
+        if device.is_cuda() { self } else { self.on_this_cpu() }
     }
 
     fn kind(self) -> Kind {

@@ -82,6 +82,9 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
 pub(super) fn machine(r: &Row) -> String {
     let r = &r.results;
     let mut m = if r.cpu.is_empty() { "CPU not recorded".to_owned() } else { r.cpu.clone() };
+    if let Some(gpu) = &r.device {
+        m.push_str(&format!(", the networks on {gpu}"));
+    }
     if r.cpu_kernels == Some(CpuKernels::Avx2) {
         m.push_str(", libtorch's avx2 kernels");
     }

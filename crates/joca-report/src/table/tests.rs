@@ -56,6 +56,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         cpu_kernels: Some(joca_core::compute::CpuKernels::Native),
         denormals: None,
         cpu: String::new(),
+        device: None,
         test_controller: None,
         test_town: None,
         test_detector: None,

@@ -4,6 +4,7 @@
 use crate::TrainError;
 use joca_camera::DetectorInput;
 use joca_nn::detector::{DetectorConfig, Precision, Regression};
+use joca_nn::device::DeviceChoice;
 use serde::{Deserialize, Serialize};
 
 /// Settings of a pre-training run (the `[pretrain]` presets in `presets/`): the run itself at
@@ -16,6 +17,10 @@ pub struct PretrainConfig {
     pub seed: u64,
     /// libtorch and rayon threads.
     pub threads: usize,
+    /// What the detector trains and is evaluated on: `cpu` (the default), `cuda`, `cuda:N` or
+    /// `auto` (as `[run] device`).
+    #[serde(default, skip_serializing_if = "DeviceChoice::is_cpu")]
+    pub device: DeviceChoice,
     /// Training frames (`steps / batch` gradient steps). `optimizer.warmup_steps` and
     /// `eval.every` count frames too.
     pub steps: usize,

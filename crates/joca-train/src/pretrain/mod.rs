@@ -102,12 +102,12 @@ pub fn pretrain(
     config.validate()?;
     output::claim(run_dir, OutputKind::Pretrain)?;
     let _lock = DirLock::acquire(run_dir, "joca train-detector")?;
-    let engine = Engine::cpu(config.trainer_threads());
+    let engine = Engine::open(config.device, config.trainer_threads())?;
     let streams = SeedStreams::new(config.seed);
     engine.seed(streams.stream("detector-init").random());
     let ckpt = CheckpointDir::new(run_dir.join("checkpoint"));
     let (mut model, mut average, start) = start_or_resume(config, &engine, &ckpt, run_dir, resume)?;
-    let precision = config.precision.on_this_cpu();
+    let precision = config.precision.on_device(engine.device());
     let log_path = run_dir.join("events.jsonl");
     let mut log = std::fs::OpenOptions::new()
         .create(true)
@@ -291,7 +291,7 @@ fn log_line(
 /// config a run was trained with, this reproduces its `results.json`.
 pub fn evaluate_weights(config: &PretrainConfig, weights: &Path) -> Result<EvalReport, TrainError> {
     config.validate()?;
-    let engine = Engine::cpu(config.threads);
+    let engine = Engine::open(config.device, config.threads)?;
     let mut model =
         DetectorModel::new(&engine, DetectorConfig::of_weights(weights)?, AdamConfig::DETECTOR);
     model.load_weights(weights)?;

@@ -26,8 +26,9 @@ pub(super) fn start_or_resume(
     let mut model = DetectorModel::new(engine, config.detector, adam);
     model.set_class_weights(&config.experimental.class_weights);
     model.set_regression(config.experimental.regression);
-    // bfloat16 only where the CPU has it: emulated, it is many times slower than float32.
-    let precision = config.precision.on_this_cpu();
+    // bfloat16 only where the CPU has it (emulated, it is many times slower than float32) or on
+    // a GPU.
+    let precision = config.precision.on_device(engine.device());
     model.set_precision(precision);
     model.set_min_radius(i64::from(config.experimental.min_radius));
     let mut start = 0;

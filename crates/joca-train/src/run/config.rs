@@ -11,6 +11,7 @@ pub(crate) use checks::{check_detector, check_input};
 use joca_camera::{ApertureControl, CameraDesign, CameraError, DetectorInput, LensModel};
 use joca_core::optics::F_NUMBER_RANGE;
 use joca_nn::detector::{DetectorConfig, Precision};
+use joca_nn::device::DeviceChoice;
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
 use joca_sim::{Glare, SunElevation, Weather};
@@ -34,6 +35,11 @@ pub struct RunConfig {
     pub seed: u64,
     /// libtorch and rayon threads.
     pub threads: usize,
+    /// What the networks compute on: `cpu` (the default), `cuda` (the first GPU), `cuda:N` or
+    /// `auto` (the first GPU where one is usable, else the CPU). The renderer and the 8-bit
+    /// formation run on the CPU's threads either way.
+    #[serde(default, skip_serializing_if = "DeviceChoice::is_cpu")]
+    pub device: DeviceChoice,
     /// Method.
     pub method: Method,
     /// Scenario.

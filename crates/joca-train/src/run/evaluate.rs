@@ -11,6 +11,7 @@ use crate::control::TestController;
 use joca_camera::CameraDesign;
 use joca_core::output::{self, DirLock, OutputKind};
 use joca_nn::detector::PrecisionExt;
+use joca_nn::device::DeviceChoice;
 use joca_nn::joint::JointModel;
 use joca_record::{Provenance, Validated};
 use std::path::{Path, PathBuf};
@@ -35,6 +36,9 @@ pub struct EvalOptions {
     /// trained weights; its semantic input is the detector's features, so it reads the swapped
     /// detector's.
     pub start_detector: bool,
+    /// Another device for the networks (the run's `device` otherwise): a run trained on a GPU
+    /// can be tested on a CPU and back; the numbers are the device's.
+    pub device: Option<DeviceChoice>,
 }
 
 /// The largest `--town` index accepted.
@@ -122,9 +126,19 @@ pub fn evaluate_run(
     options: &EvalOptions,
 ) -> Result<(RunResults, PathBuf), TrainError> {
     options.check()?;
-    let EvalOptions { scenario, frames_per_episode, episodes, town, controller, start_detector } =
-        *options;
+    let EvalOptions {
+        scenario,
+        frames_per_episode,
+        episodes,
+        town,
+        controller,
+        start_detector,
+        device,
+    } = *options;
     let (mut config, state, dir, _lock) = load_run(run_dir)?;
+    if let Some(d) = device {
+        config.device = d;
+    }
     if let Some(s) = scenario {
         config.scenario = s;
     }
@@ -256,10 +270,11 @@ pub(super) fn test_design(
         } else {
             config.source.clone()
         },
-        scoring_precision: Some(config.scoring_precision.on_this_cpu()),
+        scoring_precision: Some(config.scoring_precision.on_device(model.device())),
         cpu_kernels: Some(joca_nn::kernels::chosen()),
         denormals: Some(joca_nn::kernels::denormals()),
         cpu: cpu_description(),
+        device: joca_nn::device::gpu_description(model.device()),
         test_controller: None,
         test_town: None,
         test_detector: None,

@@ -244,7 +244,7 @@ fn setup(
     log: Box<dyn Write>,
     log_path: PathBuf,
 ) -> Result<(Context, JointModel), TrainError> {
-    let engine = Engine::cpu(config.threads);
+    let engine = Engine::open(config.device, config.threads)?;
     let streams = SeedStreams::new(config.seed);
     engine.seed(streams.stream("init").random());
     let cal = Calibration::DEFAULT;

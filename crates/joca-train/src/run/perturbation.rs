@@ -240,7 +240,7 @@ pub(super) fn search(
     };
     cx.journal.watch.lap(|t| &mut t.perturbation_render_ms);
     let refs: Vec<&Rgb8Image> = images.iter().collect();
-    let precision = cx.config.scoring_precision.on_this_cpu();
+    let precision = cx.config.scoring_precision.on_device(model.device());
     let (fitness, tied) = score(&cx.config, model, frames, &refs, precision)?;
     cx.journal.ties.add(SearchTies { searches: 1, tied: u64::from(tied) });
     cx.journal.watch.lap(|t| &mut t.perturbation_detect_ms);

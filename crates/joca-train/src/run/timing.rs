@@ -3,6 +3,7 @@
 use super::{RunConfig, TrainError, candidate, perturbation, setup};
 use joca_camera::CameraDesign;
 use joca_nn::detector::Precision;
+use joca_nn::device::DeviceSync;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -97,11 +98,18 @@ pub(super) struct Stopwatch {
     /// When measuring: also score each perturbation search in this precision (untimed) and
     /// count whether it chooses the same member.
     pub(super) check_precision: Option<Precision>,
+    /// When measuring on a GPU: waits for its queued work before each lap.
+    pub(super) sync: DeviceSync,
 }
 
 impl Default for Stopwatch {
     fn default() -> Self {
-        Self { clock: Instant::now(), breakdown: None, check_precision: None }
+        Self {
+            clock: Instant::now(),
+            breakdown: None,
+            check_precision: None,
+            sync: DeviceSync::default(),
+        }
     }
 }
 
@@ -126,6 +134,9 @@ impl Stopwatch {
 
     /// Adds the time since the last lap to `part`, and restarts.
     pub(super) fn lap(&mut self, part: fn(&mut StepBreakdown) -> &mut f64) {
+        if self.breakdown.is_some() {
+            self.sync.wait();
+        }
         let ms = self.clock.elapsed().as_secs_f64() * 1e3;
         self.clock = Instant::now();
         if let Some(t) = self.breakdown.as_mut() {
@@ -176,7 +187,8 @@ pub fn bench_step(
     let mut perturbation = perturbation::ga(&config, &cx.streams)?;
     let train = candidate::train;
     train(&mut cx, &mut model, &mut perturbation, design, (0, 0), &mut |_, _| {})?; // warm-up
-    cx.journal.watch = Stopwatch { check_precision: check, ..Stopwatch::measuring() };
+    let sync = DeviceSync::of(model.device());
+    cx.journal.watch = Stopwatch { check_precision: check, sync, ..Stopwatch::measuring() };
     train(&mut cx, &mut model, &mut perturbation, design, (1, 1), &mut |_, _| {})?;
     let t = cx.journal.watch.breakdown.unwrap_or_default();
     Ok(t.scaled(1.0 / t.steps.max(1) as f64))

@@ -26,6 +26,7 @@ fn tiny(method: Method) -> RunConfig {
     RunConfig {
         seed: 3,
         threads: 1,
+        device: Default::default(),
         method,
         scenario: Scenario::Blur2,
         camera: FixedCamera::Flir,

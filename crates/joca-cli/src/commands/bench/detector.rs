@@ -9,12 +9,14 @@ const PEAK_GFLOPS_PER_CORE: f64 = 115.0;
 
 pub(super) fn bench_detector(
     repeats: usize,
-    threads: usize,
+    (threads, device): (usize, joca_nn::device::DeviceChoice),
     config: joca_nn::detector::DetectorConfig,
     python: &str,
 ) -> Result<()> {
     use joca_nn::detector::{Precision, forward_flops, time_detector, time_training};
-    let engine = joca_nn::Engine::cpu(threads);
+    let engine = joca_nn::Engine::open(device, threads)?;
+    // PyTorch's reference and the CPU's peak compare with the CPU only.
+    let on_cpu = !engine.device().is_cuda();
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scripts/bench_detector_pytorch.py");
     let mut script_args = vec![script.to_owned(), "--width".into(), config.width.to_string()];
     script_args.extend(["--threads".into(), threads.to_string()]);
@@ -29,15 +31,17 @@ pub(super) fn bench_detector(
         .args(&script_args)
         .output()
         .ok()
+        .filter(|_| on_cpu)
         .filter(|o| o.status.success())
         .and_then(|o| serde_json::from_slice(&o.stdout).ok());
     println!(
-        "detector (width {}{}{}, {} threads), best of {repeats}; training step = forward + loss + \
-            backward + AdamW",
+        "detector (width {}{}{}, {} threads, {}), best of {repeats}; training step = forward + \
+            loss + backward + AdamW",
         config.width,
         if config.deep { ", deep" } else { "" },
         if config.shared_head { ", shared head" } else { "" },
-        threads
+        threads,
+        engine.describe()
     );
     println!(
         "{:<9} {:<10} {:>9} {:>10} {:>9} {:>12} {:>13}",
@@ -63,7 +67,7 @@ pub(super) fn bench_detector(
                 ms,
                 flops,
                 gflops,
-                100.0 * gflops / peak,
+                if on_cpu { 100.0 * gflops / peak } else { f64::NAN },
                 ratio
             );
         }
@@ -73,7 +77,8 @@ pub(super) fn bench_detector(
     // measured in the same loop.
     println!();
     println!(
-        "training time per frame (pre-training's `batch` and `precision`), 2 threads as above"
+        "training time per frame (pre-training's `batch` and `precision`), same threads and \
+            device as above"
     );
     println!(
         "{:<9} {:<6} {:<10} {:>12} {:>16}",
@@ -96,7 +101,9 @@ pub(super) fn bench_detector(
             );
         }
     }
-    if reference.is_none() {
+    if !on_cpu {
+        println!("(on a GPU: no PyTorch reference and no share of the CPU's peak)");
+    } else if reference.is_none() {
         println!(
             "(PyTorch reference not run: `{python} -c \"import torch\"` failed; install \
                 torch==2.13.0 or pass --python)"

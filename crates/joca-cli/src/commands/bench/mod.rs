@@ -51,6 +51,10 @@ pub struct Args {
     /// Threads for the detector benchmark (libtorch intra-op threads), 1 to 64.
     #[arg(long, default_value_t = 2, value_parser = crate::config::count::<1, 64>)]
     threads: usize,
+    /// `bench detector` and `bench step`: what the networks compute on: cpu, cuda, cuda:N or
+    /// auto [default: cpu; for `step`, the preset's `device`].
+    #[arg(long, value_parser = crate::config::device)]
+    device: Option<joca_nn::device::DeviceChoice>,
     /// `bench detector`: the variant with the stride-32 stage (`detector.deep`, the shipped
     /// weights' architecture).
     #[arg(long)]
@@ -97,9 +101,10 @@ pub fn run(args: &Args) -> Result<()> {
                 shared_head: args.shared_head,
                 ..Default::default()
             };
-            bench_detector(args.repeats.max(1), args.threads, config, &args.python)
+            let device = args.device.unwrap_or_default();
+            bench_detector(args.repeats.max(1), (args.threads, device), config, &args.python)
         }
-        Target::Step => bench_step(args.repeats.max(2), &args.preset),
+        Target::Step => bench_step(args.repeats.max(2), &args.preset, args.device),
         Target::Flow => flow::bench_flow(args),
         Target::Checkpoint => step::bench_checkpoint(args.repeats.max(1), &args.preset),
     }

@@ -3,11 +3,18 @@
 
 use anyhow::Result;
 
-pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
+pub(super) fn bench_step(
+    steps: usize,
+    preset: &str,
+    device: Option<joca_nn::device::DeviceChoice>,
+) -> Result<()> {
     use joca_nn::detector::Precision;
     use joca_train::{FixedCamera, Method, RunConfig};
     let mut cfg: RunConfig = crate::config::load(preset, None, "run")?;
     cfg.method = Method::Joca;
+    if let Some(d) = device {
+        cfg.device = d;
+    }
     crate::commands::run::resolve_weights(&mut cfg);
     let design = FixedCamera::Flir.design();
     let (w, h) = design.resolution(&cfg.input);
@@ -16,8 +23,8 @@ pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
     let total = b.total_ms();
     println!(
         "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (detector input, {} resize), {} \
-            threads, mean of {} steps, perturbed frames scored in fp32",
-        cfg.input.resampler, cfg.threads, b.steps
+            threads, networks on {}, mean of {} steps, perturbed frames scored in fp32",
+        cfg.input.resampler, cfg.threads, cfg.device, b.steps
     );
     if !joca_nn::detector::native_bf16() {
         println!(
@@ -45,7 +52,7 @@ pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
     // Detector training steps on a frame of the same size, same threads, same run. The ratio
     // compares like with like: the mean joint step with the mean detector step (what a run of
     // either costs per step); the best detector step is shown beside it.
-    let engine = joca_nn::Engine::cpu(cfg.threads);
+    let engine = joca_nn::Engine::open(cfg.device, cfg.threads)?;
     let times = joca_nn::detector::training_step_times(
         &engine,
         cfg.detector,
@@ -71,7 +78,7 @@ pub(super) fn bench_step(steps: usize, preset: &str) -> Result<()> {
     );
     // The perturbed frames scored in bfloat16 where the CPU has it natively, with every search
     // also scored in float32 (untimed) to count how often the two choose the same member.
-    if !joca_nn::detector::native_bf16() {
+    if !joca_nn::detector::native_bf16() && cfg.device.is_cpu() {
         println!(
             "(scoring_precision = \"bf16\" not timed: native bfloat16 needs AVX-512 BF16 and \
              JOCA_CPU_KERNELS=native)"

@@ -50,6 +50,10 @@ pub struct Args {
     /// Scored frames per episode [default: the configuration's].
     #[arg(long)]
     frames: Option<usize>,
+    /// What the networks compute on: cpu, cuda (the first GPU), cuda:N or auto (a GPU if one is
+    /// usable, else the CPU) [default: the configuration's `device`, cpu].
+    #[arg(long, value_parser = crate::config::device)]
+    device: Option<joca_nn::device::DeviceChoice>,
     /// Where `headroom.json` and `headroom.md` go [default: RUN_DIR/headroom-<scenario>-town<K>;
     /// required without a run directory]; with `--table`, the Markdown file to write.
     #[arg(long)]
@@ -78,6 +82,7 @@ pub fn run(args: &Args) -> Result<()> {
         town: args.town,
         episodes: args.episodes,
         frames_per_episode: args.frames,
+        device: args.device,
     };
     let (subject, out) = match args.paths.as_slice() {
         [run_dir] => {

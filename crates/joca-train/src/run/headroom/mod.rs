@@ -51,6 +51,8 @@ pub struct HeadroomOptions {
     pub episodes: Option<u64>,
     /// Scored frames per episode.
     pub frames_per_episode: Option<usize>,
+    /// Another device for the detector than the configuration's.
+    pub device: Option<joca_nn::device::DeviceChoice>,
 }
 
 /// One capture of a test instant under one policy, as scored.
@@ -90,6 +92,9 @@ pub fn headroom(
     }
     if let Some(n) = options.frames_per_episode {
         config.test_frames_per_episode = n;
+    }
+    if let Some(d) = options.device {
+        config.device = d;
     }
     config.validate()?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
@@ -158,6 +163,7 @@ pub fn headroom(
         ladder: rungs.iter().map(|&s| Settings::from(s)).collect(),
         policies,
         cpu: cpu_description(),
+        device: joca_nn::device::gpu_description(model.device()),
         provenance: Provenance::of_this_build(&(config.identity(), &options.ladder)),
     };
     record.format_version = record.layout_version();
