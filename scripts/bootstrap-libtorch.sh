@@ -18,10 +18,14 @@
 # checkout on the same machine extracts in seconds without downloading again.
 #
 # Users who already have libtorch 2.13.0 set LIBTORCH and this script does nothing.
+#
+# scripts/gpu-check/build.sh prepares another torch's CPU part into another folder with
+# JOCA_TORCH_VERSION, JOCA_CUDA_TOOLKIT_VERSION (the cuda-toolkit pin of that torch's wheel) and
+# JOCA_LIBTORCH_DIR; joca's own build needs the defaults.
 set -euo pipefail
 
-TORCH_VERSION=2.13.0
-CUDA_TOOLKIT_VERSION=13.0.3
+TORCH_VERSION=${JOCA_TORCH_VERSION:-2.13.0}
+CUDA_TOOLKIT_VERSION=${JOCA_CUDA_TOOLKIT_VERSION:-13.0.3}
 flavour=${JOCA_LIBTORCH:-cpu}
 case "$flavour" in
   cpu) stamp="$TORCH_VERSION" ;;
@@ -33,7 +37,7 @@ case "$flavour" in
 esac
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-dest="$repo/.libtorch"
+dest="${JOCA_LIBTORCH_DIR:-$repo/.libtorch}"
 
 if [[ -n "${LIBTORCH:-}" && "${LIBTORCH}" != "$dest" ]]; then
   echo "bootstrap-libtorch: LIBTORCH=$LIBTORCH is set; using it and skipping the bootstrap."

@@ -15,48 +15,11 @@ CUDA_TOOLKIT_VERSION=${JOCA_GPU_CUDA_TOOLKIT:-13.0.2}
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 scratch="${JOCA_GPU_SCRATCH:-${TMPDIR:-/tmp}/joca-gpu-build}"
-cache="${JOCA_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/joca}/wheels"
-python=${PYTHON:-python3}
-mkdir -p "$cache" "$scratch"
-
-if ! compgen -G "$cache/torch-$TORCH_VERSION-*.whl" >/dev/null; then
-  echo "gpu-check: downloading torch==$TORCH_VERSION (once per machine) into $cache"
-  "$python" -m pip download --quiet --no-deps --only-binary=:all: \
-    --platform manylinux_2_28_x86_64 --python-version 3.12 --implementation cp \
-    "torch==$TORCH_VERSION" -d "$cache"
-fi
-if ! compgen -G "$cache/nvidia_cuda_runtime-*.whl" >/dev/null; then
-  "$python" -m pip download --quiet --only-binary=:all: \
-    "cuda-toolkit[cudart,cupti]==$CUDA_TOOLKIT_VERSION" -d "$cache"
-fi
+mkdir -p "$scratch"
 
 echo "gpu-check: torch $TORCH_VERSION's CPU libraries and headers into $scratch/libtorch"
-rm -rf "$scratch/libtorch"
-"$python" - "$cache" "$scratch/libtorch" "$TORCH_VERSION" <<'PY'
-import glob, os, shutil, sys, zipfile
-cache, out, version = sys.argv[1:4]
-wheel = sorted(glob.glob(os.path.join(cache, f"torch-{version}-*.whl")))[0]
-cpu = {"libtorch_cpu.so", "libtorch.so", "libc10.so", "libgomp.so.1"}
-with zipfile.ZipFile(wheel) as whl:
-    for info in whl.infolist():
-        name = info.filename
-        if name.startswith("torch/include/") and not name.endswith("/"):
-            target = os.path.join(out, "include", name[len("torch/include/"):])
-        elif name.startswith("torch/lib/") and os.path.basename(name) in cpu:
-            target = os.path.join(out, "lib", os.path.basename(name))
-        else:
-            continue
-        os.makedirs(os.path.dirname(target), exist_ok=True)
-        with whl.open(info) as src, open(target, "wb") as dst:
-            shutil.copyfileobj(src, dst)
-# libtorch_cpu.so names the CUDA runtime and CUPTI; the link needs them, the node has its own.
-for pattern, wanted in (("nvidia_cuda_runtime-*.whl", "libcudart.so.13"),
-                        ("nvidia_cuda_cupti-*.whl", "libcupti.so.13")):
-    with zipfile.ZipFile(sorted(glob.glob(os.path.join(cache, pattern)))[-1]) as whl:
-        member = next(n for n in whl.namelist() if n.endswith("/" + wanted))
-        with whl.open(member) as src, open(os.path.join(out, "lib", wanted), "wb") as dst:
-            shutil.copyfileobj(src, dst)
-PY
+env -u LIBTORCH JOCA_TORCH_VERSION="$TORCH_VERSION" JOCA_CUDA_TOOLKIT_VERSION="$CUDA_TOOLKIT_VERSION" \
+  JOCA_LIBTORCH_DIR="$scratch/libtorch" "$repo/scripts/bootstrap-libtorch.sh"
 
 echo "gpu-check: a scratch copy with tch $TCH_VERSION in $scratch/src"
 mkdir -p "$scratch/src"
