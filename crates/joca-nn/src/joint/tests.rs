@@ -1,5 +1,6 @@
 //! The joint step's equations against their closed forms and the camera crate.
 
+use super::equations::{eq4, ga_supervision_loss, iris_light_gradient, limit_exposure};
 use super::*;
 use joca_camera::{Bounds, Iris};
 use tch::Kind;
