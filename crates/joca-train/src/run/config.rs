@@ -215,13 +215,7 @@ impl RunConfig {
     /// mistake is refused naming the field and the range); the error names the field and what
     /// is allowed.
     pub fn validate(&self) -> Result<(), TrainError> {
-        let bad = |field: &str, value: String, allowed: &str| {
-            Err(TrainError::Config {
-                field: format!("run.{field}"),
-                value,
-                allowed: allowed.into(),
-            })
-        };
+        let bad = checks::refuse;
         let counts: [(&str, u64, u64, u64); 9] = [
             ("threads", self.threads as u64, 1, 64),
             ("generations", self.generations as u64, 1, 10_000),

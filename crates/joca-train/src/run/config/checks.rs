@@ -1,9 +1,16 @@
 //! Checks shared by the `[run]` and `[pretrain]` tables: the detector architecture and input,
-//! and a camera crate's range error as a configuration error naming the field.
+//! a camera crate's range error as a configuration error naming the field, and a `[run]` field's
+//! refusal.
 
 use crate::TrainError;
 use joca_camera::{CameraError, DetectorInput};
 use joca_nn::detector::DetectorConfig;
+
+/// A refused field of the `[run]` table: the error naming `run.<field>`, its value and what is
+/// allowed.
+pub(super) fn refuse(field: &str, value: String, allowed: &str) -> Result<(), TrainError> {
+    Err(TrainError::Config { field: format!("run.{field}"), value, allowed: allowed.into() })
+}
 
 /// Checks a detector architecture (`table.detector`): a width that fits memory, joca's three
 /// classes.

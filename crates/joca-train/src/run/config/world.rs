@@ -9,13 +9,7 @@ impl RunConfig {
     /// The world's part of [`RunConfig::validate`]: the weather, the sun and its shadows, the
     /// lens's glare (the simulator's alone: a recording has its own).
     pub(super) fn validate_world(&self) -> Result<(), TrainError> {
-        let bad = |field: &str, value: String, allowed: &str| {
-            Err(TrainError::Config {
-                field: format!("run.{field}"),
-                value,
-                allowed: allowed.into(),
-            })
-        };
+        let bad = super::checks::refuse;
         if let Err(e) = self.weather.check() {
             return bad("weather", format!("\"{}\"", self.weather), &e);
         }
