@@ -123,8 +123,9 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         cfg.input.resampler,
         out.display()
     );
+    // The CPU needs no probe; any other choice is looked up (`auto` may still be the CPU).
+    let device = joca_nn::device::resolve(cfg.device, joca_nn::device::probe)?;
     if !cfg.device.is_cpu() {
-        let device = joca_nn::device::resolve(cfg.device, joca_nn::device::probe)?;
         println!(
             "device: {} ({} asked) for the detector, NeuralAE and the differentiable formation; \
                 rendering and the 8-bit formation on the CPU",
@@ -147,11 +148,7 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
                  type, not across types",
         }
     );
-    let scoring = if cfg.device.is_cpu() {
-        cfg.scoring_precision.on_this_cpu()
-    } else {
-        cfg.scoring_precision
-    };
+    let scoring = cfg.scoring_precision.on_device(device);
     if scoring != cfg.scoring_precision {
         println!(
             "scoring_precision: the perturbed frames are scored in fp32 (bf16 is used only where \
@@ -159,7 +156,7 @@ pub fn execute(mut cfg: RunConfig, out: &Path, resume: bool) -> Result<()> {
         );
     } else {
         let name = scoring.name();
-        let why = if scoring == joca_nn::detector::Precision::Bf16 && !cfg.device.is_cpu() {
+        let why = if scoring == joca_nn::detector::Precision::Bf16 && device.is_cuda() {
             " (on a GPU: native)"
         } else if scoring == joca_nn::detector::Precision::Bf16 {
             " (native on this CPU)"

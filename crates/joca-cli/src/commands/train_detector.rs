@@ -48,12 +48,12 @@ pub fn run(args: &Args) -> Result<()> {
     }
     if let Some(d) = args.device {
         cfg.device = d;
-        // Whether this machine has it, before a run directory exists.
-        joca_nn::device::resolve(d, joca_nn::device::probe).context("--device")?;
     }
+    // Whether this machine has the device, before a run directory exists (the CPU needs no probe).
+    let device = joca_nn::device::resolve(cfg.device, joca_nn::device::probe)
+        .context("[pretrain] device or --device")?;
     let run_dir = args.out.with_extension("run");
-    // On a GPU bfloat16 is native; the CPU's case is known before the engine opens.
-    let precision = if cfg.device.is_cpu() { cfg.precision.on_this_cpu() } else { cfg.precision };
+    let precision = cfg.precision.on_device(device);
     if precision != cfg.precision {
         println!(
             "precision: bf16 asked for, but this CPU has no native bfloat16 (AVX-512 BF16); \
