@@ -33,6 +33,7 @@ pub mod optics;
 pub mod output;
 pub mod rng;
 pub mod sun;
+pub mod tunnels;
 pub mod units;
 pub mod weather;
 

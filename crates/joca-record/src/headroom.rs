@@ -5,6 +5,7 @@
 use crate::{DesignSummary, Light, Provenance, Scenario, Settings};
 use joca_core::glare::Glare;
 use joca_core::sun::SunElevation;
+use joca_core::tunnels::Tunnels;
 use joca_metrics::TaskScores;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -12,8 +13,9 @@ use std::collections::BTreeMap;
 /// The newest layout version of `headroom.json` this joca reads and writes. Version 2 adds the
 /// world's light (`cast_shadows`, `sun_elevation`); a record in the default world is written as
 /// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]);
-/// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`).
-pub const HEADROOM_FORMAT_VERSION: u32 = 4;
+/// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`); version 4 the
+/// GPU (`device`); version 5 tunnels as places (`tunnels`).
+pub const HEADROOM_FORMAT_VERSION: u32 = 5;
 
 /// What one design and detector leave to a controller (`headroom.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -36,6 +38,9 @@ pub struct HeadroomRecord {
     /// Whether the sky showed the sun's disc (absent: no).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub sun_disc: bool,
+    /// What the `tunnel` light was (absent: the switch of the whole frame's light).
+    #[serde(default, skip_serializing_if = "Tunnels::is_default")]
+    pub tunnels: Tunnels,
     /// The design.
     pub design: DesignSummary,
     /// The detector: `trained` (a run's own, from its checkpoint) or the weights file.
@@ -97,10 +102,13 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
-    /// The lowest layout version that holds this record: 3 with veiling glare or the sun's disc,
-    /// 2 where the world's light is not the default one, else 1.
+    /// The lowest layout version that holds this record: 5 with tunnels as places, 4 with a GPU,
+    /// 3 with veiling glare or the sun's disc, 2 where the world's light is not the default one,
+    /// else 1.
     pub fn layout_version(&self) -> u32 {
-        if self.device.is_some() {
+        if !self.tunnels.is_default() {
+            5
+        } else if self.device.is_some() {
             4
         } else if !self.glare.is_default() || self.sun_disc {
             3
@@ -124,6 +132,12 @@ impl HeadroomRecord {
         }
         if self.sun_disc {
             parts.push("sun's disc".to_owned());
+        }
+        if self.tunnels.are_places() {
+            parts.push(format!(
+                "{} tunnels (lamps {})",
+                self.tunnels.count, self.tunnels.lamp_level
+            ));
         }
         if !self.glare.is_off() {
             let g = self.glare;

@@ -5,6 +5,7 @@ use joca_camera::{ApertureControl, DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
 use joca_core::glare::Glare;
 use joca_core::sun::SunElevation;
+use joca_core::tunnels::Tunnels;
 use joca_core::weather::Weather;
 use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
@@ -18,8 +19,8 @@ use serde::{Deserialize, Serialize};
 /// the controller-set aperture (`aperture`, `f_number_by_illumination`); version 4 cast shadows
 /// (`cast_shadows`) and the sun's elevation range (`sun_elevation`), which an older reader would
 /// otherwise drop in silence; version 5 the lens's veiling glare (`glare`) and the sun's disc
-/// (`sun_disc`).
-pub const RESULTS_FORMAT_VERSION: u32 = 6;
+/// (`sun_disc`); version 6 the GPU (`device`); version 7 tunnels as places (`tunnels`).
+pub const RESULTS_FORMAT_VERSION: u32 = 7;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -116,6 +117,9 @@ pub struct RunResults {
     /// Whether the sky showed the sun's disc (absent: no).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub sun_disc: bool,
+    /// What the `tunnel` light was (absent: the switch of the whole frame's light).
+    #[serde(default, skip_serializing_if = "Tunnels::is_default")]
+    pub tunnels: Tunnels,
     /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
     #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
     pub aperture: ApertureControl,
@@ -171,10 +175,14 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 5 with veiling glare or the sun's disc,
+    /// The lowest layout version that holds this record: 7 with tunnels as places, 6 with a GPU,
+    /// 5 with veiling glare or the sun's disc,
     /// 4 with cast shadows or another sun, 3 where the controller set the aperture, 2 where it
     /// uses a field of version 2 (a thin lens, weather, a design's f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if !self.tunnels.is_default() {
+            return 7;
+        }
         if self.device.is_some() {
             return 6;
         }
@@ -239,6 +247,13 @@ impl RunResults {
         }
         if self.sun_disc {
             note.push_str(", the sun's disc in the sky");
+        }
+        if self.tunnels.are_places() {
+            let t = self.tunnels;
+            note.push_str(&format!(
+                ", tunnels as places ({} covered blocks a town, lamps at {} of daylight)",
+                t.count, t.lamp_level
+            ));
         }
         if !self.glare.is_off() {
             let g = self.glare;

@@ -341,5 +341,16 @@ mod tests {
                 && line.contains("networks on cuda:0: NVIDIA H100"),
             "{line}"
         );
+        // Layout 7 (tunnels as places) is read and named; the defaults fill a partial table.
+        value["format_version"] = 7.into();
+        value["tunnels"] = serde_json::json!({ "kind": "places", "count": 4 });
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.layout_version()), (7, 7));
+        let note = r.conditions_note();
+        assert!(
+            note.contains(", tunnels as places (4 covered blocks a town, lamps at 0.01"),
+            "{note}"
+        );
     }
 }

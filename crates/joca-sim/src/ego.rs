@@ -16,6 +16,9 @@ use std::f32::consts::FRAC_PI_2;
 const PROFILE_DT_S: f64 = 0.01;
 /// Largest acceleration and deceleration, m/s².
 const MAX_ACCEL: f64 = 2.5;
+/// When a drive through a tunnel passes its mouth, seconds after the episode's start: within
+/// the test's frames (they start at 1 s), after a few frames of AverageAE's settling.
+pub const MOUTH_AT_S: (f64, f64) = (1.3, 2.7);
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Segment {
@@ -61,6 +64,47 @@ impl EgoTrajectory {
         let distance = speed_profile(duration_s, v_max_mps, rng);
         let needed = distance.last().copied().unwrap_or(0.0) as f32 + 50.0;
         let segments = route(city, needed, rng);
+        Self::along(segments, distance)
+    }
+
+    /// A trajectory through one of `city`'s tunnels (drawn), passing a mouth between
+    /// [`MOUTH_AT_S`] s: entering or leaving it (one chance in two), in either direction; the
+    /// route starts on the tunnel's road, in its lane, and goes on at random after the tunnel's
+    /// block. Returns the trajectory, when it passes the mouth and whether it enters there;
+    /// `None` if the city has no tunnels.
+    pub fn through_tunnel(
+        city: &City,
+        duration_s: f64,
+        v_max_mps: f64,
+        rng: &mut impl Rng,
+    ) -> Option<(Self, f64, bool)> {
+        let tunnels = city.tunnels();
+        if tunnels.is_empty() {
+            return None;
+        }
+        let distance = speed_profile(duration_s, v_max_mps, rng);
+        let t = tunnels[rng.random_range(0..tunnels.len())];
+        let forward = rng.random::<bool>();
+        let entering = rng.random::<bool>();
+        let crossing_s = rng.random_range(MOUTH_AT_S.0..MOUTH_AT_S.1);
+        let to_mouth = distance_in(&distance, crossing_s) as f32;
+        let mouth = if forward == entering { t.from_m } else { t.to_m };
+        let sign: i32 = if forward { 1 } else { -1 };
+        let heading = if t.along_x { (sign, 0) } else { (0, sign) };
+        // The intersection behind the tunnel's block, seen in the direction of travel.
+        let behind = if forward { t.block } else { t.block + 1 };
+        let node = if t.along_x { (behind, t.road) } else { (t.road, behind) };
+        let along = mouth - sign as f32 * to_mouth;
+        let offset = own_road(city, node, heading).lane_offset_m(0);
+        let side = right_of(fdir(heading));
+        let across = if t.along_x { side.1 } else { side.0 } * offset;
+        let start = t.world(along, across, 0.0);
+        let needed = distance.last().copied().unwrap_or(0.0) as f32 + 50.0;
+        let segments = extend(city, (node, heading, (start.x, start.y)), needed, rng);
+        Some((Self::along(segments, distance), crossing_s, entering))
+    }
+
+    fn along(segments: Vec<Segment>, distance: Vec<f64>) -> Self {
         let mut starts = Vec::with_capacity(segments.len());
         let mut total = 0.0;
         for seg in &segments {
@@ -92,10 +136,7 @@ impl EgoTrajectory {
 
     /// Distance travelled since the episode start, metres.
     pub fn distance_at(&self, t_s: f64) -> f64 {
-        let f = (t_s.max(0.0) / PROFILE_DT_S).min((self.distance.len() - 1) as f64);
-        let i = (f as usize).min(self.distance.len() - 2);
-        let w = f - i as f64;
-        self.distance[i] * (1.0 - w) + self.distance[i + 1] * w
+        distance_in(&self.distance, t_s)
     }
 
     /// Speed at `t_s`, m/s.
@@ -109,6 +150,14 @@ impl EgoTrajectory {
         let k = self.starts.partition_point(|&start| start <= s).saturating_sub(1);
         self.segments[k].at(s - self.starts[k])
     }
+}
+
+/// Distance travelled at `t_s` in a profile sampled every [`PROFILE_DT_S`].
+fn distance_in(profile: &[f64], t_s: f64) -> f64 {
+    let f = (t_s.max(0.0) / PROFILE_DT_S).min((profile.len() - 1) as f64);
+    let i = (f as usize).min(profile.len() - 2);
+    let w = f - i as f64;
+    profile[i] * (1.0 - w) + profile[i + 1] * w
 }
 
 fn speed_profile(duration_s: f64, v_max: f64, rng: &mut impl Rng) -> Vec<f64> {
@@ -141,11 +190,34 @@ fn left_of(d: (f32, f32)) -> (f32, f32) {
     (-d.1, d.0)
 }
 
+fn fdir(h: (i32, i32)) -> (f32, f32) {
+    (h.0 as f32, h.1 as f32)
+}
+
+/// The road a vehicle at intersection `node` heading `h` drives on.
+fn own_road(city: &City, node: (usize, usize), h: (i32, i32)) -> crate::city::Road {
+    if h.0 != 0 { city.roads_y[node.1] } else { city.roads_x[node.0] }
+}
+
+/// The point `s` metres past intersection `node`'s centre along heading `h`, in the innermost
+/// lane.
+fn lane_point(city: &City, node: (usize, usize), h: (i32, i32), s: f32) -> (f32, f32) {
+    let c = city.intersection(node.0, node.1);
+    let d = fdir(h);
+    let o = own_road(city, node, h).lane_offset_m(0);
+    let r = right_of(d);
+    (c.0 + r.0 * o + d.0 * s, c.1 + r.1 * o + d.1 * s)
+}
+
+/// The intersections a route may reach: two blocks inside the map's edge.
+fn inner(city: &City) -> (usize, usize) {
+    (2, city.roads_per_axis() - 3)
+}
+
 /// A random route of at least `length` metres in the innermost lane.
 fn route(city: &City, length: f32, rng: &mut impl Rng) -> Vec<Segment> {
-    let n = city.roads_per_axis();
-    let (lo, hi) = (2usize, n - 3);
-    let mut node = (rng.random_range(lo..=hi), rng.random_range(lo..=hi));
+    let (lo, hi) = inner(city);
+    let node = (rng.random_range(lo..=hi), rng.random_range(lo..=hi));
     let dirs = [(1i32, 0i32), (-1, 0), (0, 1), (0, -1)];
     let mut heading = dirs[rng.random_range(0..4)];
     let inside =
@@ -154,27 +226,27 @@ fn route(city: &City, length: f32, rng: &mut impl Rng) -> Vec<Segment> {
     while !inside(node.0 as i64 + i64::from(heading.0), node.1 as i64 + i64::from(heading.1)) {
         heading = dirs[rng.random_range(0..4)];
     }
-    let fdir = |h: (i32, i32)| (h.0 as f32, h.1 as f32);
-    // The half width of the road the vehicle drives on, and of the one it crosses.
-    let own_road = |node: (usize, usize), h: (i32, i32)| {
-        if h.0 != 0 { city.roads_y[node.1] } else { city.roads_x[node.0] }
-    };
-    let lane_point = |node: (usize, usize), h: (i32, i32), s: f32| {
-        let c = city.intersection(node.0, node.1);
-        let d = fdir(h);
-        let o = own_road(node, h).lane_offset_m(0);
-        let r = right_of(d);
-        (c.0 + r.0 * o + d.0 * s, c.1 + r.1 * o + d.1 * s)
-    };
     // Start just past the crossing road of the starting node.
-    let cross_hw = |node: (usize, usize), h: (i32, i32)| {
-        if h.0 != 0 {
-            city.roads_x[node.0].half_width_m()
-        } else {
-            city.roads_y[node.1].half_width_m()
-        }
+    let cross_hw = if heading.0 != 0 {
+        city.roads_x[node.0].half_width_m()
+    } else {
+        city.roads_y[node.1].half_width_m()
     };
-    let mut pos = lane_point(node, heading, cross_hw(node, heading) + rng.random_range(2.0..20.0));
+    let pos = lane_point(city, node, heading, cross_hw + rng.random_range(2.0..20.0));
+    extend(city, (node, heading, pos), length, rng)
+}
+
+/// A route of at least `length` metres from `pos`, in the innermost lane of the road from
+/// intersection `node` along `heading`: at each intersection ahead, straight on or a turn.
+fn extend(
+    city: &City,
+    (mut node, mut heading, mut pos): ((usize, usize), (i32, i32), (f32, f32)),
+    length: f32,
+    rng: &mut impl Rng,
+) -> Vec<Segment> {
+    let (lo, hi) = inner(city);
+    let inside =
+        |i: i64, j: i64| i >= lo as i64 && i <= hi as i64 && j >= lo as i64 && j <= hi as i64;
     let mut segments = Vec::new();
     let mut total = 0.0;
     while total < length {
@@ -207,7 +279,7 @@ fn route(city: &City, length: f32, rng: &mut impl Rng) -> Vec<Segment> {
         }
         if new_heading == heading {
             // Straight through: the line continues to the next node's far side.
-            let end = lane_point(next, heading, 0.0);
+            let end = lane_point(city, next, heading, 0.0);
             let len = (end.0 - pos.0) * d.0 + (end.1 - pos.1) * d.1;
             segments.push(Segment::Line { start: pos, dir: d, length: len });
             total += len;
@@ -216,10 +288,10 @@ fn route(city: &City, length: f32, rng: &mut impl Rng) -> Vec<Segment> {
             // Q: where the incoming and outgoing lane lines cross; arc of radius R tangent to both.
             let c = city.intersection(next.0, next.1);
             let d2 = fdir(new_heading);
-            let o_in = own_road(next, heading).lane_offset_m(0);
-            let o_out = own_road(next, new_heading).lane_offset_m(0);
-            let hw_in = own_road(next, heading).half_width_m();
-            let hw_out = own_road(next, new_heading).half_width_m();
+            let o_in = own_road(city, next, heading).lane_offset_m(0);
+            let o_out = own_road(city, next, new_heading).lane_offset_m(0);
+            let hw_in = own_road(city, next, heading).half_width_m();
+            let hw_out = own_road(city, next, new_heading).half_width_m();
             let left = left_of(d) == d2;
             let r_in = right_of(d);
             let (s_q, radius) = if left {

@@ -41,10 +41,11 @@ mod sim;
 pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
 pub use joca_core::glare::Glare;
+pub use joca_core::tunnels::{TunnelKind, Tunnels};
 pub use joca_core::weather::Weather;
 pub use lighting::{Illumination, SunElevation, TUNNEL_PHASE_S};
 pub use sim::{
-    Episode, MAX_SUBFRAMES, REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, ShutterGrid, SimConfig,
+    Episode, MAX_SUBFRAMES, Mouth, REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, ShutterGrid, SimConfig,
     Simulator, VisibilityRules, reference_camera,
 };
 

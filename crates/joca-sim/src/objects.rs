@@ -16,6 +16,9 @@ pub type Rgb = [f32; 3];
 pub enum Material {
     /// Uniform diffuse reflectance.
     Flat(Rgb),
+    /// Uniform diffuse reflectance on a box also seen from below (a tunnel's ceiling): the
+    /// only material whose box draws its bottom face.
+    Underside(Rgb),
     /// A building facade: wall with a grid of windows on the side faces, plain roof on top.
     /// Some windows are lit (emissive), which matters only at night.
     Facade {

@@ -67,6 +67,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     run.sun_elevation = joca_sim::SunElevation { min_deg: 10.0, max_deg: 60.0 };
     run.glare = joca_sim::Glare { fraction: 0.02, scale_deg: 1.0 };
     run.sun_disc = true;
+    run.tunnels = joca_sim::Tunnels::places();
     run.device = joca_nn::device::DeviceChoice::Cuda(0);
     let mut pretrain: PretrainConfig =
         table["pretrain"].clone().try_into().expect("the standard [pretrain] parses");

@@ -10,15 +10,17 @@ use joca_camera::{
 use joca_core::optics::{CALIBRATION_F_NUMBER, Lens};
 use joca_core::units::{ms_from_s, s_from_ms};
 use joca_core::{FrameRequest, FrameSource, PinholeCamera, SeedStreams};
-use joca_sim::{Glare, Illumination, SimConfig, Simulator, SunElevation, Weather};
+use joca_sim::{Glare, Simulator, Weather};
 use serde_json::json;
 use std::path::PathBuf;
 
 mod choices;
 mod outputs;
 mod range;
+mod world;
 pub use choices::{Light, ResamplerArg};
 use outputs::{coco_image, write_outputs};
+use world::sim_config;
 
 /// Arguments of `joca render`.
 #[derive(Debug, clap::Args)]
@@ -113,6 +115,16 @@ pub struct Args {
     /// The glare spread's angular scale θ0, degrees (0.1 to 20).
     #[arg(long, default_value_t = Glare::DEFAULT_SCALE_DEG)]
     glare_scale_deg: f32,
+    /// The `tunnel` light: `switch` (the whole frame's light switches) or `places` (covered
+    /// road blocks in the town, a tunnel episode driving through one in daylight).
+    #[arg(long, default_value = "switch", value_parser = joca_sim::TunnelKind::from_name)]
+    tunnels: joca_sim::TunnelKind,
+    /// Covered road blocks in the town (1 to 16; with `--tunnels places`).
+    #[arg(long, default_value_t = joca_sim::Tunnels::DEFAULT_COUNT)]
+    tunnel_count: u32,
+    /// The tunnel lamps' level on the road, relative to daylight (above 0 to 0.1).
+    #[arg(long, default_value_t = joca_sim::Tunnels::DEFAULT_LAMP_LEVEL)]
+    tunnel_lamp_level: f32,
     /// Seed of the noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -188,36 +200,6 @@ fn optics(args: &Args, sensor: &joca_camera::Sensor) -> Result<(Option<Lens>, We
         anyhow::anyhow!("--{}", flag.replace("rain rate_mm_h", "rain-mm-h"))
     })?;
     Ok((lens, weather))
-}
-
-/// The simulator's settings of `args`, with the weather `optics` checked.
-fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
-    let sun_elevation = match args.sun_elevation_deg {
-        Some(deg) => {
-            let sun = SunElevation::at(deg);
-            sun.check()
-                .map_err(|e| anyhow::anyhow!("--sun-elevation-deg {deg} is invalid: {e}"))?;
-            sun
-        }
-        None => SunElevation::default(),
-    };
-    let glare = Glare { fraction: args.glare, scale_deg: args.glare_scale_deg };
-    glare.check().map_err(|(field, allowed)| {
-        let flag = if field == "fraction" { "glare" } else { "glare-scale-deg" };
-        let value = if field == "fraction" { args.glare } else { args.glare_scale_deg };
-        anyhow::anyhow!("--{flag} {value} is invalid: allowed {allowed}")
-    })?;
-    Ok(SimConfig {
-        map_seed: args.map_seed,
-        max_speed_mps: args.max_speed_mps,
-        illumination: args.illumination.map(Illumination::from),
-        weather,
-        cast_shadows: args.shadows,
-        sun_elevation,
-        glare,
-        sun_disc: args.sun,
-        ..SimConfig::default()
-    })
 }
 
 /// Runs `joca render`.
@@ -366,6 +348,13 @@ fn print_header(
     );
     if let Some(l) = camera.lens {
         println!("lens f/{} focused at {:.2} m", l.f_number, l.focus_m);
+    }
+    if let Some(m) = episode.mouth {
+        let (verb, level) = (if m.entering { "enters" } else { "leaves" }, args.tunnel_lamp_level);
+        println!(
+            "drives through a tunnel: {verb} it at {:.2} s (lamps {level} of daylight)",
+            m.time_s
+        );
     }
     if args.glare > 0.0 {
         println!(

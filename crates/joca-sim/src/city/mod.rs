@@ -10,13 +10,16 @@
 mod actors;
 mod ground;
 mod place;
+mod tunnel;
 
 use crate::geometry::{Pose2, V3};
 use crate::objects::{Material, Motion, Object, Rgb, build};
 use ground::{asphalt, lane_marking, modulo, zebra, zone_table};
 pub use ground::{fast_floor, ground_grain, hash_unit};
+use joca_core::tunnels::Tunnels;
 use rand::Rng;
 use std::f32::consts::{FRAC_PI_2, PI};
+pub use tunnel::{CLEARANCE_M, TUNNEL_LAMP, Tunnel};
 
 /// Width of a driving lane, metres.
 pub const LANE_WIDTH_M: f32 = 3.5;
@@ -80,6 +83,9 @@ pub struct CityConfig {
     /// limits, parking signs): 0 in the default town; [`CityConfig::with_sign_density`] uses
     /// them once every approach has its intersection sign.
     pub mid_block_signs: f32,
+    /// Covered road blocks (none unless `tunnels.kind` is places): drawn after everything else,
+    /// so the rest of the town is the same town without them.
+    pub tunnels: Tunnels,
 }
 
 /// The default [`CityConfig::sign_probability`]. Signs are drawn with at most this first;
@@ -96,6 +102,7 @@ impl Default for CityConfig {
             crossing_walker_probability: 0.35,
             sign_probability: SIGN_PROBABILITY,
             mid_block_signs: 0.0,
+            tunnels: Tunnels::default(),
         }
     }
 }
@@ -147,6 +154,7 @@ pub struct City {
     zones_y: Vec<Zone>,
     lightmap: Vec<f32>,
     lightmap_n: usize,
+    tunnels: Vec<Tunnel>,
 }
 
 impl City {
@@ -191,6 +199,7 @@ impl City {
             zones_y,
             lightmap: Vec::new(),
             lightmap_n: 0,
+            tunnels: Vec::new(),
         };
         city.place_buildings(rng);
         let lamps = city.place_lamps(rng);
@@ -205,6 +214,9 @@ impl City {
         }
         if config.mid_block_signs > 0.0 {
             city.place_mid_block_signs(config.mid_block_signs, rng);
+        }
+        if config.tunnels.are_places() {
+            city.place_tunnels(&config.tunnels, &lamps, rng);
         }
         city
     }

@@ -5,7 +5,7 @@
 use super::View;
 use super::raster::{FaceSun, Shade, Sunlit};
 use super::shadow::{FacePlane, Shadows};
-use crate::city::City;
+use crate::city::{City, Tunnel};
 use crate::geometry::{OrientedBox, V3};
 use crate::lighting::{self, RADIANCE_SCALE_DN};
 use crate::objects::{Material, Rgb};
@@ -63,6 +63,7 @@ pub(super) fn face_sun(
 /// face needs to add its own sun, sky and head-light terms.
 pub(super) struct BoxLight<'a> {
     view: &'a View<'a>,
+    city: &'a City,
     lamp: V3,
     heading: V3,
     b: &'a OrientedBox,
@@ -74,7 +75,7 @@ pub(super) struct BoxLight<'a> {
 
 impl<'a> BoxLight<'a> {
     pub(super) fn new(
-        city: &City,
+        city: &'a City,
         view: &'a View<'a>,
         lamp: V3,
         heading: V3,
@@ -84,7 +85,7 @@ impl<'a> BoxLight<'a> {
         let lights_on = view.lighting.lights_on();
         let lamp_ground =
             if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
-        Self { view, lamp, heading, b, lights_on, lamp_ground, layers }
+        Self { view, city, lamp, heading, b, lights_on, lamp_ground, layers }
     }
 
     /// The colouring of face `face_index` (outward normal `n`): irradiance at the face centre
@@ -92,6 +93,8 @@ impl<'a> BoxLight<'a> {
     /// by distance and incidence, then the material; with cast shadows, what a pixel of the
     /// face keeps where the sun does not reach it (per colour channel: the irradiance without
     /// the sun's share over that with it; reflected light only, so emitters cast no such dim).
+    /// A face whose centre lies in a tunnel gets the tunnel's light instead of sun, sky and
+    /// street lamps (the bottom face, index 5, of a ceiling is always there).
     pub(super) fn shade(
         &self,
         material: Material,
@@ -99,12 +102,23 @@ impl<'a> BoxLight<'a> {
         n: V3,
     ) -> (Shade, Option<Sunlit<'a>>) {
         let h = self.b.half;
-        let hn = [h.x, h.x, h.y, h.y, h.z][face_index];
+        let hn = [h.x, h.x, h.y, h.y, h.z, h.z][face_index];
         let centre = self.b.centre + n * hn;
-        let sun_sky = self.view.lighting.sun_sky([n.x, n.y, n.z]);
-        let lamp_share = if face_index == 4 { 1.0 } else { 0.5 };
         let head =
             if self.lights_on { headlight(self.lamp, self.heading, centre, Some(n)) } else { 0.0 };
+        if let Some(tunnel) = self.city.tunnel_at(centre) {
+            let share = match face_index {
+                4 => 1.0,
+                5 => Tunnel::CEILING,
+                _ => 0.5,
+            };
+            let outside = self.view.lighting.sun_sky([0.0, 0.0, 1.0]);
+            let along = tunnel.local(centre.x, centre.y).0;
+            let e = tunnel.irradiance(along, share, outside) + head;
+            return (shade_for(material, face_index, &[e; 3], self.lights_on), None);
+        }
+        let sun_sky = self.view.lighting.sun_sky([n.x, n.y, n.z]);
+        let lamp_share = if face_index == 4 { 1.0 } else { 0.5 };
         let irradiance: Rgb = std::array::from_fn(|ch| {
             sun_sky + lamp_share * self.lamp_ground * lighting::LAMP_TINT[ch] + head
         });
@@ -122,7 +136,7 @@ fn shade_for(material: Material, face_index: usize, e: &Rgb, lights_on: bool) ->
     let k = RADIANCE_SCALE_DN;
     let lit = |rho: Rgb| -> Rgb { std::array::from_fn(|c| k * rho[c] * e[c]) };
     match material {
-        Material::Flat(rho) => Shade::Constant(lit(rho)),
+        Material::Flat(rho) | Material::Underside(rho) => Shade::Constant(lit(rho)),
         Material::Lamp if !lights_on => Shade::Constant(lit([0.5; 3])),
         Material::Lamp | Material::Emissive(_) => {
             let radiance =

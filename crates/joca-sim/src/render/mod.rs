@@ -37,6 +37,7 @@ pub mod sun;
 use crate::city::City;
 use crate::geometry::{OrientedBox, Pose2, V3};
 use crate::lighting::Lighting;
+use crate::objects::Material;
 use ground::ground_and_sky;
 use joca_core::PinholeCamera;
 use light::headlight;
@@ -203,7 +204,7 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     visible.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let no_shade = |_, _| (Shade::Constant([0.0; 3]), None);
     // Hidden boxes of an id-only target, whose coverage may still be needed.
-    let mut hidden_boxes: Vec<(u32, OrientedBox, (V3, V3))> = Vec::new();
+    let mut hidden_boxes: Vec<(u32, OrientedBox, Material, (V3, V3))> = Vec::new();
     for (_, index) in visible {
         let id = index as u32 + 1;
         for (b, material) in city.objects[index].boxes_at(view.time_s) {
@@ -214,14 +215,14 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
             }
             if skip_hidden && hidden(target, reach) {
                 if target.colour.is_empty() {
-                    hidden_boxes.push((id, b, axes));
+                    hidden_boxes.push((id, b, material, axes));
                 }
             } else if target.colour.is_empty() {
-                draw_faces(&cam, &b, axes, &no_shade, id, target);
+                draw_faces(&cam, (&b, material), axes, &no_shade, id, target);
             } else {
                 let light = BoxLight::new(city, view, lamp_pos, heading, &b, layers);
                 let shade = |face, n| light.shade(material, face, n);
-                draw_faces(&cam, &b, axes, &shade, id, target);
+                draw_faces(&cam, (&b, material), axes, &shade, id, target);
             }
         }
     }
@@ -229,9 +230,9 @@ fn draw(city: &City, view: &View<'_>, target: &mut Target, skip_hidden: bool) {
     // with a box that was drawn can be visible (a hidden box writes no pixel), so only those
     // boxes are rasterised now; the depth buffer has only grown nearer since they were found
     // hidden, so they still write nothing and only add their coverage.
-    for (id, b, axes) in hidden_boxes {
+    for (id, b, material, axes) in hidden_boxes {
         if target.coverage[id as usize] > 0 {
-            draw_faces(&cam, &b, axes, &no_shade, id, target);
+            draw_faces(&cam, (&b, material), axes, &no_shade, id, target);
         }
     }
     if with_colour {
@@ -300,10 +301,11 @@ pub fn render_ids(city: &City, view: &View<'_>, target: &mut Target) {
 
 /// The camera-facing faces of one box (`axes`: its [`OrientedBox::axes`]): corners, texture
 /// coordinates and rasterisation; `shade` gives each face's colouring from its index and
-/// outward normal.
+/// outward normal. The bottom face (index 5) only where the material is
+/// [`Material::Underside`].
 fn draw_faces<'a>(
     cam: &CameraFrame,
-    b: &OrientedBox,
+    (b, material): (&OrientedBox, Material),
     (f, l): (V3, V3),
     shade: &dyn Fn(usize, V3) -> (Shade, Option<Sunlit<'a>>),
     id: u32,
@@ -318,8 +320,10 @@ fn draw_faces<'a>(
         (l, h.y, f, h.x, up, h.z),
         (-l, h.y, -f, h.x, up, h.z),
         (up, h.z, f, h.x, l, h.y),
+        (-up, h.z, f, h.x, -l, h.y),
     ];
-    for (face_index, (n, hn, ua, hu, va, hv)) in faces.into_iter().enumerate() {
+    let drawn = if matches!(material, Material::Underside(_)) { 6 } else { 5 };
+    for (face_index, (n, hn, ua, hu, va, hv)) in faces.into_iter().take(drawn).enumerate() {
         let centre = b.centre + n * hn;
         if (cam.origin - centre).dot(n) <= 0.0 {
             continue; // back face

@@ -1,13 +1,13 @@
 //! The simulator as a [`FrameSource`]: episodes, shutter-integrated motion blur, ground truth.
 
 use crate::city::{City, CityConfig};
-use crate::ego::EgoTrajectory;
-use crate::lighting::{Illumination, Lighting, SunElevation};
+use crate::lighting::{Illumination, SunElevation};
 use crate::render::shadow::Shadows;
 use crate::render::{self, Target, View};
 use joca_core::glare::Glare;
 use joca_core::rng::SeedStreams;
 use joca_core::weather::Weather;
+mod episode;
 mod grid;
 mod pool;
 mod shadows;
@@ -15,13 +15,13 @@ mod truth;
 mod visibility;
 mod weather;
 
+pub use episode::{Episode, Mouth};
 pub use grid::ShutterGrid;
 pub use visibility::VisibilityRules;
 
 pub use truth::{REFERENCE_MAX_PX, REFERENCE_PX_PER_RAD, reference_camera};
 
 use joca_core::{Frame, FrameRequest, FrameSource, HdrImage, PinholeCamera, Shot, SourceError};
-use rand::Rng;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
@@ -92,19 +92,6 @@ impl Default for SimConfig {
     }
 }
 
-/// What stays fixed within an episode.
-#[derive(Debug, Clone)]
-pub struct Episode {
-    /// The ego vehicle's route and speed.
-    pub ego: EgoTrajectory,
-    /// Illumination schedule.
-    pub illumination: Illumination,
-    /// Schedule offset, seconds.
-    pub phase_s: f64,
-    /// Direction towards the sun.
-    pub sun_dir: [f32; 3],
-}
-
 /// The built-in driving simulator.
 #[derive(Debug)]
 pub struct Simulator {
@@ -144,43 +131,11 @@ impl Simulator {
         &self.config
     }
 
-    /// Episode `index` (created on first use; deterministic in map seed and index).
-    pub fn episode(&self, index: u64) -> Arc<Episode> {
-        let mut cache = self.episodes.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        cache
-            .entry(index)
-            .or_insert_with(|| {
-                let mut rng = SeedStreams::new(self.config.map_seed).indexed("episode", index);
-                let illumination = self.config.illumination.unwrap_or_else(|| {
-                    Illumination::ALL[rng.random_range(0..Illumination::ALL.len())]
-                });
-                let phase_s = rng.random_range(0.0..24.0);
-                let azimuth: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-                let elevation = self.config.sun_elevation.draw(&mut rng);
-                let sun_dir = [
-                    elevation.cos() * azimuth.cos(),
-                    elevation.cos() * azimuth.sin(),
-                    elevation.sin(),
-                ];
-                let ego = EgoTrajectory::generate(
-                    &self.city,
-                    self.config.episode_s + 1.0,
-                    self.config.max_speed_mps,
-                    &mut rng,
-                );
-                Arc::new(Episode { ego, illumination, phase_s, sun_dir })
-            })
-            .clone()
-    }
-
     fn view<'a>(&self, episode: &Episode, camera: &'a PinholeCamera, time_s: f64) -> View<'a> {
         View {
             camera,
             ego: episode.ego.pose_at(time_s),
-            lighting: Lighting {
-                ambient: episode.illumination.ambient(time_s, episode.phase_s),
-                sun_dir: episode.sun_dir,
-            },
+            lighting: self.lighting(episode, time_s),
             time_s,
             shadows: None,
             sun_disc: self.config.sun_disc,

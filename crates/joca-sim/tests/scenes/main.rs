@@ -13,6 +13,7 @@ mod optics;
 mod radiometry;
 mod shadows;
 mod sun;
+mod tunnels;
 
 use common::{Agreement, shortcut_against_exact};
 use joca_core::{Class, FrameRequest, FrameSource, PinholeCamera, Shot};
@@ -49,6 +50,7 @@ fn scene(
             illumination: light,
             phase_s: 0.0,
             sun_dir: [e.cos() * 0.6, e.cos() * 0.8, e.sin()],
+            mouth: None,
         },
     );
     sim

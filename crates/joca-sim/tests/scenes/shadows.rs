@@ -44,6 +44,7 @@ fn frame(
             illumination: Illumination::Day,
             phase_s: 0.0,
             sun_dir: [e.cos() * a.cos(), e.cos() * a.sin(), e.sin()],
+            mouth: None,
         },
     );
     sim.render(&cam(), &request(1.0, 5e-3, 1.0)).unwrap()

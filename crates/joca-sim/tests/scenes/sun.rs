@@ -23,6 +23,7 @@ fn frame(objects: &[Object], light: Illumination, elevation_deg: f32, sun_disc: 
             illumination: light,
             phase_s: 0.0,
             sun_dir: [e.cos(), 0.0, e.sin()],
+            mouth: None,
         },
     );
     let cam = camera(320, 240, 200.0, [1.0, 0.0, 1.5]);

@@ -34,8 +34,21 @@ const TUNNEL_FRAMES: usize = 50;
 const STEADY_FRAMES: usize = 20;
 
 fn ambient(sim: &Simulator, episode: u64, time_s: f64) -> f32 {
-    let e = sim.episode(episode);
-    e.illumination.ambient(time_s, e.phase_s)
+    sim.ambient_at(episode, time_s)
+}
+
+/// The tunnel showcase's episode and start: with tunnels as places, the first test episode that
+/// leaves a tunnel, from its start (it passes the exit 1.3–2.7 s in); with the switch, episode 0
+/// from 1.5 s before its first switch after t = 2.5 s, so the controller has settled and the
+/// sequence holds one abrupt change (switches are 4 s apart).
+fn tunnel_showcase(sim: &Simulator) -> (u64, f64) {
+    let exit = (0..64).find(|&e| sim.episode(e).mouth.is_some_and(|m| !m.entering));
+    if let Some(episode) = exit {
+        return (episode, 0.0);
+    }
+    let phase = sim.episode(0).phase_s;
+    let n = ((2.5 + phase) / TUNNEL_PHASE_S).ceil();
+    (0, n * TUNNEL_PHASE_S - phase - 1.5)
 }
 
 /// Which town a closed-loop evaluation drives, for how long, with which noise.
@@ -250,16 +263,12 @@ fn showcases(
     {
         // The test has built these towns already: the run's simulator cache holds them.
         let sim = cx.scenes.town(test_map_seed(cx.test.town), Some(illumination));
-        let episode = 0;
         let dt = sim.frame_interval_s();
-        let (start_s, frames) = if illumination == Illumination::Tunnel {
-            // Start 1.5 s before the first switch after t = 2.5 s, so the controller has settled
-            // and the sequence holds one abrupt change (switches are 4 s apart).
-            let phase = sim.episode(episode).phase_s;
-            let n = ((2.5 + phase) / TUNNEL_PHASE_S).ceil();
-            (n * TUNNEL_PHASE_S - phase - 1.5, TUNNEL_FRAMES)
+        let (episode, start_s, frames) = if illumination == Illumination::Tunnel {
+            let (episode, start_s) = tunnel_showcase(&sim);
+            (episode, start_s, TUNNEL_FRAMES)
         } else {
-            (1.0, STEADY_FRAMES)
+            (0, 1.0, STEADY_FRAMES)
         };
         let frame_dir = dir.join(name);
         std::fs::create_dir_all(&frame_dir).map_err(|e| TrainError::io(&frame_dir, e))?;

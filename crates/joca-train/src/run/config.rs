@@ -14,7 +14,7 @@ use joca_nn::detector::{DetectorConfig, Precision};
 use joca_nn::device::DeviceChoice;
 use joca_nn::formation::ClipGradient;
 use joca_record::{Method, Scenario};
-use joca_sim::{Glare, SunElevation, Weather};
+use joca_sim::{Glare, SunElevation, Tunnels, Weather};
 use serde::{Deserialize, Deserializer, Serialize};
 
 pub use learning::{AccOutput, WarmStart};
@@ -160,6 +160,14 @@ pub struct RunConfig {
     /// Simulator only.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub sun_disc: bool,
+    /// What the `tunnel` light is in every training and test town (`tunnels = { kind, count,
+    /// lamp_level }`): `kind = "switch"` (default: the whole frame's ambient light switches
+    /// every 4 s) or `"places"` (`count` road blocks a town covered by a tunnel, 1 to 16,
+    /// default 6, lit by lamps at `lamp_level` of daylight, above 0 to 0.1, default 0.01; a
+    /// `tunnel` episode drives through one in daylight, passing a mouth 1.3–2.7 s in).
+    /// Simulator only.
+    #[serde(default, skip_serializing_if = "Tunnels::is_default")]
+    pub tunnels: Tunnels,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.

@@ -285,6 +285,7 @@ pub(super) fn test_design(
         sun_elevation: config.sun_elevation,
         glare: config.glare,
         sun_disc: config.sun_disc,
+        tunnels: config.tunnels,
         aperture: config.aperture,
         validation,
         provenance: Some(Provenance::of_this_build(&config.identity())),

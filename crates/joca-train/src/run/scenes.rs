@@ -5,7 +5,7 @@
 use super::RunConfig;
 use joca_data::folder::Recording;
 use joca_record::Light;
-use joca_sim::{Illumination, SimConfig, Simulator};
+use joca_sim::{CityConfig, Illumination, SimConfig, Simulator};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -45,6 +45,7 @@ impl SceneSource {
             sun_elevation: config.sun_elevation,
             glare: config.glare,
             sun_disc: config.sun_disc,
+            city: CityConfig { tunnels: config.tunnels, ..CityConfig::default() },
             ..SimConfig::default()
         };
         Self { template, towns: HashMap::new(), real }

@@ -60,6 +60,7 @@ fn tiny(method: Method) -> RunConfig {
         sun_elevation: Default::default(),
         glare: Default::default(),
         sun_disc: false,
+        tunnels: Default::default(),
         train_maps: 2,
         max_speed_mps: 15.0,
         detector: DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false },

@@ -159,3 +159,40 @@ fn bad_glare_is_refused_naming_the_field_and_the_range() {
         assert_eq!(c.validate().unwrap_err().to_string(), message);
     }
 }
+
+/// Tunnels as places: a count outside 1–16, a lamp level outside (0, 0.1], or places on a
+/// recording is refused naming the field and the range; an unknown kind is refused by the
+/// reader, naming the kinds.
+#[test]
+fn bad_tunnels_are_refused_naming_the_field_and_the_range() {
+    use joca_sim::Tunnels;
+    type Edit = fn(&mut RunConfig);
+    let cases: [(Edit, &str); 4] = [
+        (
+            |c| c.tunnels = Tunnels { count: 0, ..Tunnels::places() },
+            "run.tunnels.count = 0 is invalid: 1 to 16 covered blocks",
+        ),
+        (
+            |c| c.tunnels = Tunnels { count: 40, ..Tunnels::places() },
+            "run.tunnels.count = 40 is invalid: 1 to 16 covered blocks",
+        ),
+        (
+            |c| c.tunnels = Tunnels { lamp_level: 0.5, ..Tunnels::places() },
+            "run.tunnels.lamp_level = 0.5 is invalid: above 0 to 0.1 of daylight",
+        ),
+        (
+            |c| {
+                c.tunnels = Tunnels::places();
+                c.source = Source::Folder("/data/rec".into());
+            },
+            "run.tunnels = places is invalid: the switch with a recording",
+        ),
+    ];
+    for (edit, message) in cases {
+        let mut c = tiny(Method::Joca);
+        edit(&mut c);
+        assert_eq!(c.validate().unwrap_err().to_string(), message);
+    }
+    let unknown = toml::from_str::<Tunnels>("kind = \"roofs\"").unwrap_err().to_string();
+    assert!(unknown.contains("switch") && unknown.contains("places"), "{unknown}");
+}

@@ -40,6 +40,16 @@ impl RunConfig {
         if self.sun_disc && self.source.is_recording() {
             return bad("sun_disc", "true".into(), "false with a recording");
         }
+        if let Err((field, allowed)) = self.tunnels.check() {
+            let value = match field {
+                "count" => self.tunnels.count.to_string(),
+                _ => self.tunnels.lamp_level.to_string(),
+            };
+            return bad(&format!("tunnels.{field}"), value, &allowed);
+        }
+        if self.tunnels.are_places() && self.source.is_recording() {
+            return bad("tunnels", "places".into(), "the switch with a recording");
+        }
         if !self.glare.is_off() && self.source.is_recording() {
             return bad("glare", "a fraction above 0".into(), "none with a recording");
         }

@@ -156,6 +156,7 @@ pub fn headroom(
         sun_elevation: config.sun_elevation,
         glare: config.glare,
         sun_disc: config.sun_disc,
+        tunnels: config.tunnels,
         design: summary(&design, config.hardware_search()),
         detector,
         run,
