@@ -88,7 +88,8 @@ pub(super) fn bench_render(repeats: usize) -> Result<()> {
     );
     bench_optics(&times, exposure_s)?;
     bench_shadows(&times, exposure_s)?;
-    bench_glare(&times, exposure_s)
+    bench_glare(&times, exposure_s)?;
+    bench_tunnels(&times, exposure_s)
 }
 
 /// The bench's camera: an IMX172 (6.2 × 4.65 mm) behind 3.6 mm at the nuScenes-like mount, an
@@ -260,6 +261,39 @@ fn bench_glare(times: &[f64], exposure_s: f64) -> Result<()> {
             ms[1],
             ms[1] / ms[0]
         );
+    }
+    Ok(())
+}
+
+/// Tunnels as places against the switch, 320×240 on 2 threads, best of 3, ratios of one run: by
+/// day and at night the same episodes in a town with six covered blocks (every ground pixel and
+/// face asks whether a tunnel covers it); under the `tunnel` light different frames (a drive
+/// through a tunnel against the switched light), so that row is what the light costs, not the
+/// same frames.
+fn bench_tunnels(times: &[f64], exposure_s: f64) -> Result<()> {
+    let camera = imx172_behind_3_6_mm(320, 240);
+    let requests = frames_at(times, exposure_s);
+    println!(
+        "\ntunnels as places (6 a town), 320x240, 2 threads, {} frames, best of 3",
+        times.len()
+    );
+    println!("{:<8} {:>12} {:>12} {:>10}", "light", "switch ms", "places ms", "ratio");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
+    for light in [Illumination::Day, Illumination::Night, Illumination::Tunnel] {
+        let ms = [joca_sim::Tunnels::default(), joca_sim::Tunnels::places()].map(|tunnels| {
+            let sim = Simulator::new(SimConfig {
+                illumination: Some(light),
+                city: joca_sim::CityConfig { tunnels, ..joca_sim::CityConfig::default() },
+                ..SimConfig::default()
+            });
+            let render_all = || {
+                for r in &requests {
+                    black_box(sim.render(&camera, r).map(|f| f.boxes.len()).unwrap_or(0));
+                }
+            };
+            best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
+        });
+        println!("{:<8} {:>12.2} {:>12.2} {:>9.2}x", light.name(), ms[0], ms[1], ms[1] / ms[0]);
     }
     Ok(())
 }
