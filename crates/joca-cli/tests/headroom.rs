@@ -101,6 +101,27 @@ fn a_run_directory_adds_its_trained_controller() {
         r["policies"].as_array().unwrap().iter().map(|p| p["policy"].as_str().unwrap()).collect();
     assert!(names.contains(&"trained") && names.contains(&"average-127.5"), "{names:?}");
     assert_eq!(r["detector"], "trained");
+    assert!(r.get("tunnels").is_none(), "the run's own switch");
+    // The same run tested with tunnels as places: the record says so (layout 5).
+    let places = dir.path().join("places");
+    let o = cli!(
+        "headroom",
+        run,
+        "--episodes 4 --frames 1 --tunnels places --config",
+        ladder,
+        "--out",
+        places
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(places.join("headroom.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        (r["tunnels"]["kind"].as_str(), r["format_version"].as_u64()),
+        (Some("places"), Some(5))
+    );
+    let o = cli!("headroom", run, "--tunnels roofs");
+    assert!(stderr(&o).contains("switch, places"), "{}", stderr(&o));
     // With a run directory the file may hold only [ladder].
     std::fs::write(&ladder, "[run]\nseed = 3\n").unwrap();
     let o = cli!("headroom", run, "--config", ladder);

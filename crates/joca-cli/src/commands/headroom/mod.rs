@@ -22,7 +22,11 @@ pub struct Args {
     table: bool,
     /// Measure every design of a panel file (its scenarios, towns, `[run]`, `[ladder]` and
     /// `[panel]`) into `--out`, then tabulate each scenario and town; again to resume.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["table", "design", "config", "scenario"])]
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = ["table", "design", "config", "scenario", "tunnels"]
+    )]
     panel: Option<PathBuf>,
     /// With `--panel`: measurements run at once, each a child process.
     #[arg(long, default_value_t = 1)]
@@ -44,6 +48,11 @@ pub struct Args {
     /// The test family's town: 0 (the test town) or 2 to 9999.
     #[arg(long, default_value_t = 0)]
     town: u64,
+    /// What the `tunnel` light is, instead of the configuration's: `switch` or `places` (its
+    /// count and lamps as configured, else the defaults): e.g. a run trained with the switch
+    /// tested with tunnels as places.
+    #[arg(long, value_parser = joca_sim::TunnelKind::from_name)]
+    tunnels: Option<joca_sim::TunnelKind>,
     /// Test episodes (stratified by light) [default: the configuration's].
     #[arg(long)]
     episodes: Option<u64>,
@@ -83,6 +92,7 @@ pub fn run(args: &Args) -> Result<()> {
         episodes: args.episodes,
         frames_per_episode: args.frames,
         device: args.device,
+        tunnels: args.tunnels,
     };
     let (subject, out) = match args.paths.as_slice() {
         [run_dir] => {

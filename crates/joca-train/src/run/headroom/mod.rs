@@ -53,6 +53,8 @@ pub struct HeadroomOptions {
     pub frames_per_episode: Option<usize>,
     /// Another device for the detector than the configuration's.
     pub device: Option<joca_nn::device::DeviceChoice>,
+    /// Another kind of tunnel light than the configuration's (its count and lamps kept).
+    pub tunnels: Option<joca_sim::TunnelKind>,
 }
 
 /// One capture of a test instant under one policy, as scored.
@@ -95,6 +97,9 @@ pub fn headroom(
     }
     if let Some(d) = options.device {
         config.device = d;
+    }
+    if let Some(kind) = options.tunnels {
+        config.tunnels.kind = kind;
     }
     config.validate()?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
