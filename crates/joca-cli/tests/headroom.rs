@@ -122,6 +122,26 @@ fn a_run_directory_adds_its_trained_controller() {
     );
     let o = cli!("headroom", run, "--tunnels roofs");
     assert!(stderr(&o).contains("switch, places"), "{}", stderr(&o));
+    // A panel of trained runs: the run measured with its own detector and NeuralAE, in the
+    // panel's tunnels, tabulated apart.
+    let file = dir.path().join("trained.toml");
+    let text = format!(
+        "preset = \"quick\"\nscenarios = [\"calibrated\"]\ntowns = [0]\nepisodes = 4\n\
+         frames = 1\ntrained = [{run:?}]\n[run]\ntunnels = {{ kind = \"places\" }}\n[ladder]\n\
+         steps = 2\nstep_stops = 4.0\ntargets_dn = []\n"
+    );
+    std::fs::write(&file, text).unwrap();
+    let hp = dir.path().join("hp");
+    let o = cli!("headroom --panel", file, "--out", hp);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let record = hp.join("calibrated/town0/trained-run/headroom.json");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(record).unwrap()).unwrap();
+    assert_eq!(
+        (r["tunnels"]["kind"].as_str(), r["detector"].as_str()),
+        (Some("places"), Some("trained"))
+    );
+    assert!(hp.join("calibrated-town0-trained.md").is_file());
     // With a run directory the file may hold only [ladder].
     std::fs::write(&ladder, "[run]\nseed = 3\n").unwrap();
     let o = cli!("headroom", run, "--config", ladder);
@@ -189,6 +209,15 @@ fn bad_panels_are_refused_naming_the_file_and_field() {
         (tiny_panel(1, "design = 3"), vec!["[run] design is set by [panel]"]),
         (good.replace("steps = 2", "steps = 0"), vec!["ladder.steps", "1 to 64"]),
         (good.replace("camera = \"flir\"", "camera = \"nikon\""), vec!["nikon"]),
+        (
+            good.replace("[run]", "trained = [\"/no/run\"]\n[run]"),
+            vec!["[run] cast_shadows would not reach the trained runs"],
+        ),
+        (
+            good.replace("[run]\ncast_shadows = true", "trained = [\"/no/run\"]\n[run]"),
+            vec!["trained holds /no/run, which is not a run directory"],
+        ),
+        (good[..good.find("[panel]").unwrap()].to_owned(), vec!["give [panel] designs, trained"]),
     ] {
         std::fs::write(&file, &text).unwrap();
         let o = cli!("headroom --panel", file, "--out", out);

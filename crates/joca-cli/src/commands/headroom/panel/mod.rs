@@ -17,6 +17,15 @@
 //! [panel]                        # as an experiment's: designs, from_runs
 //! designs = [{ id = "flir", camera = "flir" }]
 //! ```
+//!
+//! `trained = ["runs/grid/cells/joca-calibrated-flir", …]` (before the tables) adds run
+//! directories measured with their own design, trained detector and NeuralAE (the `trained`
+//! row), tabulated apart (`<scenario>-town<K>-trained.md`); `[panel]` may then be left out. A
+//! run's own configuration sets its world, but for `[run] tunnels` (its `kind`: a run trained
+//! with the switch measured with tunnels as places); `[run]` may hold nothing else beside
+//! `threads` (which the run's own replaces).
+
+mod children;
 
 use crate::config;
 use crate::grid::panel::{PanelDesign, PanelFile};
@@ -26,8 +35,6 @@ use joca_train::headroom::ladder::LadderConfig;
 use joca_train::{RunConfig, Scenario};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::Instant;
 
 /// The folder's copy of the panel file: a second run with another file is refused.
 pub const PANEL_COPY: &str = "panel.toml";
@@ -50,16 +57,29 @@ struct HeadroomPanel {
     run: Option<toml::Table>,
     #[serde(default)]
     ladder: Option<toml::Table>,
-    panel: PanelFile,
+    /// Run directories measured with their own design, trained detector and NeuralAE.
+    #[serde(default)]
+    trained: Vec<PathBuf>,
+    #[serde(default)]
+    panel: Option<PanelFile>,
 }
 
 fn standard() -> String {
     "standard".into()
 }
 
-/// One measurement: a design under a scenario on a town.
+/// What a measurement measures.
+enum Subject {
+    /// A design of `[panel]` with the configuration's detector.
+    Design,
+    /// A run directory: its design, trained detector and NeuralAE.
+    Trained(PathBuf),
+}
+
+/// One measurement: a design (or a trained run) under a scenario on a town.
 struct Measurement {
     design: String,
+    subject: Subject,
     scenario: Scenario,
     town: u64,
     dir: PathBuf,
@@ -76,8 +96,11 @@ pub fn run(file: &Path, out: &Path, jobs: usize) -> Result<()> {
         .with_context(|| format!("invalid headroom panel file {}", file.display()))?;
     let source = file.display().to_string();
     check(&panel, &source)?;
-    let designs = panel.panel.resolve(&source)?;
-    let bodies: Vec<(String, String)> = designs
+    let designs = match &panel.panel {
+        Some(p) => p.resolve(&source)?,
+        None => Vec::new(),
+    };
+    let mut bodies: Vec<(String, String)> = designs
         .iter()
         .map(|d| {
             let table = design_table(&panel, d)?;
@@ -85,6 +108,15 @@ pub fn run(file: &Path, out: &Path, jobs: usize) -> Result<()> {
             Ok((d.id.clone(), written(&table, &d.id)?))
         })
         .collect::<Result<_>>()?;
+    let trained = trained_ids(&panel, &source)?;
+    for (id, _) in &trained {
+        // Its child reads only the ladder; the run's own config.toml sets the rest.
+        let mut table = toml::Table::new();
+        if let Some(ladder) = &panel.ladder {
+            table.insert("ladder".into(), toml::Value::Table(ladder.clone()));
+        }
+        bodies.push((id.clone(), written(&table, id)?));
+    }
     claim(out, &text, file)?;
     let configs = out.join("configs");
     std::fs::create_dir_all(&configs)
@@ -94,7 +126,7 @@ pub fn run(file: &Path, out: &Path, jobs: usize) -> Result<()> {
         joca_core::fs::write_atomic(&path, body.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    let all = measurements(&panel, &designs, out);
+    let all = measurements(&panel, &designs, &trained, out);
     let todo: Vec<&Measurement> =
         all.iter().filter(|m| !m.dir.join("headroom.json").is_file()).collect();
     if let Some(t) = &panel.title {
@@ -104,13 +136,13 @@ pub fn run(file: &Path, out: &Path, jobs: usize) -> Result<()> {
         "{} measurements ({} designs × {} scenarios × {} towns), {} to run, {jobs} at a time; \
          logs beside each: {}",
         all.len(),
-        designs.len(),
+        designs.len() + trained.len(),
         panel.scenarios.len(),
         panel.towns.len(),
         todo.len(),
         out.display()
     );
-    run_children(&panel, &configs, &todo, jobs)?;
+    children::run_children(&panel, &configs, &todo, jobs)?;
     let failed: Vec<String> = all
         .iter()
         .filter(|m| !m.dir.join("headroom.json").is_file())
@@ -118,18 +150,22 @@ pub fn run(file: &Path, out: &Path, jobs: usize) -> Result<()> {
         .collect();
     for scenario in &panel.scenarios {
         for town in &panel.towns {
-            let dirs: Vec<PathBuf> = all
-                .iter()
-                .filter(|m| m.scenario == *scenario && m.town == *town)
-                .map(|m| m.dir.clone())
-                .filter(|d| d.join("headroom.json").is_file())
-                .collect();
-            if dirs.is_empty() {
-                continue;
+            for (trained, suffix) in [(false, ""), (true, "-trained")] {
+                let dirs: Vec<PathBuf> = all
+                    .iter()
+                    .filter(|m| m.scenario == *scenario && m.town == *town)
+                    .filter(|m| matches!(m.subject, Subject::Trained(_)) == trained)
+                    .map(|m| m.dir.clone())
+                    .filter(|d| d.join("headroom.json").is_file())
+                    .collect();
+                if dirs.is_empty() {
+                    continue;
+                }
+                let table = out.join(format!("{}-town{town}{suffix}.md", scenario.name()));
+                let what = if trained { ", trained runs" } else { "" };
+                println!("\n## {}, town {town}{what}\n", scenario.name());
+                super::write_table(&dirs, Some(&table))?;
             }
-            let table = out.join(format!("{}-town{town}.md", scenario.name()));
-            println!("\n## {}, town {town}\n", scenario.name());
-            super::write_table(&dirs, Some(&table))?;
         }
     }
     if !failed.is_empty() {
@@ -251,14 +287,29 @@ fn validate(preset: &str, mut over: toml::Table, source: &str) -> Result<()> {
     Ok(())
 }
 
-fn measurements(panel: &HeadroomPanel, designs: &[PanelDesign], out: &Path) -> Vec<Measurement> {
+fn measurements(
+    panel: &HeadroomPanel,
+    designs: &[PanelDesign],
+    trained: &[(String, PathBuf)],
+    out: &Path,
+) -> Vec<Measurement> {
+    let subjects: Vec<(String, Subject)> = designs
+        .iter()
+        .map(|d| (d.id.clone(), Subject::Design))
+        .chain(trained.iter().map(|(id, dir)| (id.clone(), Subject::Trained(dir.clone()))))
+        .collect();
     let mut all = Vec::new();
     for scenario in &panel.scenarios {
         for town in &panel.towns {
-            for d in designs {
-                let dir = out.join(scenario.name()).join(format!("town{town}")).join(&d.id);
+            for (id, subject) in &subjects {
+                let dir = out.join(scenario.name()).join(format!("town{town}")).join(id);
+                let subject = match subject {
+                    Subject::Design => Subject::Design,
+                    Subject::Trained(d) => Subject::Trained(d.clone()),
+                };
                 all.push(Measurement {
-                    design: d.id.clone(),
+                    design: id.clone(),
+                    subject,
                     scenario: *scenario,
                     town: *town,
                     dir,
@@ -269,86 +320,51 @@ fn measurements(panel: &HeadroomPanel, designs: &[PanelDesign], out: &Path) -> V
     all
 }
 
-/// Runs the measurements as child processes, at most `jobs` at once.
-fn run_children(
-    panel: &HeadroomPanel,
-    configs: &Path,
-    todo: &[&Measurement],
-    jobs: usize,
-) -> Result<()> {
-    let exe = std::env::current_exe().context("cannot find the joca executable")?;
-    let started = Instant::now();
-    let mut queue = todo.iter();
-    let mut running: Vec<(String, Child, Instant)> = Vec::new();
-    let (mut done, total) = (0usize, todo.len());
-    loop {
-        while running.len() < jobs {
-            let Some(m) = queue.next() else { break };
-            let child = spawn(&exe, panel, configs, m, jobs)?;
-            let name = format!("{} {} town {}", m.design, m.scenario.name(), m.town);
-            running.push((name, child, Instant::now()));
-        }
-        if running.is_empty() {
-            return Ok(());
-        }
-        std::thread::sleep(std::time::Duration::from_millis(200));
-        let mut i = 0;
-        while i < running.len() {
-            if let Some(status) = running[i].1.try_wait()? {
-                let (name, _, t) = running.remove(i);
-                done += 1;
-                let verdict = if status.success() { "done  " } else { "FAILED" };
-                println!(
-                    "  [{done:>3}/{total}] {verdict} {name}  ({:.1} min; elapsed {:.1} min)",
-                    t.elapsed().as_secs_f64() / 60.0,
-                    started.elapsed().as_secs_f64() / 60.0
-                );
-            } else {
-                i += 1;
-            }
-        }
+/// The trained runs' ids (`trained-<the folder's name>`) and directories; refuses a folder
+/// without a run's configuration, two folders of one name, a panel with neither designs nor
+/// runs, and a `[run]` that a run's own configuration would override in silence.
+fn trained_ids(panel: &HeadroomPanel, source: &str) -> Result<Vec<(String, PathBuf)>> {
+    if panel.panel.is_none() && panel.trained.is_empty() {
+        bail!("{source}: give [panel] designs, trained = [run directories], or both");
     }
+    if panel.trained.is_empty() {
+        return Ok(Vec::new());
+    }
+    if let Some(run) = &panel.run
+        && let Some(key) = run.keys().find(|k| !matches!(k.as_str(), "threads" | "tunnels"))
+    {
+        bail!(
+            "{source}: [run] {key} would not reach the trained runs (their own config.toml sets \
+             it); with trained = […] [run] may hold only threads and tunnels"
+        );
+    }
+    let tunnels = tunnels_of(panel, source)?;
+    let defaults = joca_sim::Tunnels::places();
+    if tunnels.count != defaults.count || tunnels.lamp_level != defaults.lamp_level {
+        bail!(
+            "{source}: [run] tunnels sets its count or lamps: a trained run is measured with \
+             the default ones (only the kind reaches it)"
+        );
+    }
+    let mut out: Vec<(String, PathBuf)> = Vec::new();
+    for dir in &panel.trained {
+        if !dir.join("config.toml").is_file() {
+            bail!("{source}: trained holds {}, which is not a run directory", dir.display());
+        }
+        let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let id = format!("trained-{name}");
+        if out.iter().any(|(i, _)| *i == id) {
+            bail!("{source}: trained holds two run directories named {name:?}");
+        }
+        out.push((id, dir.clone()));
+    }
+    Ok(out)
 }
 
-fn spawn(
-    exe: &Path,
-    panel: &HeadroomPanel,
-    configs: &Path,
-    m: &Measurement,
-    jobs: usize,
-) -> Result<Child> {
-    let parent = m.dir.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(parent)
-        .with_context(|| format!("cannot create {}", parent.display()))?;
-    let log_path = parent.join(format!("{}.log", m.design));
-    let log = std::fs::File::create(&log_path)
-        .with_context(|| format!("cannot create {}", log_path.display()))?;
-    let mut command = Command::new(exe);
-    if jobs > 1 && std::env::var_os("OMP_WAIT_POLICY").is_none() {
-        // As `joca experiment`: libtorch's OpenMP threads would spin on the shared cores.
-        command.env("OMP_WAIT_POLICY", "PASSIVE");
+/// The panel's `[run] tunnels` (the default without one).
+fn tunnels_of(panel: &HeadroomPanel, source: &str) -> Result<joca_sim::Tunnels> {
+    match panel.run.as_ref().and_then(|r| r.get("tunnels")) {
+        None => Ok(joca_sim::Tunnels::default()),
+        Some(v) => v.clone().try_into().with_context(|| format!("{source}: invalid [run] tunnels")),
     }
-    command
-        .arg("headroom")
-        .arg("--preset")
-        .arg(&panel.preset)
-        .arg("--config")
-        .arg(configs.join(format!("{}.toml", m.design)))
-        .arg("--scenario")
-        .arg(m.scenario.name())
-        .arg("--town")
-        .arg(m.town.to_string())
-        .arg("--out")
-        .arg(&m.dir);
-    if let Some(e) = panel.episodes {
-        command.arg("--episodes").arg(e.to_string());
-    }
-    if let Some(f) = panel.frames {
-        command.arg("--frames").arg(f.to_string());
-    }
-    command
-        .stdout(Stdio::from(log.try_clone()?))
-        .stderr(Stdio::from(log))
-        .spawn()
-        .with_context(|| format!("cannot start {}", exe.display()))
 }
