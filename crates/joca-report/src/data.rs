@@ -279,11 +279,11 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         assert_eq!(RunData::load(dir.path()).unwrap().results.format_version, 0);
         // A newer layout: refused, naming the file and both versions.
-        value["format_version"] = 7.into();
+        value["format_version"] = 8.into();
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
-        assert!(e.contains("results.json") && e.contains("format_version 7 is newer"), "{e}");
-        assert!(e.contains("0 to 6"), "{e}");
+        assert!(e.contains("results.json") && e.contains("format_version 8 is newer"), "{e}");
+        assert!(e.contains("0 to 7"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
