@@ -19,7 +19,7 @@ pub use ground::{fast_floor, ground_grain, hash_unit};
 use joca_core::tunnels::Tunnels;
 use rand::Rng;
 use std::f32::consts::{FRAC_PI_2, PI};
-pub use tunnel::{CLEARANCE_M, TUNNEL_LAMP, Tunnel};
+pub use tunnel::{CEILING_SHARE, CLEARANCE_M, TUNNEL_LAMP, Tunnel};
 
 /// Width of a driving lane, metres.
 pub const LANE_WIDTH_M: f32 = 3.5;

@@ -40,7 +40,7 @@ pub const TUNNEL_LAMP: [f32; 3] = [700.0, 680.0, 640.0];
 /// Concrete of the walls, ceiling and portal.
 const CONCRETE: [f32; 3] = [0.38, 0.37, 0.35];
 /// The ceiling's share of the lamps' level (it sees the lit road and walls, not the lamps).
-const CEILING_SHARE: f32 = 0.2;
+pub const CEILING_SHARE: f32 = 0.2;
 /// Mean reflectance of what a mouth shows from inside (street, facades, a little sky).
 pub const MOUTH_REFLECTANCE: f32 = 0.3;
 /// Length of the pieces walls and ceiling are built of, metres.
@@ -90,11 +90,17 @@ impl Tunnel {
     /// Whether a point lies under the ceiling, between the mouths and the walls, the walls'
     /// inner faces included (a face in a mouth's plane is outside: the portal is lit by day).
     pub fn holds(&self, p: V3) -> bool {
+        self.along_inside(p).is_some()
+    }
+
+    /// Where along the road a point under the ceiling lies ([`Tunnel::holds`]), or `None`.
+    fn along_inside(&self, p: V3) -> Option<f32> {
         let (along, across) = self.local(p.x, p.y);
-        p.z <= CLEARANCE_M + 1e-3
+        let inside = p.z <= CLEARANCE_M + 1e-3
             && across.abs() <= self.half_width_m + 1e-2
             && along > self.from_m + 1e-3
-            && along < self.to_m - 1e-3
+            && along < self.to_m - 1e-3;
+        inside.then_some(along)
     }
 
     /// The mouths' share of the outside light at `along` (see the module's documentation).
@@ -110,14 +116,11 @@ impl Tunnel {
     }
 
     /// Irradiance inside at `along` of a surface whose share of the lamps is `lamp_share` (1
-    /// facing up, ½ vertical, [`Tunnel::CEILING`] the ceiling), given `outside`, the irradiance
+    /// facing up, ½ vertical, [`CEILING_SHARE`] the ceiling), given `outside`, the irradiance
     /// of a horizontal surface in the open.
     pub fn irradiance(&self, along: f32, lamp_share: f32, outside: f32) -> f32 {
         self.lamp_level * lamp_share + self.mouth_share(along) * outside
     }
-
-    /// The ceiling's share of the lamps.
-    pub const CEILING: f32 = CEILING_SHARE;
 
     /// The walls, the cover (seen from below as the ceiling) and the lamps along it.
     fn objects(&self) -> Vec<Object> {
@@ -178,6 +181,16 @@ impl City {
     #[inline]
     pub fn tunnel_at(&self, p: V3) -> Option<&Tunnel> {
         self.tunnels.iter().find(|t| t.holds(p))
+    }
+
+    /// The irradiance at `p` if a tunnel covers it ([`Tunnel::irradiance`] for a surface with
+    /// `lamp_share` of the lamps, `outside` being the open ground's), instead of sun, sky and
+    /// street lamps; `None` in the open.
+    #[inline]
+    pub fn tunnel_irradiance(&self, p: V3, lamp_share: f32, outside: f32) -> Option<f32> {
+        self.tunnels
+            .iter()
+            .find_map(|t| t.along_inside(p).map(|along| t.irradiance(along, lamp_share, outside)))
     }
 
     /// Covers `spec.count` distinct blocks between the intersections a route can reach (two

@@ -50,17 +50,15 @@ pub(super) fn ground_and_sky(
                 continue; // an object is nearer than the ground here
             }
             let albedo = city.ground_albedo_with(px, py, grain);
-            let (lamps, head) = if lights_on {
-                (city.lamp_irradiance(px, py), headlight(lamp, heading, V3::new(px, py, 0.0), None))
-            } else {
-                (0.0, 0.0)
-            };
+            let head =
+                if lights_on { headlight(lamp, heading, V3::new(px, py, 0.0), None) } else { 0.0 };
             let i = (row + x) * 3;
-            if let Some(e) = in_tunnel(city, px, py, up_irradiance) {
+            if let Some(e) = city.tunnel_irradiance(V3::new(px, py, 0.0), 1.0, up_irradiance) {
                 for (out, rho) in target.colour[i..i + 3].iter_mut().zip(albedo) {
                     *out = k * rho * (e + head);
                 }
             } else {
+                let lamps = if lights_on { city.lamp_irradiance(px, py) } else { 0.0 };
                 let sun_sky = if shade.mask[x] { up_irradiance - up_sun } else { up_irradiance };
                 for ((out, rho), tint) in
                     target.colour[i..i + 3].iter_mut().zip(albedo).zip(lighting::LAMP_TINT)
@@ -72,17 +70,6 @@ pub(super) fn ground_and_sky(
             target.id[row + x] = 0;
         }
     }
-}
-
-/// The irradiance of the ground at `(x, y)` if a tunnel covers it (its lamps and the daylight
-/// through its mouths, `outside` being the open ground's), instead of sun, sky and street lamps.
-#[inline]
-fn in_tunnel(city: &City, x: f32, y: f32, outside: f32) -> Option<f32> {
-    if city.tunnels().is_empty() {
-        return None;
-    }
-    let t = city.tunnel_at(V3::new(x, y, 0.0))?;
-    Some(t.irradiance(t.local(x, y).0, 1.0, outside))
 }
 
 /// Which pixels of an image row see the ground in shadow, row by row.

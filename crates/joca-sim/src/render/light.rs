@@ -5,7 +5,7 @@
 use super::View;
 use super::raster::{FaceSun, Shade, Sunlit};
 use super::shadow::{FacePlane, Shadows};
-use crate::city::{City, Tunnel};
+use crate::city::{CEILING_SHARE, City};
 use crate::geometry::{OrientedBox, V3};
 use crate::lighting::{self, RADIANCE_SCALE_DN};
 use crate::objects::{Material, Rgb};
@@ -106,16 +106,14 @@ impl<'a> BoxLight<'a> {
         let centre = self.b.centre + n * hn;
         let head =
             if self.lights_on { headlight(self.lamp, self.heading, centre, Some(n)) } else { 0.0 };
-        if let Some(tunnel) = self.city.tunnel_at(centre) {
-            let share = match face_index {
-                4 => 1.0,
-                5 => Tunnel::CEILING,
-                _ => 0.5,
-            };
-            let outside = self.view.lighting.sun_sky([0.0, 0.0, 1.0]);
-            let along = tunnel.local(centre.x, centre.y).0;
-            let e = tunnel.irradiance(along, share, outside) + head;
-            return (shade_for(material, face_index, &[e; 3], self.lights_on), None);
+        let share = match face_index {
+            4 => 1.0,
+            5 => CEILING_SHARE,
+            _ => 0.5,
+        };
+        let outside = self.view.lighting.sun_sky([0.0, 0.0, 1.0]);
+        if let Some(e) = self.city.tunnel_irradiance(centre, share, outside) {
+            return (shade_for(material, face_index, &[e + head; 3], self.lights_on), None);
         }
         let sun_sky = self.view.lighting.sun_sky([n.x, n.y, n.z]);
         let lamp_share = if face_index == 4 { 1.0 } else { 0.5 };

@@ -67,7 +67,7 @@ impl Simulator {
 
     /// Whether the `tunnel` light drives through the town's tunnels in daylight (instead of
     /// switching the ambient light).
-    pub(super) fn tunnels_are_places(&self) -> bool {
+    fn tunnels_are_places(&self) -> bool {
         self.config.city.tunnels.are_places() && !self.city.tunnels().is_empty()
     }
 
@@ -82,10 +82,11 @@ impl Simulator {
         self.city.tunnel_at(p).map_or(lighting.ambient, |t| t.lamp_level)
     }
 
+    /// The light of an instant: a drive through a tunnel is in daylight (the tunnel darkens
+    /// what it covers), any other episode follows its schedule.
     pub(super) fn lighting(&self, episode: &Episode, time_s: f64) -> Lighting {
-        let places = episode.illumination == Illumination::Tunnel && self.tunnels_are_places();
         Lighting {
-            ambient: if places {
+            ambient: if episode.mouth.is_some() {
                 1.0
             } else {
                 episode.illumination.ambient(time_s, episode.phase_s)

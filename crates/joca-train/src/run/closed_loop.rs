@@ -33,10 +33,6 @@ const TUNNEL_FRAMES: usize = 50;
 /// Frames of the day and night showcases; the last one is saved.
 const STEADY_FRAMES: usize = 20;
 
-fn ambient(sim: &Simulator, episode: u64, time_s: f64) -> f32 {
-    sim.ambient_at(episode, time_s)
-}
-
 /// The tunnel showcase's episode and start: with tunnels as places, the first test episode that
 /// leaves a tunnel, from its start (it passes the exit 1.3–2.7 s in); with the switch, episode 0
 /// from 1.5 s before its first switch after t = 2.5 s, so the controller has settled and the
@@ -137,7 +133,7 @@ pub(super) fn test(
             let (light, ambient) = match (&real, town) {
                 (None, Some(town)) => (
                     light_of(Some(town.episode(episode).illumination)),
-                    Some(ambient(town, episode, time_s)),
+                    Some(town.ambient_at(episode, time_s)),
                 ),
                 _ => (Light::Recorded, None),
             };
@@ -296,7 +292,7 @@ fn showcases(
             sequence.frames.push(ShowcaseFrame {
                 frame: k,
                 time_s,
-                ambient: ambient(&sim, episode, time_s),
+                ambient: sim.ambient_at(episode, time_s),
                 settings: s.settings,
                 boxes: s.frame.boxes,
                 detections: s.detections,
