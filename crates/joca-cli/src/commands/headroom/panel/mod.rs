@@ -69,6 +69,7 @@ fn standard() -> String {
 }
 
 /// What a measurement measures.
+#[derive(Clone)]
 enum Subject {
     /// A design of `[panel]` with the configuration's detector.
     Design,
@@ -303,13 +304,9 @@ fn measurements(
         for town in &panel.towns {
             for (id, subject) in &subjects {
                 let dir = out.join(scenario.name()).join(format!("town{town}")).join(id);
-                let subject = match subject {
-                    Subject::Design => Subject::Design,
-                    Subject::Trained(d) => Subject::Trained(d.clone()),
-                };
                 all.push(Measurement {
                     design: id.clone(),
-                    subject,
+                    subject: subject.clone(),
                     scenario: *scenario,
                     town: *town,
                     dir,
