@@ -100,7 +100,11 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
             "unknown variant `gaussian`, expected `tacos` or `paper`",
         ),
         ("perturbation_score = \"median\"", "unknown variant `median`, expected `ap50` or `loss`"),
-        ("perturbation_steps = \"log\"", "unknown variant `log`, expected `linear` or `relative`"),
+        (
+            "perturbation_steps = \"log\"",
+            "\"log\": expected \"linear\", \"relative\" or \"stops:S\"",
+        ),
+        ("perturbation_steps = \"stops:6\"", "above 0 and at most 4 stops"),
         (
             "design = { sensor = \"IMX999\", focal_length_mm = 4.0, x_m = 0.5, z_m = 1.5 }",
             "run.design.sensor = \"IMX999\" is invalid: a catalogue sensor: ",

@@ -20,7 +20,8 @@ use serde::{Deserialize, Deserializer, Serialize};
 pub use learning::{AccOutput, WarmStart};
 use learning::{check_detector_lr, is_paper_detector_lr, paper_detector_lr};
 pub use search::{
-    PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak, TrainingScenes,
+    PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
+    TrainingScenes,
 };
 use std::path::PathBuf;
 

@@ -8,7 +8,9 @@
 //! Where NeuralAE sets the iris too, each member also offsets the iris's unit position (a third
 //! gene) and is rendered and formed at its own f-number (its own defocus and light).
 
-use super::config::{PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak};
+use super::config::{
+    PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
+};
 use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
@@ -46,10 +48,13 @@ pub(super) fn ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainE
         PerturbationMutation::Additive => 0.1,
     };
     let genes = if config.aperture == ApertureControl::Dynamic { 3 } else { 2 };
-    let ga_config =
-        GaConfig::new(config.perturbation_population, vec![(-0.05, 0.05); genes], (0.9, 1.1))
-            .and_then(|c| c.with_shift(shift))
-            .map_err(ga_err)?;
+    let ga_config = GaConfig::new(
+        config.perturbation_population,
+        vec![(-PERTURBATION_HALF_RANGE, PERTURBATION_HALF_RANGE); genes],
+        (0.9, 1.1),
+    )
+    .and_then(|c| c.with_shift(shift))
+    .map_err(ga_err)?;
     Ok(Ga::new(ga_config, &mut streams.stream("perturbation-init")))
 }
 
@@ -111,8 +116,8 @@ pub(super) fn members(
 }
 
 /// `predicted` offset by `p` (normalised units): the exposure by a share of its range
-/// (`linear`) or of its log range (`relative`), the gain (dB) by a share of its range; clamped
-/// into the ranges.
+/// (`linear`) or of its log range (`relative`), the gain (dB) by a share of its range; or
+/// (`stops:S`) each by `S · p / 0.05` stops; clamped into the ranges.
 fn perturb(
     steps: PerturbationSteps,
     ranges: &AccRanges,
@@ -120,12 +125,22 @@ fn perturb(
     p: [f64; 2],
 ) -> DynamicSettings {
     let e = &ranges.exposure_s;
-    let exposure_s = match steps {
-        PerturbationSteps::Linear => predicted.exposure_s + p[0] * e.span(),
-        PerturbationSteps::Relative => predicted.exposure_s * (e.max / e.min).powf(p[0]),
+    let gain_share = predicted.gain_db + p[1] * ranges.gain_db.span();
+    let (exposure_s, gain_db) = match steps {
+        PerturbationSteps::Linear => (predicted.exposure_s + p[0] * e.span(), gain_share),
+        PerturbationSteps::Relative => {
+            (predicted.exposure_s * (e.max / e.min).powf(p[0]), gain_share)
+        }
+        PerturbationSteps::Stops(s) => {
+            let [se, sg] = p.map(|x| s * x / PERTURBATION_HALF_RANGE);
+            (predicted.exposure_s * se.exp2(), predicted.gain_db + sg * DB_PER_STOP)
+        }
     };
-    ranges.clamp(DynamicSettings::new(exposure_s, predicted.gain_db + p[1] * ranges.gain_db.span()))
+    ranges.clamp(DynamicSettings::new(exposure_s, gain_db))
 }
+
+/// A factor of 2 in linear gain, dB.
+const DB_PER_STOP: f64 = 6.020_599_913_279_624;
 
 /// Each perturbed frame's score, higher better: its AP50, or its negated task loss.
 fn raw_scores(
@@ -287,5 +302,40 @@ mod tests {
         // The gain: a share of 1–30 dB either way.
         let g = perturb(PerturbationSteps::Relative, &r, at(10.0), [0.0, 0.1]).gain_db;
         assert!((g - 12.9).abs() < 1e-9);
+    }
+
+    #[test]
+    fn stop_steps_offset_exposure_and_gain_by_powers_of_two() {
+        let r = AccRanges::PAPER;
+        let at = DynamicSettings::new(10e-3, 10.0);
+        // A gene at the edge of its ±5 % range is ±S stops: 10 ms × 2^±1.5, 10 dB ± 1.5 · 20·log10 2.
+        let up = perturb(PerturbationSteps::Stops(1.5), &r, at, [0.05, 0.05]);
+        assert!((up.exposure_s - 10e-3 * 2f64.powf(1.5)).abs() < 1e-12);
+        assert!((up.gain_db - (10.0 + 1.5 * 20.0 * 2f64.log10())).abs() < 1e-9);
+        let down = perturb(PerturbationSteps::Stops(1.5), &r, at, [-0.05, -0.025]);
+        assert!((down.exposure_s - 10e-3 / 2f64.powf(1.5)).abs() < 1e-12);
+        assert!((down.gain_db - (10.0 - 0.75 * 20.0 * 2f64.log10())).abs() < 1e-9);
+        // Clamped into the ranges: 40 ms × 4 is the 50 ms cap, 10 dB − 4 stops is 1 dB.
+        let far = perturb(
+            PerturbationSteps::Stops(2.0),
+            &r,
+            DynamicSettings::new(40e-3, 10.0),
+            [0.05, -0.05],
+        );
+        assert!((far.exposure_s - 50e-3).abs() < 1e-12 && (far.gain_db - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn perturbation_steps_read_and_write_every_form_and_refuse_others_naming_the_range() {
+        for text in ["linear", "relative", "stops:1", "stops:0.5", "stops:4"] {
+            assert_eq!(PerturbationSteps::parse(text).unwrap().to_string(), text);
+        }
+        for bad in ["log", "stops", "stops:0", "stops:-1", "stops:4.5", "stops:x"] {
+            let e = PerturbationSteps::parse(bad).unwrap_err();
+            assert!(
+                e.contains(bad) && e.contains("at most 4 stops") && e.contains("linear"),
+                "{e}"
+            );
+        }
     }
 }

@@ -49,20 +49,64 @@ joca_core::named_enum! {
     }
 }
 
-joca_core::named_enum! {
-    /// How a perturbation offsets NeuralAE's exposure (the gain, in dB, is offset by a share of its
-    /// range either way: dB are already relative).
-    #[derive(Default)]
-    pub enum PerturbationSteps("perturbation step") {
-        /// The paper's: `E + p·(E_max − E_min)`, a share of the range in linear units (±5 % of
-        /// 0.1–50 ms is ±2.5 ms, whatever E is).
-        #[default]
-        Linear = "linear",
-        /// `E · (E_max/E_min)^p`, a share of the log-exposure range (±5 % is ×0.73–×1.36): the same
-        /// relative reach at 1 ms and at 50 ms.
-        Relative = "relative",
+/// The widest `perturbation_steps = "stops:S"` allows, stops on each of exposure and gain.
+pub const MAX_PERTURBATION_STOPS: f64 = 4.0;
+
+/// The perturbation genes' half-range in normalised units (the GA's bounds, ±5 %): what
+/// `stops:S` maps to ±S stops.
+pub const PERTURBATION_HALF_RANGE: f64 = 0.05;
+
+/// How a perturbation offsets NeuralAE's exposure and gain (`perturbation_steps`): `"linear"`,
+/// `"relative"` or `"stops:S"`, S in (0, 4].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum PerturbationSteps {
+    /// The paper's: `E + p·(E_max − E_min)`, a share of the range in linear units (±5 % of
+    /// 0.1–50 ms is ±2.5 ms, whatever E is); the gain (dB) by a share of its range.
+    #[default]
+    Linear,
+    /// `E · (E_max/E_min)^p`, a share of the log-exposure range (±5 % is ×0.73–×1.36): the same
+    /// relative reach at 1 ms and at 50 ms; the gain (dB) by a share of its range.
+    Relative,
+    /// Each of exposure and gain by up to ±S stops: a gene at the edge of its ±5 % range is a
+    /// factor 2^±S on the exposure and ±6.02·S dB on the gain, so a member changes the frame's
+    /// light by up to ±2S stops, whatever the settings — visibly, where ±5 % of the linear range
+    /// is a twentieth of a stop at the 50 ms cap.
+    Stops(f64),
+}
+
+impl PerturbationSteps {
+    /// Reads `linear`, `relative` or `stops:S`, naming what is allowed.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        match text {
+            "linear" => return Ok(Self::Linear),
+            "relative" => return Ok(Self::Relative),
+            _ => {}
+        }
+        text.strip_prefix("stops:")
+            .and_then(|s| s.parse::<f64>().ok())
+            .filter(|s| *s > 0.0 && *s <= MAX_PERTURBATION_STOPS)
+            .map(Self::Stops)
+            .ok_or_else(|| {
+                format!(
+                    "\"{text}\": expected \"linear\", \"relative\" or \"stops:S\" with S the \
+                     widest offset of each of exposure and gain, above 0 and at most \
+                     {MAX_PERTURBATION_STOPS} stops"
+                )
+            })
     }
 }
+
+impl std::fmt::Display for PerturbationSteps {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Linear => f.write_str("linear"),
+            Self::Relative => f.write_str("relative"),
+            Self::Stops(s) => write!(f, "stops:{s}"),
+        }
+    }
+}
+
+joca_core::serde_as_text!(PerturbationSteps, PerturbationSteps::parse);
 
 joca_core::named_enum! {
     /// Which scenes a hardware candidate learns from and is judged on.
