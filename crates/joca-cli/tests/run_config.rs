@@ -106,6 +106,10 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
         ),
         ("perturbation_steps = \"stops:6\"", "above 0 and at most 4 stops"),
         (
+            "sun_elevation = { min_deg = 5, max_deg = 20, daylight = \"dusk\" }",
+            "unknown variant `dusk`, expected `constant` or `clear-sky`",
+        ),
+        (
             "design = { sensor = \"IMX999\", focal_length_mm = 4.0, x_m = 0.5, z_m = 1.5 }",
             "run.design.sensor = \"IMX999\" is invalid: a catalogue sensor: ",
         ),
@@ -137,7 +141,7 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
         ),
         (
             "sun_elevation = { min = 10, max = 30 }",
-            "expected `min_deg` or `max_deg`\nin `sun_elevation`",
+            "expected one of `min_deg`, `max_deg`, `daylight`\nin `sun_elevation`",
         ),
         (
             "cast_shadows = \"yes\"",

@@ -129,6 +129,9 @@ impl HeadroomRecord {
         if !self.sun_elevation.is_default() {
             let e = self.sun_elevation;
             parts.push(format!("sun {}–{}°", e.min_deg, e.max_deg));
+            if !e.daylight.is_constant() {
+                parts.push(format!("{} daylight", e.daylight));
+            }
         }
         if self.sun_disc {
             parts.push("sun's disc".to_owned());

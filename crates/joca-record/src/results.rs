@@ -244,6 +244,9 @@ impl RunResults {
         if !self.sun_elevation.is_default() {
             let e = self.sun_elevation;
             note.push_str(&format!(", the sun at {}–{}° elevation", e.min_deg, e.max_deg));
+            if !e.daylight.is_constant() {
+                note.push_str(&format!(" ({} daylight)", e.daylight));
+            }
         }
         if self.sun_disc {
             note.push_str(", the sun's disc in the sky");

@@ -85,6 +85,12 @@ pub struct Lighting {
     pub ambient: f32,
     /// Unit vector towards the sun (world frame).
     pub sun_dir: [f32; 3],
+    /// The sun's beam and the sky's light at the sun's elevation, each relative to their
+    /// [`SUN`] and [`SKY`] levels ([`joca_core::sun::Daylight::levels`]; 1 and 1 with constant
+    /// daylight).
+    pub beam: f32,
+    /// See [`Lighting::beam`].
+    pub diffuse: f32,
 }
 
 impl Lighting {
@@ -95,13 +101,13 @@ impl Lighting {
 
     /// Relative irradiance from sun and sky on a surface with unit normal `n`.
     pub fn sun_sky(&self, n: [f32; 3]) -> f32 {
-        self.ambient * (SUN * self.cos_sun(n) + SKY * (0.5 + 0.5 * n[2]))
+        self.ambient * (SUN * self.beam * self.cos_sun(n) + SKY * self.diffuse * (0.5 + 0.5 * n[2]))
     }
 
     /// The sun's share of [`Lighting::sun_sky`]: what a surface with unit normal `n` loses in
     /// the shadow of another (the sky's share stays).
     pub fn direct_sun(&self, n: [f32; 3]) -> f32 {
-        self.ambient * SUN * self.cos_sun(n)
+        self.ambient * SUN * self.beam * self.cos_sun(n)
     }
 
     fn cos_sun(&self, n: [f32; 3]) -> f32 {
@@ -114,7 +120,7 @@ impl Lighting {
         // as white paper in sun, so it clips when the exposure favours shadows.
         let up = dir_z.clamp(0.0, 1.0);
         let base = [0.78 - 0.18 * up, 0.86 - 0.12 * up, 1.0 - 0.02 * up];
-        let level = RADIANCE_SCALE_DN * self.ambient * 0.95;
+        let level = RADIANCE_SCALE_DN * self.ambient * self.diffuse * 0.95;
         // At night a faint city glow remains near the horizon.
         let glow = 0.08 * (1.0 - up).powi(4);
         [base[0] * level + glow * 1.2, base[1] * level + glow, base[2] * level + glow * 0.8]
@@ -140,7 +146,7 @@ mod tests {
     #[test]
     fn white_paper_in_daylight_reads_about_215_dn() {
         let s = std::f32::consts::FRAC_1_SQRT_2;
-        let light = Lighting { ambient: 1.0, sun_dir: [s, 0.0, s] };
+        let light = Lighting { ambient: 1.0, sun_dir: [s, 0.0, s], beam: 1.0, diffuse: 1.0 };
         let dn = RADIANCE_SCALE_DN * 0.85 * light.sun_sky([0.0, 0.0, 1.0]);
         assert!((200.0..=230.0).contains(&dn), "{dn}");
     }

@@ -64,7 +64,11 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     run.warm_start = joca_train::WarmStart { frames: 600, lr: 1e-4 };
     run.detector_lr = 1e-5;
     run.cast_shadows = true;
-    run.sun_elevation = joca_sim::SunElevation { min_deg: 10.0, max_deg: 60.0 };
+    run.sun_elevation = joca_sim::SunElevation {
+        min_deg: 10.0,
+        max_deg: 60.0,
+        daylight: joca_core::sun::Daylight::ClearSky,
+    };
     run.glare = joca_sim::Glare { fraction: 0.02, scale_deg: 1.0 };
     run.sun_disc = true;
     run.tunnels = joca_sim::Tunnels::places();

@@ -104,6 +104,10 @@ pub struct Args {
     /// from 45 to 55].
     #[arg(long)]
     sun_elevation_deg: Option<f32>,
+    /// How the sun's and the sky's light follow its elevation: `constant` (the same levels at
+    /// any elevation) or `clear-sky` (a cloudless sky's: both fall as the sun sinks).
+    #[arg(long, default_value = "constant", value_parser = joca_core::sun::Daylight::from_name)]
+    daylight: joca_core::sun::Daylight,
     /// The sun in the sky by day: the sky brighter towards it, its disc where the camera sees it
     /// (with a low `--sun-elevation-deg`).
     #[arg(long)]
@@ -326,12 +330,13 @@ fn print_header(
 ) {
     let sun = episode.sun_dir;
     println!(
-        "map {} episode {} ({}, sun {:.1}° high{}), {} {}x{} px, f = {} mm (HFoV {:.1}°), mount \
-         x = {} m z = {} m",
+        "map {} episode {} ({}, sun {:.1}° high{}{}), {} {}x{} px, f = {} mm (HFoV {:.1}°), \
+         mount x = {} m z = {} m",
         args.map_seed,
         args.episode,
         episode.illumination.name(),
         sun[2].asin().to_degrees(),
+        if args.daylight.is_constant() { "" } else { " in a clear sky's light" },
         match (args.shadows, args.sun) {
             (false, false) => "",
             (true, false) => ", casting shadows",

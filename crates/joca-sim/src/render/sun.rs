@@ -65,7 +65,7 @@ pub(super) fn draw_sun(view: &View<'_>, cam: &CameraFrame, target: &mut Target) 
     let cos_radius = SUN_RADIUS_RAD.cos();
     // Whether the view ray through image point (sx, sy) lies within the disc.
     let in_disc = |sx: f32, sy: f32| cos_to_sun(cam, d, sx, sy) >= cos_radius;
-    let radiance = disc_radiance(light.ambient);
+    let radiance = disc_radiance(light.ambient * light.beam);
     let (x0, x1) =
         ((u - rx - 1.0).floor().max(0.0) as usize, ((u + rx + 1.0).ceil().min(w)) as usize);
     let (y0, y1) =

@@ -206,6 +206,8 @@ fn a_reused_target_renders_as_a_fresh_one() {
             lighting: Lighting {
                 ambient: if rng.random_bool(0.5) { 1.0 } else { 0.01 },
                 sun_dir: [0.3, 0.2, 0.93],
+                beam: 1.0,
+                diffuse: 1.0,
             },
             time_s: rng.random_range(0.0..60.0),
             shadows: None,
@@ -262,6 +264,8 @@ fn skipping_hidden_boxes_changes_no_pixel() {
             lighting: Lighting {
                 ambient: if k % 2 == 0 { 1.0 } else { 0.01 },
                 sun_dir: [0.3, 0.2, 0.93],
+                beam: 1.0,
+                diffuse: 1.0,
             },
             time_s: rng.random_range(0.0..60.0),
             shadows: None,

@@ -85,6 +85,8 @@ impl Simulator {
     /// The light of an instant: a drive through a tunnel is in daylight (the tunnel darkens
     /// what it covers), any other episode follows its schedule.
     pub(super) fn lighting(&self, episode: &Episode, time_s: f64) -> Lighting {
+        let elevation = episode.sun_dir[2].clamp(-1.0, 1.0).asin();
+        let [beam, diffuse] = self.config.sun_elevation.daylight.levels(elevation);
         Lighting {
             ambient: if episode.mouth.is_some() {
                 1.0
@@ -92,6 +94,8 @@ impl Simulator {
                 episode.illumination.ambient(time_s, episode.phase_s)
             },
             sun_dir: episode.sun_dir,
+            beam,
+            diffuse,
         }
     }
 }

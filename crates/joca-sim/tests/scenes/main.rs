@@ -16,6 +16,7 @@ mod sun;
 mod tunnels;
 
 use common::{Agreement, shortcut_against_exact};
+use joca_core::sun::{Daylight, SunElevation};
 use joca_core::{Class, FrameRequest, FrameSource, PinholeCamera, Shot};
 use joca_sim::geometry::{Pose2, V3};
 use joca_sim::lighting::{Illumination, RADIANCE_SCALE_DN, SKY, SUN};

@@ -25,9 +25,21 @@ fn frame(
     azimuth_deg: f32,
     shadows: bool,
 ) -> joca_core::Frame {
+    frame_in(objects, elevation_deg, azimuth_deg, shadows, Daylight::Constant)
+}
+
+/// [`frame`] with the sun's and the sky's levels following `daylight`.
+fn frame_in(
+    objects: &[Object],
+    elevation_deg: f32,
+    azimuth_deg: f32,
+    shadows: bool,
+    daylight: Daylight,
+) -> joca_core::Frame {
     let config = SimConfig {
         illumination: Some(Illumination::Day),
         cast_shadows: shadows,
+        sun_elevation: SunElevation { daylight, ..SunElevation::at(elevation_deg) },
         ..SimConfig::default()
     };
     let mut city = City::generate(
@@ -85,6 +97,49 @@ fn a_shadowed_patch_reads_the_sky_only_level() {
     // unchanged to the bit.
     let (sx, sy) = pixel_of(V3::new(5.0, 3.0, 0.0));
     assert_eq!(shaded.hdr.pixel(sx, sy), lit.hdr.pixel(sx, sy));
+}
+
+/// A cloudless sky's daylight under a low sun: a white plate in the sun reads
+/// K·ρ·(SUN·b·sin h + SKY·d) and in a tower's shadow K·ρ·SKY·d, with b and d the beam and the
+/// diffuse light of Meinel's and Haurwitz's clear sky at h relative to 50° (written out here from
+/// the published forms, not from the crate); the sky seen above the horizon falls by d.
+#[test]
+fn a_low_sun_in_a_clear_sky_lights_by_the_published_beam_and_diffuse_levels() {
+    let (elevation, azimuth) = (8.0f32, 53.13f32);
+    let clear = |deg: f64| {
+        let h = deg.to_radians();
+        let air_mass = 1.0 / (h.sin() + 0.50572 * (deg + 6.07995).powf(-1.6364));
+        let beam = 1353.0 * 0.7f64.powf(air_mass.powf(0.678));
+        [beam, 1098.0 * h.sin() * (-0.057 / h.sin()).exp() - beam * h.sin()]
+    };
+    let ([b8, d8], [b50, d50]) = (clear(8.0), clear(50.0));
+    let (b, d) = ((b8 / b50) as f32, (d8 / d50) as f32);
+    let plate =
+        block(V3::new(9.0, 0.0, 0.01), V3::new(2.0, 2.0, 0.01), Material::Flat([0.85; 3]), None);
+    let (ux, uy) = (azimuth.to_radians().cos(), azimuth.to_radians().sin());
+    // 6 m from the plate towards the sun the ray is 0.84 m up: a 2 m tower shadows the plate.
+    let tower = block(
+        V3::new(9.0 + 6.0 * ux, 6.0 * uy, 1.0),
+        V3::new(1.0, 1.0, 1.0),
+        Material::Flat([0.4; 3]),
+        None,
+    );
+    let lit = frame_in(std::slice::from_ref(&plate), elevation, azimuth, true, Daylight::ClearSky);
+    let shaded = frame_in(&[plate, tower], elevation, azimuth, true, Daylight::ClearSky);
+    let (x, y) = pixel_of(V3::new(9.0, 0.0, 0.02));
+    let in_sun = RADIANCE_SCALE_DN * 0.85 * (SUN * b * elevation.to_radians().sin() + SKY * d);
+    let sky_only = RADIANCE_SCALE_DN * 0.85 * SKY * d;
+    assert!((lit.hdr.pixel(x, y)[1] / in_sun - 1.0).abs() < 1e-3, "{:?}", lit.hdr.pixel(x, y));
+    assert!(
+        (shaded.hdr.pixel(x, y)[1] / sky_only - 1.0).abs() < 1e-3,
+        "{:?}",
+        shaded.hdr.pixel(x, y)
+    );
+    // The sky above the horizon: the constant daylight's radiance times d (the sun is behind
+    // the camera's left, its brightening off).
+    let constant = frame_in(&[], elevation, azimuth, false, Daylight::Constant);
+    let ratio = lit.hdr.pixel(160, 20)[2] / constant.hdr.pixel(160, 20)[2];
+    assert!((ratio - d).abs() < 1e-3, "sky: {ratio} vs {d}");
 }
 
 /// A facade facing the camera with the sun behind the camera's left shoulder, and a 10 m post

@@ -76,12 +76,12 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
             "run.cast_shadows = true is invalid: false with a recording",
         ),
         (
-            |c| c.sun_elevation = SunElevation { min_deg: 1.0, max_deg: 30.0 },
+            |c| c.sun_elevation = SunElevation { min_deg: 1.0, ..SunElevation::at(30.0) },
             "run.sun_elevation = { min_deg = 1, max_deg = 30 } is invalid: 2 to 90 degrees, \
              min_deg at most max_deg",
         ),
         (
-            |c| c.sun_elevation = SunElevation { min_deg: 40.0, max_deg: 20.0 },
+            |c| c.sun_elevation = SunElevation { min_deg: 40.0, ..SunElevation::at(20.0) },
             "run.sun_elevation = { min_deg = 40, max_deg = 20 } is invalid: 2 to 90 degrees, \
              min_deg at most max_deg",
         ),

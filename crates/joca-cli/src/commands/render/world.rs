@@ -16,6 +16,7 @@ pub(super) fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
         }
         None => SunElevation::default(),
     };
+    let sun_elevation = SunElevation { daylight: args.daylight, ..sun_elevation };
     let glare = Glare { fraction: args.glare, scale_deg: args.glare_scale_deg };
     glare.check().map_err(|(field, allowed)| {
         let flag = if field == "fraction" { "glare" } else { "glare-scale-deg" };
