@@ -2,6 +2,7 @@
 
 use super::*;
 use joca_train::Method;
+use std::path::Path;
 
 #[test]
 fn every_built_in_experiment_resolves_with_every_preset() {
@@ -236,4 +237,29 @@ fn cells_named_first_run_first_in_the_order_named_and_the_rest_keep_theirs() {
         "{e}"
     );
     assert!(check_first(&exp, &first).is_ok());
+}
+
+/// Every experiment file in the repository's experiments/ folder (built in or not) resolves with
+/// every preset, so a committed grid cannot fail only when a user starts it.
+#[test]
+fn every_experiment_file_in_the_repository_resolves() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        seen += 1;
+        for (preset, _) in config::PRESETS {
+            let result = resolve(path.to_str().unwrap(), preset, None, 1);
+            if path.file_stem().is_some_and(|s| s == "real") {
+                assert!(result.unwrap_err().to_string().contains("runs on recorded frames"));
+                continue;
+            }
+            let exp = result.unwrap_or_else(|e| panic!("{} / {preset}: {e:#}", path.display()));
+            assert!(!exp.cells.is_empty(), "{}", path.display());
+        }
+    }
+    assert!(seen > EXPERIMENTS.len(), "only {seen} files in {}", dir.display());
 }

@@ -365,3 +365,6 @@ fn tunnels_of(panel: &HeadroomPanel, source: &str) -> Result<joca_sim::Tunnels> 
         Some(v) => v.clone().try_into().with_context(|| format!("{source}: invalid [run] tunnels")),
     }
 }
+
+#[cfg(test)]
+mod tests;
