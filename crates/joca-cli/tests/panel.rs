@@ -99,3 +99,45 @@ fn prepare_writes_every_cell_and_runs_none() {
     let o = cli!("experiment", file, "--config", cfg, "--prepare --status --out", exp);
     assert!(!o.status.success() && stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
 }
+
+/// A grid's cells run the code the grid started with: the `joca` a running experiment was
+/// started from is replaced (as a rebuild replaces it) by a program that fails, and the
+/// experiment's cell still runs and finishes, naming the commit its parent was built from.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_grid_runs_its_cells_with_its_own_code_when_the_program_is_rebuilt_under_it() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    // A copy beside the built program, where its run path finds libtorch as the original's does.
+    let original = std::path::Path::new(env!("CARGO_BIN_EXE_joca"));
+    let beside = tempfile::tempdir_in(original.parent().unwrap()).unwrap();
+    let bin = beside.path().join("joca");
+    std::fs::copy(original, &bin).unwrap();
+    let (file, cfg, exp) =
+        (dir.path().join("one.toml"), dir.path().join("run.toml"), dir.path().join("exp"));
+    let one = "title = \"one\"\nlabel_header = \"Method\"\nscenarios = [\"calibrated\"]\n\n\
+               [[variant]]\nid = \"tacos\"\nlabel = \"TaCOS\"\nrun = { method = \"tacos-average\" }\n";
+    std::fs::write(&file, one).unwrap();
+    std::fs::write(&cfg, TINY_RUN).unwrap();
+    let child = std::process::Command::new(&bin)
+        .arg("experiment")
+        .arg(&file)
+        .args(["--preset", "quick", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&exp)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The rebuild: a new file at the program's path (the running image stays as it was).
+    std::fs::remove_file(&bin).unwrap();
+    std::fs::write(&bin, "#!/bin/sh\necho 'the rebuilt program ran' >&2\nexit 3\n").unwrap();
+    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    assert!(stdout(&o).contains("done   tacos-calibrated"), "{}", stdout(&o));
+    let log = std::fs::read_to_string(exp.join("cells/tacos-calibrated/cell.log")).unwrap();
+    assert!(!log.contains("the rebuilt program ran"), "{log}");
+    assert!(exp.join("cells/tacos-calibrated/results.json").is_file());
+}

@@ -209,7 +209,7 @@ fn complete_reports(dir: &Path, exp: &Experiment) -> Result<()> {
 /// Runs the cells as child processes `joca cell DIR`, at most `jobs` at once; a cell's output
 /// goes to its `cell.log`.
 fn run_local(dir: &Path, todo: &[&Cell], jobs: usize) -> Result<()> {
-    let exe = std::env::current_exe().context("cannot find the joca executable")?;
+    let exe = super::own_executable()?;
     let started = Instant::now();
     let mut queue = todo.iter();
     let mut running: Vec<(String, Child, Instant)> = Vec::new();

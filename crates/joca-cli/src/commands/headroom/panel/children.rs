@@ -23,7 +23,7 @@ pub(super) fn run_children(
     todo: &[&Measurement],
     jobs: usize,
 ) -> Result<()> {
-    let exe = std::env::current_exe().context("cannot find the joca executable")?;
+    let exe = crate::commands::own_executable()?;
     let started = Instant::now();
     let mut queue: Vec<&Measurement> = todo.to_vec();
     // (name, child, start, the trained run it holds).
