@@ -14,8 +14,9 @@ use std::collections::BTreeMap;
 /// world's light (`cast_shadows`, `sun_elevation`); a record in the default world is written as
 /// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]);
 /// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`); version 4 the
-/// GPU (`device`); version 5 tunnels as places (`tunnels`).
-pub const HEADROOM_FORMAT_VERSION: u32 = 5;
+/// GPU (`device`); version 5 tunnels as places (`tunnels`); version 6 daylight that follows the
+/// sun's elevation (`sun_elevation.daylight`).
+pub const HEADROOM_FORMAT_VERSION: u32 = 6;
 
 /// What one design and detector leave to a controller (`headroom.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -102,11 +103,14 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
-    /// The lowest layout version that holds this record: 5 with tunnels as places, 4 with a GPU,
+    /// The lowest layout version that holds this record: 6 with a clear sky's daylight, 5 with
+    /// tunnels as places, 4 with a GPU,
     /// 3 with veiling glare or the sun's disc, 2 where the world's light is not the default one,
     /// else 1.
     pub fn layout_version(&self) -> u32 {
-        if !self.tunnels.is_default() {
+        if !self.sun_elevation.daylight.is_constant() {
+            6
+        } else if !self.tunnels.is_default() {
             5
         } else if self.device.is_some() {
             4

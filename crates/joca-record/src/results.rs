@@ -19,8 +19,9 @@ use serde::{Deserialize, Serialize};
 /// the controller-set aperture (`aperture`, `f_number_by_illumination`); version 4 cast shadows
 /// (`cast_shadows`) and the sun's elevation range (`sun_elevation`), which an older reader would
 /// otherwise drop in silence; version 5 the lens's veiling glare (`glare`) and the sun's disc
-/// (`sun_disc`); version 6 the GPU (`device`); version 7 tunnels as places (`tunnels`).
-pub const RESULTS_FORMAT_VERSION: u32 = 7;
+/// (`sun_disc`); version 6 the GPU (`device`); version 7 tunnels as places (`tunnels`); version 8
+/// daylight that follows the sun's elevation (`sun_elevation.daylight`).
+pub const RESULTS_FORMAT_VERSION: u32 = 8;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -175,11 +176,14 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 7 with tunnels as places, 6 with a GPU,
-    /// 5 with veiling glare or the sun's disc,
+    /// The lowest layout version that holds this record: 8 with a clear sky's daylight, 7 with
+    /// tunnels as places, 6 with a GPU, 5 with veiling glare or the sun's disc,
     /// 4 with cast shadows or another sun, 3 where the controller set the aperture, 2 where it
     /// uses a field of version 2 (a thin lens, weather, a design's f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if !self.sun_elevation.daylight.is_constant() {
+            return 8;
+        }
         if !self.tunnels.is_default() {
             return 7;
         }

@@ -279,11 +279,11 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         assert_eq!(RunData::load(dir.path()).unwrap().results.format_version, 0);
         // A newer layout: refused, naming the file and both versions.
-        value["format_version"] = 8.into();
+        value["format_version"] = 9.into();
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
-        assert!(e.contains("results.json") && e.contains("format_version 8 is newer"), "{e}");
-        assert!(e.contains("0 to 7"), "{e}");
+        assert!(e.contains("results.json") && e.contains("format_version 9 is newer"), "{e}");
+        assert!(e.contains("0 to 8"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
@@ -352,5 +352,14 @@ mod tests {
             note.contains(", tunnels as places (4 covered blocks a town, lamps at 0.01"),
             "{note}"
         );
+        // Layout 8 (a clear sky's daylight) is read and named.
+        value["format_version"] = 8.into();
+        value["sun_elevation"] =
+            serde_json::json!({ "min_deg": 5.0, "max_deg": 20.0, "daylight": "clear-sky" });
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.layout_version()), (8, 8));
+        let note = r.conditions_note();
+        assert!(note.contains("the sun at 5–20° elevation (clear-sky daylight)"), "{note}");
     }
 }
