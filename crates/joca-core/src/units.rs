@@ -10,6 +10,9 @@ pub fn linear_from_db(gain_db: f64) -> f64 {
     10f64.powf(gain_db / 20.0)
 }
 
+/// Decibels of gain that double pixel values (one stop): `20·log10 2`.
+pub const DB_PER_STOP: f64 = 6.020_599_913_279_624;
+
 /// Gain in decibels of a linear amplitude factor: `20·log10(linear)`.
 ///
 /// Returns negative infinity for 0 and NaN for negative input, as `log10` does; callers clamp.

@@ -144,9 +144,6 @@ pub fn histograms(frame: &Rgb8Image) -> Vec<f32> {
     out
 }
 
-/// Decibels of gain in one stop (a factor of 2).
-const DB_PER_STOP: f64 = 6.020_599_913_279_624;
-
 /// `x` clamped to `[lo, hi]` in value, with the gradient of `x` itself.
 fn held(x: Tensor, lo: f64, hi: f64) -> Tensor {
     let clamped = x.clamp(lo, hi).detach();
@@ -300,7 +297,7 @@ impl NeuralAe {
                 let (log_e, g_db) =
                     (a + f64::from(previous[0]) * (b - a), c + f64::from(previous[1]) * (d - c));
                 let log_e = held(step.select(1, 0) * std::f64::consts::LN_2 + log_e, a, b);
-                let g_db = held(step.select(1, 1) * DB_PER_STOP + g_db, c, d);
+                let g_db = held(step.select(1, 1) * joca_core::units::DB_PER_STOP + g_db, c, d);
                 AccOutput { exposure_s: log_e.exp(), gain_db: g_db, iris }
             }
         }

@@ -15,6 +15,7 @@ use super::{Context, Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
 use joca_camera::{AccRanges, ApertureControl, CameraError, DynamicSettings, ImageFormation};
+use joca_core::units::DB_PER_STOP;
 use joca_core::{Frame, Rgb8Image, SeedStreams, TRAINING_MIN_BOX_PX, training_targets};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
@@ -125,11 +126,12 @@ fn perturb(
     p: [f64; 2],
 ) -> DynamicSettings {
     let e = &ranges.exposure_s;
-    let gain_share = predicted.gain_db + p[1] * ranges.gain_db.span();
+    // The gain by a share of its range (dB are already relative) in both of the paper's forms.
+    let share_of_gain = || predicted.gain_db + p[1] * ranges.gain_db.span();
     let (exposure_s, gain_db) = match steps {
-        PerturbationSteps::Linear => (predicted.exposure_s + p[0] * e.span(), gain_share),
+        PerturbationSteps::Linear => (predicted.exposure_s + p[0] * e.span(), share_of_gain()),
         PerturbationSteps::Relative => {
-            (predicted.exposure_s * (e.max / e.min).powf(p[0]), gain_share)
+            (predicted.exposure_s * (e.max / e.min).powf(p[0]), share_of_gain())
         }
         PerturbationSteps::Stops(s) => {
             let [se, sg] = p.map(|x| s * x / PERTURBATION_HALF_RANGE);
@@ -138,9 +140,6 @@ fn perturb(
     };
     ranges.clamp(DynamicSettings::new(exposure_s, gain_db))
 }
-
-/// A factor of 2 in linear gain, dB.
-const DB_PER_STOP: f64 = 6.020_599_913_279_624;
 
 /// Each perturbed frame's score, higher better: its AP50, or its negated task loss.
 fn raw_scores(
