@@ -269,10 +269,15 @@ fn remove_own(dir: &Path, kind: OutputKind) -> Result<()> {
 
 /// The PNG files of a directory, sorted by name.
 pub fn png_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    files_with_extension(dir, "png")
+}
+
+/// The files of a directory whose extension is `ext` (any case), sorted by name.
+pub fn files_with_extension(dir: &Path, ext: &str) -> Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("cannot list directory {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext)))
         .collect();
     files.sort();
     Ok(files)

@@ -244,13 +244,8 @@ fn cells_named_first_run_first_in_the_order_named_and_the_rest_keep_theirs() {
 #[test]
 fn every_experiment_file_in_the_repository_resolves() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
-    let mut seen = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_none_or(|e| e != "toml") {
-            continue;
-        }
-        seen += 1;
+    let files = crate::io::files_with_extension(&dir, "toml").unwrap();
+    for path in &files {
         for (preset, _) in config::PRESETS {
             let result = resolve(path.to_str().unwrap(), preset, None, 1);
             if path.file_stem().is_some_and(|s| s == "real") {
@@ -261,5 +256,5 @@ fn every_experiment_file_in_the_repository_resolves() {
             assert!(!exp.cells.is_empty(), "{}", path.display());
         }
     }
-    assert!(seen > EXPERIMENTS.len(), "only {seen} files in {}", dir.display());
+    assert!(files.len() > EXPERIMENTS.len(), "only {} files in {}", files.len(), dir.display());
 }

@@ -8,15 +8,10 @@ use super::*;
 #[test]
 fn every_headroom_panel_in_the_repository_is_valid() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/headroom");
-    let mut seen = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_none_or(|e| e != "toml") {
-            continue;
-        }
-        seen += 1;
+    let files = crate::io::files_with_extension(&dir, "toml").unwrap();
+    for path in &files {
         let source = path.display().to_string();
-        let text = std::fs::read_to_string(&path).unwrap();
+        let text = std::fs::read_to_string(path).unwrap();
         let panel: HeadroomPanel =
             toml::from_str(&text).unwrap_or_else(|e| panic!("{source}: {e}"));
         check(&panel, &source).unwrap_or_else(|e| panic!("{e:#}"));
@@ -27,5 +22,5 @@ fn every_headroom_panel_in_the_repository_is_valid() {
         }
         assert!(panel.panel.is_some() || !panel.trained.is_empty(), "{source}: nothing to measure");
     }
-    assert!(seen >= 6, "only {seen} panels in {}", dir.display());
+    assert!(files.len() >= 6, "only {} panels in {}", files.len(), dir.display());
 }
