@@ -361,6 +361,15 @@ fn print_header(
             m.time_s
         );
     }
+    if !args.daylight.is_constant() {
+        let [beam, sky] = args.daylight.levels(sun[2].clamp(-1.0, 1.0).asin());
+        println!(
+            "{} daylight: the sun's beam {beam:.3} and the sky's light {sky:.3} of their levels \
+             at {}°",
+            args.daylight,
+            joca_core::sun::REFERENCE_ELEVATION_DEG
+        );
+    }
     if args.glare > 0.0 {
         println!(
             "veiling glare: {} % of the light spread, scale {}°",
