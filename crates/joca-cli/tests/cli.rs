@@ -270,6 +270,8 @@ fn render_refuses_bad_names_and_impossible_mounts() {
         (&["--rain-mm-h=-1"][..], "--rain-mm-h = -1: allowed 0.1 to 200 mm/h"),
         (&["--glare", "1"][..], "--glare 1 is invalid: allowed 0 (none) to below 1"),
         (&["--glare", "0.02", "--glare-scale-deg", "40"][..], "--glare-scale-deg 40 is invalid"),
+        (&["--tunnel-drives", "entering"][..], "--tunnel-drives entering is invalid: allowed both"),
+        (&["--tunnels", "places", "--tunnel-drives", "out"][..], "both, entering, leaving"),
     ] {
         let mut args = vec!["render", "--frames", "1", "--out", o_str];
         args.extend_from_slice(flags);

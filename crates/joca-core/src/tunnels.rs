@@ -17,6 +17,34 @@ crate::named_enum! {
     }
 }
 
+crate::named_enum! {
+    /// Which way a `tunnel` episode drives through its tunnel (places only).
+    pub enum TunnelDrives("tunnel drives") {
+        /// Entering or leaving, one chance in two.
+        Both = "both",
+        /// Every drive enters: the dark mouth ahead in daylight.
+        Entering = "entering",
+        /// Every drive leaves: the bright exit seen from inside.
+        Leaving = "leaving",
+    }
+}
+
+impl TunnelDrives {
+    /// Whether drives enter or leave at random (the default).
+    pub fn is_both(&self) -> bool {
+        *self == Self::Both
+    }
+
+    /// Whether a drive enters, given the draw `entering` made for it.
+    pub fn entering(self, drawn: bool) -> bool {
+        match self {
+            Self::Both => drawn,
+            Self::Entering => true,
+            Self::Leaving => false,
+        }
+    }
+}
+
 /// The town's tunnels (`tunnels = { kind = "places", count = 6, lamp_level = 0.01 }`).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -31,6 +59,9 @@ pub struct Tunnels {
     /// on a horizontal surface; daylight on the ground is 1.1–1.2 of it at the default sun).
     #[serde(default = "default_lamp_level")]
     pub lamp_level: f32,
+    /// Which way the `tunnel` light's episodes drive through (absent: both ways).
+    #[serde(default = "default_drives", skip_serializing_if = "TunnelDrives::is_both")]
+    pub drives: TunnelDrives,
 }
 
 fn default_kind() -> TunnelKind {
@@ -45,12 +76,17 @@ fn default_lamp_level() -> f32 {
     Tunnels::DEFAULT_LAMP_LEVEL
 }
 
+fn default_drives() -> TunnelDrives {
+    TunnelDrives::Both
+}
+
 impl Default for Tunnels {
     fn default() -> Self {
         Self {
             kind: TunnelKind::Switch,
             count: Self::DEFAULT_COUNT,
             lamp_level: Self::DEFAULT_LAMP_LEVEL,
+            drives: TunnelDrives::Both,
         }
     }
 }
@@ -84,9 +120,12 @@ impl Tunnels {
         self.kind == TunnelKind::Places
     }
 
-    /// Refuses a count outside 1 to [`Tunnels::MAX_COUNT`] or a lamp level outside
-    /// (0, 0.1], naming the field and what is allowed.
+    /// Refuses a count outside 1 to [`Tunnels::MAX_COUNT`], a lamp level outside (0, 0.1] or
+    /// one direction of drives with the switch, naming the field and what is allowed.
     pub fn check(&self) -> Result<(), (&'static str, String)> {
+        if !self.drives.is_both() && !self.are_places() {
+            return Err(("drives", "both with the switch (a direction needs places)".into()));
+        }
         if !(1..=Self::MAX_COUNT).contains(&self.count) {
             return Err(("count", format!("1 to {} covered blocks", Self::MAX_COUNT)));
         }
@@ -120,5 +159,23 @@ mod tests {
         assert_eq!(bad(Tunnels { lamp_level: 0.0, ..Tunnels::places() }), "lamp_level");
         assert_eq!(bad(Tunnels { lamp_level: 0.2, ..Tunnels::places() }), "lamp_level");
         assert_eq!(bad(Tunnels { lamp_level: f32::NAN, ..Tunnels::places() }), "lamp_level");
+        let entering = TunnelDrives::Entering;
+        assert_eq!(bad(Tunnels { drives: entering, ..Tunnels::default() }), "drives");
+        assert!(Tunnels { drives: entering, ..Tunnels::places() }.check().is_ok());
+    }
+
+    #[test]
+    fn a_direction_reads_and_is_written_only_where_it_is_not_both() {
+        let t: Tunnels =
+            serde_json::from_str(r#"{"kind": "places", "drives": "leaving"}"#).unwrap();
+        assert_eq!(t.drives, TunnelDrives::Leaving);
+        assert!(serde_json::to_string(&t).unwrap().contains(r#""drives":"leaving""#));
+        assert!(!serde_json::to_string(&Tunnels::places()).unwrap().contains("drives"));
+        let e = serde_json::from_str::<Tunnels>(r#"{"kind": "places", "drives": "out"}"#);
+        assert!(e.unwrap_err().to_string().contains("`both`, `entering`, `leaving`"));
+        let drawn = [true, false];
+        assert_eq!(drawn.map(|d| TunnelDrives::Both.entering(d)), [true, false]);
+        assert_eq!(drawn.map(|d| TunnelDrives::Entering.entering(d)), [true, true]);
+        assert_eq!(drawn.map(|d| TunnelDrives::Leaving.entering(d)), [false, false]);
     }
 }

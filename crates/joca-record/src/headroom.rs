@@ -15,8 +15,9 @@ use std::collections::BTreeMap;
 /// version 1, which an older reader reads correctly ([`HeadroomRecord::layout_version`]);
 /// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`); version 4 the
 /// GPU (`device`); version 5 tunnels as places (`tunnels`); version 6 daylight that follows the
-/// sun's elevation (`sun_elevation.daylight`).
-pub const HEADROOM_FORMAT_VERSION: u32 = 6;
+/// sun's elevation (`sun_elevation.daylight`); version 7 tunnel drives in one direction
+/// (`tunnels.drives`).
+pub const HEADROOM_FORMAT_VERSION: u32 = 7;
 
 /// What one design and detector leave to a controller (`headroom.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -103,12 +104,15 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
-    /// The lowest layout version that holds this record: 6 with a clear sky's daylight, 5 with
+    /// The lowest layout version that holds this record: 7 with tunnel drives in one direction,
+    /// 6 with a clear sky's daylight, 5 with
     /// tunnels as places, 4 with a GPU,
     /// 3 with veiling glare or the sun's disc, 2 where the world's light is not the default one,
     /// else 1.
     pub fn layout_version(&self) -> u32 {
-        if !self.sun_elevation.daylight.is_constant() {
+        if !self.tunnels.drives.is_both() {
+            7
+        } else if !self.sun_elevation.daylight.is_constant() {
             6
         } else if !self.tunnels.is_default() {
             5
@@ -141,10 +145,9 @@ impl HeadroomRecord {
             parts.push("sun's disc".to_owned());
         }
         if self.tunnels.are_places() {
-            parts.push(format!(
-                "{} tunnels (lamps {})",
-                self.tunnels.count, self.tunnels.lamp_level
-            ));
+            let t = self.tunnels;
+            let drives = if t.drives.is_both() { String::new() } else { format!(", {}", t.drives) };
+            parts.push(format!("{} tunnels (lamps {}{drives})", t.count, t.lamp_level));
         }
         if !self.glare.is_off() {
             let g = self.glare;

@@ -20,8 +20,9 @@ use serde::{Deserialize, Serialize};
 /// (`cast_shadows`) and the sun's elevation range (`sun_elevation`), which an older reader would
 /// otherwise drop in silence; version 5 the lens's veiling glare (`glare`) and the sun's disc
 /// (`sun_disc`); version 6 the GPU (`device`); version 7 tunnels as places (`tunnels`); version 8
-/// daylight that follows the sun's elevation (`sun_elevation.daylight`).
-pub const RESULTS_FORMAT_VERSION: u32 = 8;
+/// daylight that follows the sun's elevation (`sun_elevation.daylight`); version 9 tunnel drives in
+/// one direction (`tunnels.drives`).
+pub const RESULTS_FORMAT_VERSION: u32 = 9;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -176,11 +177,15 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 8 with a clear sky's daylight, 7 with
+    /// The lowest layout version that holds this record: 9 with tunnel drives in one direction,
+    /// 8 with a clear sky's daylight, 7 with
     /// tunnels as places, 6 with a GPU, 5 with veiling glare or the sun's disc,
     /// 4 with cast shadows or another sun, 3 where the controller set the aperture, 2 where it
     /// uses a field of version 2 (a thin lens, weather, a design's f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if !self.tunnels.drives.is_both() {
+            return 9;
+        }
         if !self.sun_elevation.daylight.is_constant() {
             return 8;
         }
@@ -258,8 +263,10 @@ impl RunResults {
         if self.tunnels.are_places() {
             let t = self.tunnels;
             note.push_str(&format!(
-                ", tunnels as places ({} covered blocks a town, lamps at {} of daylight)",
-                t.count, t.lamp_level
+                ", tunnels as places ({} covered blocks a town, lamps at {} of daylight{})",
+                t.count,
+                t.lamp_level,
+                if t.drives.is_both() { String::new() } else { format!(", drives {}", t.drives) }
             ));
         }
         if !self.glare.is_off() {

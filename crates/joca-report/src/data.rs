@@ -279,11 +279,11 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         assert_eq!(RunData::load(dir.path()).unwrap().results.format_version, 0);
         // A newer layout: refused, naming the file and both versions.
-        value["format_version"] = 9.into();
+        value["format_version"] = 10.into();
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
-        assert!(e.contains("results.json") && e.contains("format_version 9 is newer"), "{e}");
-        assert!(e.contains("0 to 8"), "{e}");
+        assert!(e.contains("results.json") && e.contains("format_version 10 is newer"), "{e}");
+        assert!(e.contains("0 to 9"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
@@ -361,5 +361,13 @@ mod tests {
         assert_eq!((r.format_version, r.layout_version()), (8, 8));
         let note = r.conditions_note();
         assert!(note.contains("the sun at 5–20° elevation (clear-sky daylight)"), "{note}");
+        // Layout 9 (tunnel drives in one direction) is read and named.
+        value["format_version"] = 9.into();
+        value["tunnels"] = serde_json::json!({ "kind": "places", "drives": "leaving" });
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.layout_version()), (9, 9));
+        let note = r.conditions_note();
+        assert!(note.contains("lamps at 0.01 of daylight, drives leaving)"), "{note}");
     }
 }

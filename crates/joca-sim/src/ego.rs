@@ -68,14 +68,16 @@ impl EgoTrajectory {
     }
 
     /// A trajectory through one of `city`'s tunnels (drawn), passing a mouth between
-    /// [`MOUTH_AT_S`] s: entering or leaving it (one chance in two), in either direction; the
-    /// route starts on the tunnel's road, in its lane, and goes on at random after the tunnel's
-    /// block. Returns the trajectory, when it passes the mouth and whether it enters there;
-    /// `None` if the city has no tunnels.
+    /// [`MOUTH_AT_S`] s: entering or leaving it as `drives` says (with `both`, one chance in
+    /// two), in either direction; the route starts on the tunnel's road, in its lane, and goes
+    /// on at random after the tunnel's block. Returns the trajectory, when it passes the mouth
+    /// and whether it enters there; `None` if the city has no tunnels. The draws are the same
+    /// for every `drives`, so a fixed direction changes only the drives that went the other way.
     pub fn through_tunnel(
         city: &City,
         duration_s: f64,
         v_max_mps: f64,
+        drives: joca_core::tunnels::TunnelDrives,
         rng: &mut impl Rng,
     ) -> Option<(Self, f64, bool)> {
         let tunnels = city.tunnels();
@@ -85,7 +87,7 @@ impl EgoTrajectory {
         let distance = speed_profile(duration_s, v_max_mps, rng);
         let t = tunnels[rng.random_range(0..tunnels.len())];
         let forward = rng.random::<bool>();
-        let entering = rng.random::<bool>();
+        let entering = drives.entering(rng.random::<bool>());
         let crossing_s = rng.random_range(MOUTH_AT_S.0..MOUTH_AT_S.1);
         let to_mouth = distance_in(&distance, crossing_s) as f32;
         let mouth = if forward == entering { t.from_m } else { t.to_m };

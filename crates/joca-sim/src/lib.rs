@@ -41,7 +41,7 @@ mod sim;
 pub use city::{City, CityConfig};
 pub use ego::EgoTrajectory;
 pub use joca_core::glare::Glare;
-pub use joca_core::tunnels::{TunnelKind, Tunnels};
+pub use joca_core::tunnels::{TunnelDrives, TunnelKind, Tunnels};
 pub use joca_core::weather::Weather;
 pub use lighting::{Illumination, SunElevation, TUNNEL_PHASE_S};
 pub use sim::{

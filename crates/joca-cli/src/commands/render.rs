@@ -129,6 +129,10 @@ pub struct Args {
     /// The tunnel lamps' level on the road, relative to daylight (above 0 to 0.1).
     #[arg(long, default_value_t = joca_sim::Tunnels::DEFAULT_LAMP_LEVEL)]
     tunnel_lamp_level: f32,
+    /// Which way a `tunnel` drive passes its tunnel: `both` (entering or leaving at random),
+    /// `entering` or `leaving` (with `--tunnels places`).
+    #[arg(long, default_value = "both", value_parser = joca_sim::TunnelDrives::from_name)]
+    tunnel_drives: joca_sim::TunnelDrives,
     /// Seed of the noise.
     #[arg(long, default_value_t = 0)]
     seed: u64,

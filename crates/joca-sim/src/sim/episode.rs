@@ -53,8 +53,11 @@ impl Simulator {
                 ];
                 let (duration, v_max) = (self.config.episode_s + 1.0, self.config.max_speed_mps);
                 let through = illumination == Illumination::Tunnel && self.tunnels_are_places();
+                let drives = self.config.city.tunnels.drives;
                 let drive = through
-                    .then(|| EgoTrajectory::through_tunnel(&self.city, duration, v_max, &mut rng))
+                    .then(|| {
+                        EgoTrajectory::through_tunnel(&self.city, duration, v_max, drives, &mut rng)
+                    })
                     .flatten();
                 let (ego, mouth) = match drive {
                     Some((ego, time_s, entering)) => (ego, Some(Mouth { time_s, entering })),

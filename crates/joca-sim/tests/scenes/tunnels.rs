@@ -4,8 +4,8 @@
 //! the frames repeat.
 
 use super::*;
-use joca_sim::Tunnels;
 use joca_sim::city::{CLEARANCE_M, Tunnel};
+use joca_sim::{TunnelDrives, Tunnels};
 
 const LAMPS: f32 = 0.02;
 
@@ -115,6 +115,42 @@ fn the_street_outside_keeps_its_daylight() {
     let pixel = frame.hdr.data()[(y as usize * 320 + 160) * 3 + 1];
     let expected = RADIANCE_SCALE_DN * rho * outside();
     assert!((pixel / expected - 1.0).abs() < 0.02, "{pixel} against {expected}");
+}
+
+/// A simulator of tunnel episodes through tunnels as places, driven as `drives` says.
+fn tunnel_drives(drives: TunnelDrives) -> Simulator {
+    Simulator::new(SimConfig {
+        illumination: Some(Illumination::Tunnel),
+        city: CityConfig { tunnels: Tunnels { drives, ..places() }, ..CityConfig::default() },
+        ..SimConfig::default()
+    })
+}
+
+#[test]
+fn a_direction_of_drives_turns_only_the_drives_that_went_the_other_way() {
+    let both = tunnel_drives(TunnelDrives::Both);
+    for (drives, entering) in [(TunnelDrives::Entering, true), (TunnelDrives::Leaving, false)] {
+        let sim = tunnel_drives(drives);
+        for e in 0..12 {
+            let (mouth, free) = (sim.episode(e).mouth.unwrap(), both.episode(e).mouth.unwrap());
+            assert_eq!(mouth.entering, entering, "{drives} episode {e}");
+            // The same draws: the same instant at the mouth; the same route where the drawn
+            // direction was already this one.
+            assert_eq!(mouth.time_s, free.time_s, "{drives} episode {e}");
+            if free.entering == entering {
+                let (a, b) = (sim.episode(e).ego.pose_at(3.0), both.episode(e).ego.pose_at(3.0));
+                assert_eq!((a.x, a.y), (b.x, b.y), "{drives} episode {e}");
+            }
+            // Half a metre past the mouth's plane the camera is inside when it enters.
+            let episode = sim.episode(e);
+            let speed = episode.ego.speed_at(mouth.time_s);
+            if speed > 1.0 {
+                let p = episode.ego.pose_at(mouth.time_s + 0.5 / speed);
+                let inside = sim.city().tunnel_at(V3::new(p.x, p.y, 1.0)).is_some();
+                assert_eq!(inside, entering, "{drives} episode {e}");
+            }
+        }
+    }
 }
 
 #[test]

@@ -160,14 +160,19 @@ fn bad_glare_is_refused_naming_the_field_and_the_range() {
     }
 }
 
-/// Tunnels as places: a count outside 1–16, a lamp level outside (0, 0.1], or places on a
-/// recording is refused naming the field and the range; an unknown kind is refused by the
-/// reader, naming the kinds.
+/// Tunnels as places: a count outside 1–16, a lamp level outside (0, 0.1], one direction of
+/// drives with the switch, or places on a recording is refused naming the field and the range;
+/// an unknown kind or direction is refused by the reader, naming the allowed ones.
 #[test]
 fn bad_tunnels_are_refused_naming_the_field_and_the_range() {
-    use joca_sim::Tunnels;
+    use joca_sim::{TunnelDrives, Tunnels};
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 4] = [
+    let cases: [(Edit, &str); 5] = [
+        (
+            |c| c.tunnels = Tunnels { drives: TunnelDrives::Entering, ..Tunnels::default() },
+            "run.tunnels.drives = entering is invalid: both with the switch (a direction needs \
+             places)",
+        ),
         (
             |c| c.tunnels = Tunnels { count: 0, ..Tunnels::places() },
             "run.tunnels.count = 0 is invalid: 1 to 16 covered blocks",
@@ -195,4 +200,7 @@ fn bad_tunnels_are_refused_naming_the_field_and_the_range() {
     }
     let unknown = toml::from_str::<Tunnels>("kind = \"roofs\"").unwrap_err().to_string();
     assert!(unknown.contains("switch") && unknown.contains("places"), "{unknown}");
+    let unknown = toml::from_str::<Tunnels>("kind = \"places\"\ndrives = \"out\"").unwrap_err();
+    let unknown = unknown.to_string();
+    assert!(unknown.contains("entering") && unknown.contains("leaving"), "{unknown}");
 }

@@ -27,11 +27,13 @@ pub(super) fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
         kind: args.tunnels,
         count: args.tunnel_count,
         lamp_level: args.tunnel_lamp_level,
+        drives: args.tunnel_drives,
     };
-    if tunnels.are_places() {
+    if tunnels.are_places() || !tunnels.drives.is_both() {
         tunnels.check().map_err(|(field, allowed)| {
             let (flag, value) = match field {
                 "count" => ("tunnel-count", args.tunnel_count.to_string()),
+                "drives" => ("tunnel-drives", args.tunnel_drives.to_string()),
                 _ => ("tunnel-lamp-level", args.tunnel_lamp_level.to_string()),
             };
             anyhow::anyhow!("--{flag} {value} is invalid: allowed {allowed}")

@@ -43,6 +43,7 @@ impl RunConfig {
         if let Err((field, allowed)) = self.tunnels.check() {
             let value = match field {
                 "count" => self.tunnels.count.to_string(),
+                "drives" => self.tunnels.drives.to_string(),
                 _ => self.tunnels.lamp_level.to_string(),
             };
             return bad(&format!("tunnels.{field}"), value, &allowed);
