@@ -84,6 +84,25 @@ impl Showcase {
             .fold(f64::INFINITY, f64::min);
         Some(LightStep { time_s: start, rise, fall: before / least, window_s })
     }
+
+    /// How far exposure × linear gain moved from each frame to the next, in stops (|log2| of
+    /// their ratio), over the frames whose ambient light has not changed for at least `settle_s`
+    /// (since the sequence began or its light last changed): a controller that holds the image
+    /// level in steady light moves little, one that zig-zags moves every frame.
+    pub fn steady_steps_stops(&self, settle_s: f64) -> Vec<f64> {
+        let mut since = self.frames.first().map_or(0.0, |f| f.time_s);
+        let mut out = Vec::new();
+        for pair in self.frames.windows(2) {
+            let (a, b) = (&pair[0], &pair[1]);
+            let (la, lb) = (f64::from(a.ambient), f64::from(b.ambient));
+            if (lb - la).abs() > 1e-3 * la.abs().max(lb.abs()) {
+                since = b.time_s;
+            } else if a.time_s - since >= settle_s - 1e-9 {
+                out.push((b.exposure_gain_ms() / a.exposure_gain_ms()).log2().abs());
+            }
+        }
+        out
+    }
 }
 
 #[cfg(test)]
@@ -122,5 +141,32 @@ mod tests {
         assert!((step.fall - 50.0).abs() < 1e-9, "{step:?}");
         assert!((s.light_step(10.0, 0.05).unwrap().fall - 1.0).abs() < 1e-12);
         assert!(s.light_step(1000.0, 1.0).is_none());
+    }
+
+    /// In steady light a controller alternating ±1 stop moves 1 stop a frame; frames within
+    /// the settling time of the sequence's start or of a change of light are left out.
+    #[test]
+    fn steady_light_steps_count_only_settled_frames() {
+        // 0.0–0.9 s dark, alternating 40 / 20 ms (1 stop); from 1.0 s bright at a level 2 ms.
+        let mut frames: Vec<ShowcaseFrame> =
+            (0..10).map(|k| frame(k, 0.002, if k % 2 == 0 { 40.0 } else { 20.0 }, 0.0)).collect();
+        frames.extend((10..20).map(|k| frame(k, 1.0, 2.0, 0.0)));
+        let s = Showcase {
+            name: "tunnel".into(),
+            illumination: Light::Tunnel,
+            size_px: (8, 6),
+            frames,
+        };
+        // Settled after 0.5 s: pairs (5,6) … (8,9) in the dark, 1 stop each; the bright stretch
+        // from 1.0 s settles at 1.5 s: pairs (15,16) … (18,19), 0 stops.
+        let steps = s.steady_steps_stops(0.5);
+        assert_eq!(steps.len(), 8, "{steps:?}");
+        assert!(steps[..4].iter().all(|d| (d - 1.0).abs() < 1e-12), "{steps:?}");
+        assert!(steps[4..].iter().all(|d| *d == 0.0), "{steps:?}");
+        // 6 dB of gain is one stop of light too.
+        let gain: Vec<ShowcaseFrame> =
+            (0..4).map(|k| frame(k, 1.0, 10.0, if k % 2 == 0 { 0.0 } else { 6.0206 })).collect();
+        let g = Showcase { frames: gain, ..s };
+        assert!(g.steady_steps_stops(0.0).iter().all(|d| (d - 1.0).abs() < 1e-4));
     }
 }

@@ -69,9 +69,19 @@ pub fn settings_markdown(r: &RunResults) -> String {
     md
 }
 
+/// Light held this long counts as steady in [`steady_steps`], seconds.
+pub const SETTLE_S: f64 = 0.5;
+
+/// Every showcase's frame-to-frame moves of exposure × gain in steady light, stops
+/// ([`Showcase::steady_steps_stops`] after [`SETTLE_S`]).
+pub fn steady_steps(showcases: &[Showcase]) -> Vec<f64> {
+    showcases.iter().flat_map(|s| s.steady_steps_stops(SETTLE_S)).collect()
+}
+
 /// The controller's answer to the tunnel exit (the largest step of ambient light in the
 /// showcases, if one is ≥ 10×): how far exposure × gain fell within 1 s. A controller that keeps
-/// the image level takes back about as much as the light rose, or until its range ends.
+/// the image level takes back about as much as the light rose, or until its range ends. Then how
+/// much it moved from frame to frame where the light held still (a zig-zag shows here).
 pub fn light_step_markdown(showcases: &[Showcase]) -> String {
     let steps = showcases.iter().filter_map(|s| Some((s, s.light_step(10.0, 1.0)?)));
     let mut md = String::new();
@@ -81,6 +91,18 @@ pub fn light_step_markdown(showcases: &[Showcase]) -> String {
             "After the light step of the `{}` sequence (ambient ×{:.0} at {:.1} s), exposure × \
                 gain fell {:.1}× within {} s.\n",
             s.name, step.rise, step.time_s, step.fall, step.window_s
+        );
+    }
+    let steady = steady_steps(showcases);
+    if !steady.is_empty() {
+        let mean = steady.iter().sum::<f64>() / steady.len() as f64;
+        let _ = writeln!(
+            md,
+            "Where the light held still (from {SETTLE_S} s after it last changed; {} frame pairs \
+                of the showcases), exposure × gain moved {mean:.2} stops a frame on average \
+                (at most {:.2}).\n",
+            steady.len(),
+            steady.iter().copied().fold(0.0, f64::max)
         );
     }
     md

@@ -3,8 +3,8 @@
 //! `test-average-127.5/`), so the controller's effect is measured with the detector held fixed:
 //! per cell NeuralAE − AverageAE, averaged over a design's seeds, then a 95 % t interval over the
 //! designs (over the seeds outside a panel). Beside it what each controller did: the tunnel
-//! exit's fall of exposure × gain within 1 s, night's exposure × gain over day's, and day's frame
-//! level and clipped share.
+//! exit's fall of exposure × gain within 1 s, night's exposure × gain over day's, its moves in
+//! steady light, and day's frame level and clipped share.
 
 use crate::data::RunData;
 use crate::paired::LIGHTS;
@@ -63,6 +63,12 @@ fn night_over_day(r: &RunResults) -> Option<f64> {
 /// The tunnel exit's fall of exposure × gain within 1 s (the largest ≥ 10× light step).
 fn tunnel_fall(run: &RunData) -> Option<f64> {
     run.showcases.iter().find_map(|s| s.light_step(10.0, 1.0)).map(|s| s.fall)
+}
+
+/// The mean frame-to-frame move of exposure × gain in the showcases' steady light, stops.
+fn steady_moves(run: &RunData) -> Option<f64> {
+    let steps = crate::sections::steady_steps(&run.showcases);
+    (!steps.is_empty()).then(|| steps.iter().sum::<f64>() / steps.len() as f64)
 }
 
 /// Mean ± interval of `values` at `digits` ("–" for none).
@@ -133,6 +139,7 @@ pub fn behaviour_table(cells: &[SwapCell<'_>]) -> Vec<Vec<String>> {
             "controller",
             "tunnel exit: E × G fall in 1 s",
             "night / day E × G",
+            "steady light: E × G moves (stops a frame)",
             "day frame (DN)",
             "day clipped (%)",
             "night frame (DN)",
@@ -154,6 +161,7 @@ pub fn behaviour_table(cells: &[SwapCell<'_>]) -> Vec<Vec<String>> {
                 name.to_owned(),
                 text(&of(&tunnel_fall), 1),
                 text(&of(&|r| night_over_day(&r.results)), 1),
+                text(&of(&steady_moves), 2),
                 text(&of(&|r| light_of(&r.results, Light::Day, |l| l.mean_dn)), 0),
                 text(
                     &of(&|r| {
@@ -179,4 +187,6 @@ pub const SWAP_NOTE: &str = "Each NeuralAE cell re-tested with AverageAE (mid-gr
 pub const BEHAVIOUR_NOTE: &str = "What each controller did in the same test, mean ± 95 % t \
     interval over the cells: how far exposure × linear gain fell within 1 s of the tunnel exit \
     (ambient light × several hundred), night's exposure × gain over day's (the light differs \
-    ~1000×), day's mean frame level, share of day pixels clipped, and night's frame level.";
+    ~1000×), how far exposure × gain moved from frame to frame where the showcases' light held \
+    still (from 0.5 s after it last changed: a zig-zag shows here), day's mean frame level, share \
+    of day pixels clipped, and night's frame level.";
