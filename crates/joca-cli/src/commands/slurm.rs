@@ -33,17 +33,24 @@ fn quote(s: &str) -> String {
 /// command line ([`sbatch_args`]), never into `#SBATCH` lines, where a newline in a value would
 /// start a command the compute node runs.
 fn script(dir: &Path, exe: &Path, cells: &[&str]) -> String {
-    let mut s = String::from("#!/bin/bash\nset -euo pipefail\ncells=(");
-    for c in cells {
-        s.push_str(&quote(c));
-        s.push(' ');
-    }
-    s.push_str(")\n");
+    let mut s = String::from("#!/bin/bash\nset -euo pipefail\n");
+    s.push_str(&cells_array(cells));
     s.push_str(&format!(
         "exec {} cell {}/\"${{cells[$SLURM_ARRAY_TASK_ID]}}\"\n",
         quote(&exe.display().to_string()),
         quote(&dir.display().to_string())
     ));
+    s
+}
+
+/// The script's line (or lines: a cell may hold newlines) that sets the bash array `cells`.
+fn cells_array(cells: &[&str]) -> String {
+    let mut s = String::from("cells=(");
+    for c in cells {
+        s.push_str(&quote(c));
+        s.push(' ');
+    }
+    s.push_str(")\n");
     s
 }
 
@@ -234,19 +241,35 @@ mod tests {
         assert_eq!(through_bash(dir, exe, &hostile), hostile);
     }
 
-    /// The cells of `script(dir, exe, cells)` as bash reads them back (and the whole script
-    /// parsed by `bash -n`).
+    /// The cells of `script(dir, exe, cells)` as bash runs them: the whole script, once per
+    /// array task, with `exec` replaced by a function that prints its arguments (each checked:
+    /// the executable, `cell`, the folder), and the script parsed by `bash -n`.
     fn through_bash(dir: &Path, exe: &Path, cells: &[&str]) -> Vec<String> {
         let text = script(dir, exe, cells);
         // sbatch reads `#SBATCH` lines only before the first command: the script's second line.
         assert_eq!(text.lines().nth(1), Some("set -euo pipefail"), "{text}");
-        let cells_line =
-            text.split_inclusive(")\n").next().unwrap().split_once("cells=").unwrap().1;
-        let probe = format!("cells={cells_line}printf '%s\\0' \"${{cells[@]}}\"");
-        let out = Command::new("bash").arg("-c").arg(&probe).output().unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         assert!(Command::new("bash").arg("-n").arg("-c").arg(&text).status().unwrap().success());
-        String::from_utf8(out.stdout).unwrap().split_terminator('\0').map(str::to_owned).collect()
+        let probe = format!("exec() {{ printf '%s\\0' \"$@\"; }}\n{text}");
+        let (exe, folder) = (exe.display().to_string(), format!("{}/", dir.display()));
+        (0..cells.len())
+            .map(|task| {
+                let out = Command::new("bash")
+                    .arg("-c")
+                    .arg(&probe)
+                    .env("SLURM_ARRAY_TASK_ID", task.to_string())
+                    .output()
+                    .unwrap();
+                assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+                let args: Vec<String> = String::from_utf8(out.stdout)
+                    .unwrap()
+                    .split_terminator('\0')
+                    .map(str::to_owned)
+                    .collect();
+                assert_eq!(args.len(), 3, "{args:?}");
+                assert_eq!((args[0].as_str(), args[1].as_str()), (exe.as_str(), "cell"));
+                args[2].strip_prefix(&folder).expect("the folder, then the cell").to_owned()
+            })
+            .collect()
     }
 
     proptest::proptest! {
