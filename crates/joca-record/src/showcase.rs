@@ -121,6 +121,11 @@ mod tests {
         }
     }
 
+    /// A `tunnel` showcase of `frames`.
+    fn tunnel(frames: Vec<ShowcaseFrame>) -> Showcase {
+        Showcase { name: "tunnel".into(), illumination: Light::Tunnel, size_px: (8, 6), frames }
+    }
+
     /// A 500× step at frame 3; the controller keeps the old settings one frame, then drops to
     /// 10 ms and 0 dB (from 50 ms and 20 dB: 50× less), then creeps back up: the fall within
     /// 1 s is 50×, within 0.05 s (the step's own frame only) 1×.
@@ -130,12 +135,7 @@ mod tests {
         frames.push(frame(3, 1.0, 50.0, 20.0));
         frames.push(frame(4, 1.0, 10.0, 0.0));
         frames.extend((5..20).map(|k| frame(k, 1.0, 12.0, 0.0)));
-        let s = Showcase {
-            name: "tunnel".into(),
-            illumination: Light::Tunnel,
-            size_px: (8, 6),
-            frames,
-        };
+        let s = tunnel(frames);
         let step = s.light_step(10.0, 1.0).unwrap();
         assert!((step.rise - 500.0).abs() < 1e-3 && (step.time_s - 0.3).abs() < 1e-9);
         assert!((step.fall - 50.0).abs() < 1e-9, "{step:?}");
@@ -151,12 +151,7 @@ mod tests {
         let mut frames: Vec<ShowcaseFrame> =
             (0..10).map(|k| frame(k, 0.002, if k % 2 == 0 { 40.0 } else { 20.0 }, 0.0)).collect();
         frames.extend((10..20).map(|k| frame(k, 1.0, 2.0, 0.0)));
-        let s = Showcase {
-            name: "tunnel".into(),
-            illumination: Light::Tunnel,
-            size_px: (8, 6),
-            frames,
-        };
+        let s = tunnel(frames);
         // Settled after 0.5 s: pairs (5,6) … (8,9) in the dark, 1 stop each; the bright stretch
         // from 1.0 s settles at 1.5 s: pairs (15,16) … (18,19), 0 stops.
         let steps = s.steady_steps_stops(0.5);
@@ -166,7 +161,7 @@ mod tests {
         // 6 dB of gain is one stop of light too.
         let gain: Vec<ShowcaseFrame> =
             (0..4).map(|k| frame(k, 1.0, 10.0, if k % 2 == 0 { 0.0 } else { 6.0206 })).collect();
-        let g = Showcase { frames: gain, ..s };
+        let g = tunnel(gain);
         assert!(g.steady_steps_stops(0.0).iter().all(|d| (d - 1.0).abs() < 1e-4));
     }
 }

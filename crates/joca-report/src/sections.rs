@@ -78,6 +78,12 @@ pub fn steady_steps(showcases: &[Showcase]) -> Vec<f64> {
     showcases.iter().flat_map(|s| s.steady_steps_stops(SETTLE_S)).collect()
 }
 
+/// The mean of [`steady_steps`], stops a frame (`None` without steady frames).
+pub fn steady_mean(showcases: &[Showcase]) -> Option<f64> {
+    let steps = steady_steps(showcases);
+    (!steps.is_empty()).then(|| steps.iter().sum::<f64>() / steps.len() as f64)
+}
+
 /// The controller's answer to the tunnel exit (the largest step of ambient light in the
 /// showcases, if one is ≥ 10×): how far exposure × gain fell within 1 s. A controller that keeps
 /// the image level takes back about as much as the light rose, or until its range ends. Then how
@@ -93,9 +99,8 @@ pub fn light_step_markdown(showcases: &[Showcase]) -> String {
             s.name, step.rise, step.time_s, step.fall, step.window_s
         );
     }
-    let steady = steady_steps(showcases);
-    if !steady.is_empty() {
-        let mean = steady.iter().sum::<f64>() / steady.len() as f64;
+    if let Some(mean) = steady_mean(showcases) {
+        let steady = steady_steps(showcases);
         let _ = writeln!(
             md,
             "Where the light held still (from {SETTLE_S} s after it last changed; {} frame pairs \

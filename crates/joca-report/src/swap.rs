@@ -65,12 +65,6 @@ fn tunnel_fall(run: &RunData) -> Option<f64> {
     run.showcases.iter().find_map(|s| s.light_step(10.0, 1.0)).map(|s| s.fall)
 }
 
-/// The mean frame-to-frame move of exposure × gain in the showcases' steady light, stops.
-fn steady_moves(run: &RunData) -> Option<f64> {
-    let steps = crate::sections::steady_steps(&run.showcases);
-    (!steps.is_empty()).then(|| steps.iter().sum::<f64>() / steps.len() as f64)
-}
-
 /// Mean ± interval of `values` at `digits` ("–" for none).
 fn text(values: &[f64], digits: usize) -> String {
     interval_text(mean_interval(values), digits)
@@ -161,7 +155,7 @@ pub fn behaviour_table(cells: &[SwapCell<'_>]) -> Vec<Vec<String>> {
                 name.to_owned(),
                 text(&of(&tunnel_fall), 1),
                 text(&of(&|r| night_over_day(&r.results)), 1),
-                text(&of(&steady_moves), 2),
+                text(&of(&|r| crate::sections::steady_mean(&r.showcases)), 2),
                 text(&of(&|r| light_of(&r.results, Light::Day, |l| l.mean_dn)), 0),
                 text(
                     &of(&|r| {
