@@ -80,7 +80,10 @@ pub fn steady_steps(showcases: &[Showcase]) -> Vec<f64> {
 
 /// The mean of [`steady_steps`], stops a frame (`None` without steady frames).
 pub fn steady_mean(showcases: &[Showcase]) -> Option<f64> {
-    let steps = steady_steps(showcases);
+    mean_of(&steady_steps(showcases))
+}
+
+fn mean_of(steps: &[f64]) -> Option<f64> {
     (!steps.is_empty()).then(|| steps.iter().sum::<f64>() / steps.len() as f64)
 }
 
@@ -99,8 +102,8 @@ pub fn light_step_markdown(showcases: &[Showcase]) -> String {
             s.name, step.rise, step.time_s, step.fall, step.window_s
         );
     }
-    if let Some(mean) = steady_mean(showcases) {
-        let steady = steady_steps(showcases);
+    let steady = steady_steps(showcases);
+    if let Some(mean) = mean_of(&steady) {
         let _ = writeln!(
             md,
             "Where the light held still (from {SETTLE_S} s after it last changed; {} frame pairs \
