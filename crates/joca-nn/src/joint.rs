@@ -12,6 +12,9 @@
 //! ```
 //!
 //! where `(Ẽ*, G̃*)` is the best perturbation the caller's GA found (given every i steps).
+//! Beyond the paper, the ACC's loss may add `w_step · l_step`, a quadratic cost of each stop
+//! NeuralAE moves exposure and gain from the settings it read (`equations::step_cost`): a
+//! control-effort term that the task alone does not give a controller in steady light.
 //!
 //! With a moving iris NeuralAE also predicts the iris's unit position `u`; the light it lets
 //! through, `(N0/N(u))²`, multiplies Eq. 2's signal as exposure does, so the task loss reaches
@@ -179,7 +182,13 @@ impl JointModel {
         let settings =
             DynamicSettings::new(out.exposure_s.double_value(&[0]), out.gain_db.double_value(&[0]));
         let iris = out.iris.map(|u| (u.double_value(&[0]), u));
-        Some(Prediction { settings, exposure_s: out.exposure_s, gain_db: out.gain_db, iris })
+        Some(Prediction {
+            settings,
+            previous,
+            exposure_s: out.exposure_s,
+            gain_db: out.gain_db,
+            iris,
+        })
     }
 
     /// Remembers the detector features of `frame` as "the previous frame" without training

@@ -43,6 +43,10 @@ pub struct StepRecord {
     /// DF-Grad's GA supervision loss, on the steps it applies.
     #[serde(default)]
     pub ga_loss: Option<f64>,
+    /// NeuralAE's step cost `l_step` (mean square stops moved), where its weight is above 0;
+    /// absent otherwise and in older runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step_loss: Option<f64>,
     /// Exposure (ms) and gain (dB) applied, written as two fields.
     #[serde(flatten)]
     pub settings: Settings,

@@ -1,11 +1,12 @@
 //! The paper's equations on tensors, as the joint step differentiates them: Eq. 4 and the
-//! exposure cap (twins of `joca_camera`'s), DF-Grad's l_GA (Eq. 5), and the formed frame back to
-//! 8 bits.
+//! exposure cap (twins of `joca_camera`'s), DF-Grad's l_GA (Eq. 5), the step cost, and the formed
+//! frame back to 8 bits.
 
 use super::GaTarget;
 use crate::acc::AccBounds;
-use joca_camera::Iris;
+use joca_camera::{DynamicSettings, Iris};
 use joca_core::Rgb8Image;
+use joca_core::units::DB_PER_STOP;
 use tch::{Kind, Tensor};
 
 pub(super) fn unit_tensor(value: &Tensor, range: (f64, f64)) -> Tensor {
@@ -36,6 +37,17 @@ pub(super) fn ga_supervision_loss(
         (Some(u), Some(u_star)) => (pair + (u - u_star).abs()).mean(Kind::Float) / 3.0,
         _ => pair.mean(Kind::Float) / 2.0,
     }
+}
+
+/// The step cost (beyond the paper): `l_step = (s_E² + s_G²) / 2`, the mean square of the
+/// stops that NeuralAE moves exposure (`s_E = log₂(E_pred / E_prev)`) and gain
+/// (`s_G = (G_pred − G_prev) / 6.02 dB`) from the settings it read. A quadratic control cost:
+/// a step the task needs (a tunnel exit) is paid for, a step the task is indifferent to (a
+/// zig-zag in steady light) is trained away. The iris, where NeuralAE sets it, pays none.
+pub(super) fn step_cost(e_pred: &Tensor, g_pred_db: &Tensor, previous: DynamicSettings) -> Tensor {
+    let s_e = (e_pred.log() - previous.exposure_s.ln()) / std::f64::consts::LN_2;
+    let s_g = (g_pred_db - previous.gain_db) / DB_PER_STOP;
+    (s_e.square() + s_g.square()).mean(Kind::Float) / 2.0
 }
 
 /// `1` in value, with the gradient of the light a lens iris at unit position `u` lets through

@@ -3,7 +3,7 @@
 
 use super::JointModel;
 use super::equations::{
-    eq4, ga_supervision_loss, iris_light_gradient, limit_exposure, task_gradient_units,
+    eq4, ga_supervision_loss, iris_light_gradient, limit_exposure, step_cost, task_gradient_units,
     tensor_to_rgb8,
 };
 use super::step::{DfGradWeights, Exposure, GaTarget, Prediction, StepReport, StepTimings};
@@ -81,19 +81,13 @@ impl JointModel {
             return Err(NnError::NonFinite { what: "detector", value: task });
         }
         // Backward once: detector gradients = ∇ l_task; ACC gradients are rescaled below so that
-        // they become ∇ (w_task·l_task + w_ga·l_GA).
-        let mut ga_loss = None;
-        let mut objective = loss.total.shallow_clone();
-        if let (Some(p), Some(target)) = (pred, ga_target) {
-            let iris = p.iris.as_ref().map(|(_, u)| u);
-            let l_ga = ga_supervision_loss(&p.exposure_s, &p.gain_db, iris, target, &self.bounds);
-            let v = l_ga.double_value(&[]);
-            if !v.is_finite() {
-                return Err(NnError::NonFinite { what: "GA supervision", value: v });
-            }
-            ga_loss = Some(v);
-            objective += l_ga * (weights.ga / weights.task);
-        }
+        // they become ∇ (w_task·l_task + w_ga·l_GA + w_step·l_step).
+        let extra = pred.map(|p| self.acc_terms(p, ga_target, weights)).transpose()?;
+        let (ga_loss, step_loss) = extra.as_ref().map_or((None, None), |x| (x.ga, x.step));
+        let objective = match extra.and_then(|x| x.loss) {
+            Some(l) => &loss.total + l,
+            None => loss.total.shallow_clone(),
+        };
         self.det.optimizer.zero_grad();
         self.acc_opt.zero_grad();
         lap(&mut timings.detector_forward_ms);
@@ -143,10 +137,47 @@ impl JointModel {
                 offset: loss.offset,
             },
             ga_loss,
+            step_loss,
             task_gradient,
             timings,
             applied: DynamicSettings::new(e_t.double_value(&[0]), g_t.double_value(&[0])),
         })
+    }
+
+    /// NeuralAE's loss terms beside the task's, divided by the task's weight (the ACC's
+    /// gradients are multiplied by it after the backward): `w_ga·l_GA` where a GA target is
+    /// given and `w_step·l_step` where its weight is above 0.
+    fn acc_terms(
+        &self,
+        p: &Prediction,
+        ga_target: Option<GaTarget>,
+        weights: DfGradWeights,
+    ) -> Result<AccTerms, NnError> {
+        let finite = |t: &Tensor, what: &'static str| {
+            let v = t.double_value(&[]);
+            if v.is_finite() { Ok(v) } else { Err(NnError::NonFinite { what, value: v }) }
+        };
+        let mut terms = AccTerms { loss: None, ga: None, step: None };
+        let mut add = |t: Tensor| {
+            terms.loss = Some(match terms.loss.take() {
+                Some(l) => l + t,
+                None => t,
+            })
+        };
+        if let Some(target) = ga_target {
+            let iris = p.iris.as_ref().map(|(_, u)| u);
+            let l_ga = ga_supervision_loss(&p.exposure_s, &p.gain_db, iris, target, &self.bounds);
+            let v = finite(&l_ga, "GA supervision")?;
+            add(l_ga * (weights.ga / weights.task));
+            terms.ga = Some(v);
+        }
+        if weights.step > 0.0 {
+            let l_step = step_cost(&p.exposure_s, &p.gain_db, p.previous);
+            let v = finite(&l_step, "step cost")?;
+            add(l_step * (weights.step / weights.task));
+            terms.step = Some(v);
+        }
+        Ok(terms)
     }
 
     /// One imitation step of NeuralAE alone (its warm start): `prediction` (made by
@@ -185,4 +216,12 @@ impl JointModel {
         let lr = self.acc_opt.config().lr;
         self.acc_opt = Adam::new(&self.acc_vs, AdamConfig { lr, ..AdamConfig::ACC });
     }
+}
+
+/// NeuralAE's loss terms beside the task's ([`JointModel::acc_terms`]): their weighted sum over
+/// the task's weight, and each one's value.
+struct AccTerms {
+    loss: Option<Tensor>,
+    ga: Option<f64>,
+    step: Option<f64>,
 }

@@ -6,13 +6,16 @@ use joca_camera::DynamicSettings;
 use joca_core::{Detection, Rgb8Image};
 use tch::Tensor;
 
-/// Loss weights of DF-Grad (the paper's 7 : 1).
+/// Loss weights of DF-Grad (the paper's 7 : 1, and no step cost).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DfGradWeights {
     /// Weight of the task loss in the ACC's loss.
     pub task: f64,
     /// Weight of the GA supervision loss.
     pub ga: f64,
+    /// Weight of the step cost `l_step` (beyond the paper: 0 there), the cost of moving
+    /// exposure and gain from the settings NeuralAE read.
+    pub step: f64,
 }
 
 /// NeuralAE's prediction for the next frame ([`JointModel::predict`]): the settings for the
@@ -21,6 +24,8 @@ pub struct DfGradWeights {
 #[derive(Debug)]
 pub struct Prediction {
     pub(super) settings: DynamicSettings,
+    /// The settings NeuralAE read (the previous frame's, for the calibration pitch).
+    pub(super) previous: DynamicSettings,
     pub(super) exposure_s: Tensor,
     pub(super) gain_db: Tensor,
     /// The iris's unit position, as a number and as the network's output.
@@ -70,6 +75,8 @@ pub struct StepReport {
     pub loss: LossParts,
     /// GA supervision loss, when a target was given.
     pub ga_loss: Option<f64>,
+    /// The step cost `l_step`, where NeuralAE set the frame and its weight is above 0.
+    pub step_loss: Option<f64>,
     /// The task loss's pull on NeuralAE's exposure and gain outputs in l_GA's units
     /// (`w_task · ∂l_task/∂u`; negative: more light lowers the loss), where NeuralAE set the
     /// frame.

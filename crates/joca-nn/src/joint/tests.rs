@@ -1,6 +1,6 @@
 //! The joint step's equations against their closed forms and the camera crate.
 
-use super::equations::{eq4, ga_supervision_loss, iris_light_gradient, limit_exposure};
+use super::equations::{eq4, ga_supervision_loss, iris_light_gradient, limit_exposure, step_cost};
 use super::*;
 use joca_camera::{Bounds, Iris};
 use tch::Kind;
@@ -26,6 +26,30 @@ fn ga_supervision_loss_is_the_mean_l1_distance_in_normalised_units() {
     let l = ga_supervision_loss(&e_pred, &g_pred, Some(&u), target(1e-3, 30.0, Some(0.8)), &bounds)
         .double_value(&[]);
     assert!((l - (0.5 + 0.5 + 0.6) / 3.0).abs() < 1e-6, "{l}");
+}
+
+/// l_step against its closed form: from 10 ms and 10 dB, a prediction of 20 ms (1 stop) and
+/// 10 − 2·20·log₁₀2 dB (−2 stops) costs (1² + 2²)/2 = 2.5, and its gradient by the stops moved is
+/// the stops themselves (∂l/∂s = s): ∂l/∂ln E = s_E/ln 2, ∂l/∂G = s_G/6.02 dB. Holding costs 0.
+#[test]
+fn the_step_cost_is_the_mean_square_of_the_stops_moved() {
+    let _serial = crate::torch_serial();
+    let previous = DynamicSettings::new(0.01, 10.0);
+    let down_two = 10.0 - 40.0 * 2f64.log10();
+    let e = Tensor::from_slice(&[0.02f64]).set_requires_grad(true);
+    let g = Tensor::from_slice(&[down_two]).set_requires_grad(true);
+    let l = step_cost(&e, &g, previous);
+    assert!((l.double_value(&[]) - 2.5).abs() < 1e-9, "{l}");
+    l.backward();
+    let per_stop = joca_core::units::DB_PER_STOP;
+    // ∂l/∂E = s_E/(E ln 2) with s_E = 1; ∂l/∂G = s_G/6.02 with s_G = −2.
+    let de = e.grad().double_value(&[0]);
+    assert!((de - 1.0 / (0.02 * 2f64.ln())).abs() < 1e-6, "{de}");
+    let dg = g.grad().double_value(&[0]);
+    assert!((dg + 2.0 / per_stop).abs() < 1e-9, "{dg}");
+    let held =
+        step_cost(&Tensor::from_slice(&[0.01f64]), &Tensor::from_slice(&[10.0f64]), previous);
+    assert!(held.double_value(&[]).abs() < 1e-12);
 }
 
 /// The iris's light factor: 1 in value, and the derivative of `ln (N0/N(u))²` by `u`, which for

@@ -128,7 +128,7 @@ pub(super) fn train(
         SensorLimits::new(pitch, cx.ranges, sim.frame_interval_s()).with_iris(iris(&c, design));
     model.set_max_exposure(sensor.max_exposure_s);
     let mut control = controller(c.method.neural(), sensor, cx.ranges);
-    let weights = DfGradWeights { task: c.task_weight, ga: 1.0 };
+    let weights = DfGradWeights { task: c.task_weight, ga: 1.0, step: c.step_weight };
     let mut metrics = TaskMetrics::default();
     model.reset_sequence();
     let first = control.start();
@@ -232,6 +232,7 @@ pub(super) fn train(
                     offset: l.offset,
                 },
                 ga_loss: report.ga_loss,
+                step_loss: report.step_loss,
                 task_gradient: report.task_gradient,
                 settings: Settings::from(report.applied).at(f_number),
                 illumination: Some(super::light_of(stretch.illumination)),

@@ -18,7 +18,9 @@ use joca_sim::{Glare, SunElevation, Tunnels, Weather};
 use serde::{Deserialize, Deserializer, Serialize};
 
 pub use learning::{AccOutput, WarmStart};
-use learning::{check_detector_lr, is_paper_detector_lr, paper_detector_lr};
+use learning::{
+    check_detector_lr, check_step_weight, is_paper_detector_lr, is_zero, paper_detector_lr,
+};
 pub use search::{
     PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
     TrainingScenes,
@@ -109,6 +111,10 @@ pub struct RunConfig {
     pub ga_every: usize,
     /// Task-loss weight of the ACC loss (GA loss weight 1).
     pub task_weight: f64,
+    /// Weight of NeuralAE's step cost (the mean square stops it moves exposure and gain a
+    /// frame; beyond the paper, default 0: none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub step_weight: f64,
     /// The detector's input (`input = { short_px, long_max_px, resampler }`): every design's
     /// frames are rendered at this size with the design's own field of view, and carry the
     /// noise of the sensor's native grid through the resize.
@@ -250,6 +256,7 @@ impl RunConfig {
         if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
             return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");
         }
+        check_step_weight(self.step_weight)?;
         check_input(&self.input, "run")?;
         if !(0.0..=MAX_SPEED_MPS).contains(&self.max_speed_mps) {
             return bad(

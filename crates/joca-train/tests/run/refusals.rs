@@ -10,7 +10,7 @@ use joca_train::{DesignSpec, FNumberRange, Method, RunConfig, Source};
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 27] = [
+    let cases: [(Edit, &str); 29] = [
         (
             |c| {
                 c.design = Some(DesignSpec {
@@ -102,6 +102,14 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
             "run.task_weight = inf is invalid: above 0, at most 1000",
         ),
         (|c| c.task_weight = f64::NAN, "run.task_weight = NaN is invalid: above 0, at most 1000"),
+        (
+            |c| c.step_weight = -0.1,
+            "run.step_weight = -0.1 is invalid: 0 (no step cost, the paper's) to 1000",
+        ),
+        (
+            |c| c.step_weight = f64::NAN,
+            "run.step_weight = NaN is invalid: 0 (no step cost, the paper's) to 1000",
+        ),
         (|c| c.input.short_px = 0, "run.input.short_px = 0 is invalid: 16 to 1024 px"),
         (|c| c.input.short_px = 5000, "run.input.short_px = 5000 is invalid: 16 to 1024 px"),
         (|c| c.input.long_max_px = 60, "run.input.long_max_px = 60 is invalid: 90 to 2048 px"),
