@@ -327,6 +327,7 @@ fn summary_sections(
         let (title, note) = ("What the controllers did", crate::swap::BEHAVIOUR_NOTE);
         titled_table(&mut md, &mut html, 3, title, note, &behaviour);
         md.push('\n');
+        crate::steadiness::sections(&mut md, &mut html, &swaps);
     }
     let start = crate::detector_start::detector_start_table(exp_dir, runs)?;
     if !start.is_empty() {

@@ -31,6 +31,7 @@ mod pulls;
 mod retests;
 mod sections;
 mod seeds;
+mod steadiness;
 mod swap;
 mod table;
 

@@ -71,7 +71,7 @@ fn text(values: &[f64], digits: usize) -> String {
 }
 
 /// The town's name in a table.
-fn town_name(town: u64) -> String {
+pub(crate) fn town_name(town: u64) -> String {
     if town == 0 { "test town".to_owned() } else { format!("town {town}") }
 }
 
