@@ -2,6 +2,7 @@
 
 use super::equations::{eq4, ga_supervision_loss, iris_light_gradient, limit_exposure, step_cost};
 use super::*;
+use crate::formation::Scene;
 use joca_camera::{Bounds, Iris};
 use tch::Kind;
 
@@ -153,4 +154,64 @@ fn imitation_moves_neural_ae_to_its_target_and_leaves_the_detector() {
     model.set_acc_lr(3e-5);
     model.restart_acc_optimizer();
     assert_eq!((model.acc_opt.config().lr, model.acc_opt.steps()), (3e-5, 0));
+}
+
+/// DF-Grad with the step cost: NeuralAE, taught first to step 2 stops down (exposure and gain),
+/// is pulled back towards holding its settings when the step cost dominates its loss (task
+/// weight 1e-3, step weight 1, no GA target, Adam at 1e-4); the report's `l_step` is the closed
+/// form of the prediction it trained on, and without a step weight there is none.
+#[test]
+fn the_step_cost_pulls_neural_ae_towards_holding() {
+    let _serial = crate::torch_serial();
+    tch::manual_seed(5);
+    let engine = Engine::cpu(1);
+    let detector = DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false };
+    let formation = ImageFormation::new(joca_camera::Calibration::DEFAULT).unwrap();
+    let mut model = JointModel::new(&engine, detector, AccRanges::PAPER, formation, false);
+    model.set_acc_output(crate::acc::AccOutputForm::Relative { max_stops: 3.0 });
+    let (w, h) = (32, 24);
+    let frame =
+        Rgb8Image::from_vec(w, h, (0..w * h * 3).map(|i| (i % 251) as u8).collect()).unwrap();
+    let _ = model.observe(&frame);
+    let previous = DynamicSettings::new(8e-3, 20.0);
+    let down = GaTarget { settings: DynamicSettings::new(2e-3, 20.0 - 12.04), iris: None };
+    for _ in 0..80 {
+        let p = model.predict(&frame, previous, None).unwrap();
+        model.imitate(&p, down, 1e-3).unwrap();
+    }
+    let stops = |p: &Prediction| {
+        let s = p.settings();
+        let e = (s.exposure_s / previous.exposure_s).log2();
+        (e, (s.gain_db - previous.gain_db) / joca_core::units::DB_PER_STOP)
+    };
+    let start = stops(&model.predict(&frame, previous, None).unwrap());
+    assert!(start.0 < -1.5 && start.1 < -1.5, "{start:?}");
+    let i0: Vec<f32> = (0..w * h * 3).map(|i| 20.0 + (i % 97) as f32).collect();
+    let normals = vec![0.0f32; w * h * 3];
+    let scene = Scene {
+        i0: &i0,
+        normals: &normals,
+        width: w,
+        height: h,
+        pixel_pitch_um: formation.calibration().pixel_pitch_um,
+        light_factor: 1.0,
+        iris: None,
+    };
+    model.set_acc_lr(1e-4);
+    let weights = DfGradWeights { task: 1e-3, ga: 1.0, step: 1.0 };
+    for k in 0..60 {
+        let p = model.predict(&frame, previous, None).unwrap();
+        let (e, g) = stops(&p);
+        let r = model.step(&scene, &[], &[], Exposure::Predicted(p), None, weights).unwrap();
+        let l = r.step_loss.expect("a step cost where its weight is above 0");
+        assert!((l - (e * e + g * g) / 2.0).abs() < 1e-3 * l.max(1.0), "{k}: {l} vs {e}, {g}");
+        model.reset_sequence();
+        let _ = model.observe(&frame);
+    }
+    let end = stops(&model.predict(&frame, previous, None).unwrap());
+    assert!(end.0.abs() < 0.5 * start.0.abs() && end.1.abs() < 0.5 * start.1.abs(), "{end:?}");
+    let p = model.predict(&frame, previous, None).unwrap();
+    let none = DfGradWeights { step: 0.0, ..weights };
+    let r = model.step(&scene, &[], &[], Exposure::Predicted(p), None, none).unwrap();
+    assert_eq!(r.step_loss, None);
 }
