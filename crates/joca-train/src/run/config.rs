@@ -18,9 +18,7 @@ use joca_sim::{Glare, SunElevation, Tunnels, Weather};
 use serde::{Deserialize, Deserializer, Serialize};
 
 pub use learning::{AccOutput, WarmStart};
-use learning::{
-    check_detector_lr, check_step_weight, is_paper_detector_lr, is_zero, paper_detector_lr,
-};
+use learning::{check_detector_lr, is_paper_detector_lr, is_zero, paper_detector_lr};
 pub use search::{
     PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
     TrainingScenes,
@@ -256,7 +254,10 @@ impl RunConfig {
         if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
             return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");
         }
-        check_step_weight(self.step_weight)?;
+        if !(0.0..=1000.0).contains(&self.step_weight) {
+            let allowed = "0 (no step cost, the paper's) to 1000";
+            return bad("step_weight", self.step_weight.to_string(), allowed);
+        }
         check_input(&self.input, "run")?;
         if !(0.0..=MAX_SPEED_MPS).contains(&self.max_speed_mps) {
             return bad(

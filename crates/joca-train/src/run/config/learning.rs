@@ -94,18 +94,6 @@ pub(super) fn is_zero(w: &f64) -> bool {
     *w == 0.0
 }
 
-/// Checks `run.step_weight`: 0 (none, the paper's) to 1000, as `task_weight`.
-pub(super) fn check_step_weight(w: f64) -> Result<(), TrainError> {
-    if (0.0..=1000.0).contains(&w) {
-        return Ok(());
-    }
-    Err(TrainError::Config {
-        field: "run.step_weight".into(),
-        value: w.to_string(),
-        allowed: "0 (no step cost, the paper's) to 1000".into(),
-    })
-}
-
 /// The largest per-frame step `acc_output = "relative:S"` allows, stops.
 pub const MAX_RELATIVE_STOPS: f64 = 8.0;
 
