@@ -64,6 +64,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     run.warm_start = joca_train::WarmStart { frames: 600, lr: 1e-4 };
     run.detector_lr = 1e-5;
     run.step_weight = 0.1;
+    run.min_box_px = 4.0;
     run.cast_shadows = true;
     run.sun_elevation = joca_sim::SunElevation {
         min_deg: 10.0,

@@ -13,9 +13,7 @@ use crate::TrainError;
 use crate::control::{Decision, SensorLimits, controller};
 use joca_camera::{ApertureControl, CameraDesign, Iris};
 use joca_core::optics::CALIBRATION_F_NUMBER;
-use joca_core::{
-    Frame, FrameRequest, FrameSource, Shot, SourceError, TRAINING_MIN_BOX_PX, training_targets,
-};
+use joca_core::{Frame, FrameRequest, FrameSource, Shot, SourceError, training_targets};
 use joca_evolve::Ga;
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::formation::Scene;
@@ -214,9 +212,9 @@ pub(super) fn train(
             iris: sensor.iris,
         };
         let exposure = decision.into_exposure();
-        // The detector learns objects of at least TRAINING_MIN_BOX_PX; the fitness counts every
+        // The detector learns objects of at least `min_box_px`; the fitness counts every
         // reference object.
-        let (targets, ignore) = training_targets(&frame.boxes, &frame.ignore, TRAINING_MIN_BOX_PX);
+        let (targets, ignore) = training_targets(&frame.boxes, &frame.ignore, c.min_box_px as f32);
         let report = model.step(&scene, &targets, &ignore, exposure, ga_target, weights)?;
         cx.journal.watch.restart();
         cx.journal.watch.add_model_step(&report.timings);

@@ -18,7 +18,10 @@ use joca_sim::{Glare, SunElevation, Tunnels, Weather};
 use serde::{Deserialize, Deserializer, Serialize};
 
 pub use learning::{AccOutput, WarmStart};
-use learning::{check_detector_lr, is_paper_detector_lr, is_zero, paper_detector_lr};
+use learning::{
+    check_detector_lr, is_paper_detector_lr, is_training_min_box_px, is_zero, paper_detector_lr,
+    training_min_box_px,
+};
 pub use search::{
     PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
     TrainingScenes,
@@ -113,6 +116,11 @@ pub struct RunConfig {
     /// frame; beyond the paper, default 0: none).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub step_weight: f64,
+    /// Smallest box side, px, that the joint loop trains on (the detector's loss and the
+    /// loss-scored perturbation search): smaller reference objects are ignore regions there, but
+    /// every evaluation counts them. 1 trains on every reference object.
+    #[serde(default = "training_min_box_px", skip_serializing_if = "is_training_min_box_px")]
+    pub min_box_px: f64,
     /// The detector's input (`input = { short_px, long_max_px, resampler }`): every design's
     /// frames are rendered at this size with the design's own field of view, and carry the
     /// noise of the sensor's native grid through the resize.
@@ -257,6 +265,10 @@ impl RunConfig {
         if !(0.0..=1000.0).contains(&self.step_weight) {
             let allowed = "0 (no step cost, the paper's) to 1000";
             return bad("step_weight", self.step_weight.to_string(), allowed);
+        }
+        if !(1.0..=64.0).contains(&self.min_box_px) {
+            let allowed = "1 (every reference object) to 64";
+            return bad("min_box_px", self.min_box_px.to_string(), allowed);
         }
         check_input(&self.input, "run")?;
         if !(0.0..=MAX_SPEED_MPS).contains(&self.max_speed_mps) {

@@ -16,7 +16,7 @@ use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
 use joca_camera::{AccRanges, ApertureControl, CameraError, DynamicSettings, ImageFormation};
 use joca_core::units::DB_PER_STOP;
-use joca_core::{Frame, Rgb8Image, SeedStreams, TRAINING_MIN_BOX_PX, training_targets};
+use joca_core::{Frame, Rgb8Image, SeedStreams, training_targets};
 use joca_evolve::{Ga, GaConfig};
 use joca_metrics::TaskMetrics;
 use joca_nn::detector::{Precision, PrecisionExt, TrainFrame};
@@ -144,6 +144,7 @@ fn perturb(
 /// Each perturbed frame's score, higher better: its AP50, or its negated task loss.
 fn raw_scores(
     score: PerturbationScore,
+    min_box_px: f32,
     model: &JointModel,
     frames: &[Frame],
     images: &[&Rgb8Image],
@@ -164,10 +165,8 @@ fn raw_scores(
         }
         PerturbationScore::Loss => {
             // The objects the detector is trained on (small ones are ignore regions there).
-            let split: Vec<_> = frames
-                .iter()
-                .map(|f| training_targets(&f.boxes, &f.ignore, TRAINING_MIN_BOX_PX))
-                .collect();
+            let split: Vec<_> =
+                frames.iter().map(|f| training_targets(&f.boxes, &f.ignore, min_box_px)).collect();
             let batch: Vec<TrainFrame<'_>> = images
                 .iter()
                 .zip(&split)
@@ -192,7 +191,14 @@ fn score(
     images: &[&Rgb8Image],
     precision: Precision,
 ) -> Result<(Vec<f64>, bool), TrainError> {
-    let raw = raw_scores(config.perturbation_score, model, frames, images, precision)?;
+    let raw = raw_scores(
+        config.perturbation_score,
+        config.min_box_px as f32,
+        model,
+        frames,
+        images,
+        precision,
+    )?;
     let top = raw.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let tied = raw.iter().filter(|&&r| r == top).count() > 1;
     let fitness = raw

@@ -50,6 +50,7 @@ fn tiny(method: Method) -> RunConfig {
         ga_every: 2,
         task_weight: 7.0,
         step_weight: 0.0,
+        min_box_px: 8.0,
         // Small frames for a fast test: 120 × 90 for a 4:3 sensor.
         input: DetectorInput { short_px: 90, long_max_px: 160, resampler: Resampler::Bilinear },
         hardware_mutation: Default::default(),

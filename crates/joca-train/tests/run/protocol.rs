@@ -163,3 +163,40 @@ fn a_warm_start_runs_once_and_a_resumed_run_does_not_repeat_it() {
     assert!(saved.contains("acc_output = \"relative:3\"") && saved.contains("frames = 20"));
     assert!(!saved.contains("detector_lr"), "{saved}");
 }
+
+/// `min_box_px` sets which reference objects the joint loop trains on: on one design, seed and
+/// scenes, training on every object (1 px) and on none the tiny frames hold (64 px: all are
+/// ignore regions) give the same first frame different detector losses, and the test still
+/// scores the same reference objects.
+#[test]
+fn the_smallest_training_box_changes_the_loss_and_not_what_the_test_counts() {
+    let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().unwrap();
+    let mut first_losses = Vec::new();
+    let mut objects = Vec::new();
+    for (name, px) in [("every", 1.0), ("none", 64.0)] {
+        let design = joca_train::DesignSpec {
+            sensor: "IMX546".into(),
+            focal_length_mm: 5.0,
+            x_m: 1.0,
+            z_m: 1.5,
+            f_number: None,
+        };
+        let cfg = RunConfig {
+            min_box_px: px,
+            generations: 1,
+            design: Some(design),
+            ..tiny(Method::Joca)
+        };
+        let r = run(&cfg, &dir.path().join(name), false, &mut go).unwrap();
+        objects.push(r.test.class_objects);
+        let step0 = events(&dir.path().join(name))
+            .into_iter()
+            .find(|v| v.get("step").and_then(|s| s.as_u64()) == Some(0) && v.get("loss").is_some())
+            .expect("step 0 is logged");
+        first_losses.push(step0["loss"]["heatmap"].as_f64().unwrap());
+    }
+    assert_ne!(first_losses[0], first_losses[1], "{first_losses:?}");
+    assert_eq!(objects[0], objects[1]);
+    assert!(objects[0].iter().sum::<u64>() > 0);
+}

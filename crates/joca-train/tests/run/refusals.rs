@@ -10,7 +10,7 @@ use joca_train::{DesignSpec, FNumberRange, Method, RunConfig, Source};
 #[test]
 fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 29] = [
+    let cases: [(Edit, &str); 25] = [
         (
             |c| {
                 c.design = Some(DesignSpec {
@@ -97,6 +97,23 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
             |c| c.perturbation_population = 100_000_000,
             "run.perturbation_population = 100000000 is invalid: 2 to 64",
         ),
+        (|c| c.input.short_px = 0, "run.input.short_px = 0 is invalid: 16 to 1024 px"),
+        (|c| c.input.short_px = 5000, "run.input.short_px = 5000 is invalid: 16 to 1024 px"),
+        (|c| c.input.long_max_px = 60, "run.input.long_max_px = 60 is invalid: 90 to 2048 px"),
+        (|c| c.input.long_max_px = 9999, "run.input.long_max_px = 9999 is invalid: 90 to 2048 px"),
+        (|c| c.test_frames_per_episode = 0, "run.test_frames_per_episode = 0 is invalid: 1 to 500"),
+        (|c| c.test_episodes = 0, "run.test_episodes = 0 is invalid: 1 to 10000"),
+        (|c| c.generations = 0, "run.generations = 0 is invalid: 1 to 10000"),
+        (|c| c.ga_every = 0, "run.ga_every = 0 is invalid: 1 to 400"),
+    ];
+    assert_refused(&cases);
+}
+
+/// The joint loop's loss fields: the task and step weights and the smallest training box.
+#[test]
+fn out_of_range_loss_fields_are_refused_naming_the_field_and_the_range() {
+    type Edit = fn(&mut RunConfig);
+    let cases: [(Edit, &str); 6] = [
         (
             |c| c.task_weight = f64::INFINITY,
             "run.task_weight = inf is invalid: above 0, at most 1000",
@@ -110,20 +127,29 @@ fn out_of_range_run_fields_are_refused_naming_the_field_and_the_range() {
             |c| c.step_weight = f64::NAN,
             "run.step_weight = NaN is invalid: 0 (no step cost, the paper's) to 1000",
         ),
-        (|c| c.input.short_px = 0, "run.input.short_px = 0 is invalid: 16 to 1024 px"),
-        (|c| c.input.short_px = 5000, "run.input.short_px = 5000 is invalid: 16 to 1024 px"),
-        (|c| c.input.long_max_px = 60, "run.input.long_max_px = 60 is invalid: 90 to 2048 px"),
-        (|c| c.input.long_max_px = 9999, "run.input.long_max_px = 9999 is invalid: 90 to 2048 px"),
-        (|c| c.test_frames_per_episode = 0, "run.test_frames_per_episode = 0 is invalid: 1 to 500"),
-        (|c| c.test_episodes = 0, "run.test_episodes = 0 is invalid: 1 to 10000"),
-        (|c| c.generations = 0, "run.generations = 0 is invalid: 1 to 10000"),
-        (|c| c.ga_every = 0, "run.ga_every = 0 is invalid: 1 to 400"),
+        (
+            |c| c.min_box_px = 0.5,
+            "run.min_box_px = 0.5 is invalid: 1 (every reference object) to 64",
+        ),
+        (
+            |c| c.min_box_px = f64::NAN,
+            "run.min_box_px = NaN is invalid: 1 (every reference object) to 64",
+        ),
     ];
+    assert_refused(&cases);
+}
+
+/// An edit of a valid configuration and the refusal it must get.
+type Case = (fn(&mut RunConfig), &'static str);
+
+/// Each edit of `tiny`'s valid configuration is refused with its message (a message ending in
+/// ": " is a prefix).
+fn assert_refused(cases: &[Case]) {
     for (edit, message) in cases {
         let mut c = tiny(Method::Joca);
         edit(&mut c);
         let e = c.validate().unwrap_err().to_string();
-        assert!(e == message || (message.ends_with(": ") && e.starts_with(message)), "{e}");
+        assert!(e == *message || (message.ends_with(": ") && e.starts_with(message)), "{e}");
     }
     assert!(tiny(Method::Joca).validate().is_ok());
 }

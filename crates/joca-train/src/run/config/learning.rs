@@ -94,6 +94,16 @@ pub(super) fn is_zero(w: &f64) -> bool {
     *w == 0.0
 }
 
+/// The smallest box side the joint loop trains on by default, px (`joca_core`'s, the pretraining's).
+pub(super) fn training_min_box_px() -> f64 {
+    f64::from(joca_core::TRAINING_MIN_BOX_PX)
+}
+
+/// Whether `min_box_px` is the default (the field is then left out of saved configurations).
+pub(super) fn is_training_min_box_px(px: &f64) -> bool {
+    *px == training_min_box_px()
+}
+
 /// The largest per-frame step `acc_output = "relative:S"` allows, stops.
 pub const MAX_RELATIVE_STOPS: f64 = 8.0;
 
