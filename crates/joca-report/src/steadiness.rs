@@ -21,6 +21,17 @@ pub(crate) struct Steady<'a> {
     pub neural: Option<f64>,
     /// AverageAE's (mid-grey) on the same design, detector and scenes.
     pub average: Option<f64>,
+    /// NeuralAE's night ÷ day exposure × gain over the test: ~1 for a controller pinned in
+    /// every light, whatever its steadiness.
+    pub neural_span: Option<f64>,
+    /// AverageAE's.
+    pub average_span: Option<f64>,
+}
+
+/// Night ÷ day mean exposure × gain of a test.
+fn span(r: &joca_record::RunResults) -> Option<f64> {
+    let of = |l| r.by_illumination.light(l)?.exposure_gain_ms;
+    Some(of(joca_record::Light::Night)? / of(joca_record::Light::Day)?)
 }
 
 impl<'a> Steady<'a> {
@@ -32,6 +43,8 @@ impl<'a> Steady<'a> {
             town: c.town,
             neural: crate::sections::steady_mean(&c.neural.showcases),
             average: crate::sections::steady_mean(&c.average.showcases),
+            neural_span: span(&c.neural.results),
+            average_span: span(&c.average.results),
         }
     }
 }
@@ -112,6 +125,15 @@ fn number(v: Option<f64>) -> String {
     v.map_or_else(|| "–".to_owned(), |x| format!("{x:.2}"))
 }
 
+/// Stops a frame, with the night ÷ day span in brackets where known.
+fn steady_cell(stops: Option<f64>, span: Option<f64>) -> String {
+    match (stops, span) {
+        (Some(_), Some(x)) if x < 9.95 => format!("{} ({x:.1}×)", number(stops)),
+        (Some(_), Some(x)) => format!("{} ({x:.0}×)", number(stops)),
+        _ => number(stops),
+    }
+}
+
 /// Per scenario, town and design: each variant's NeuralAE, and the first variant's AverageAE
 /// re-test, in stops a frame.
 fn per_design(items: &[Steady<'_>]) -> Vec<Vec<String>> {
@@ -127,12 +149,17 @@ fn per_design(items: &[Steady<'_>]) -> Vec<Vec<String>> {
             for &design in &designs {
                 let mut row = vec![group.to_owned(), town_name(town), design.to_owned()];
                 for &label in &labels {
-                    row.push(number(design_mean(items, (group, label, design, town), |s| {
-                        s.neural
-                    })));
+                    let at = (group, label, design, town);
+                    row.push(steady_cell(
+                        design_mean(items, at, |s| s.neural),
+                        design_mean(items, at, |s| s.neural_span),
+                    ));
                 }
                 let first = (group, labels[0], design, town);
-                row.push(number(design_mean(items, first, |s| s.average)));
+                row.push(steady_cell(
+                    design_mean(items, first, |s| s.average),
+                    design_mean(items, first, |s| s.average_span),
+                ));
                 table.push(row);
             }
         }
@@ -181,7 +208,9 @@ pub const PER_DESIGN: &str = "Steady light, per design";
 pub const PER_DESIGN_NOTE: &str = "How far exposure × linear gain moved from frame to frame where \
     the showcases' light held still (from 0.5 s after it last changed), stops a frame, each \
     design's mean over its seeds: NeuralAE of each variant, and AverageAE (mid-grey) re-tested \
-    on the first variant's design, detector and scenes.";
+    on the first variant's design, detector and scenes. In brackets, night ÷ day mean exposure × \
+    gain over the test (the light differs ~1000×): a controller pinned in every light is steady \
+    and near 1×.";
 /// The paired table's title.
 pub const PAIRED: &str = "Steady light, paired over designs";
 /// The paired table's note.
@@ -194,7 +223,16 @@ mod tests {
     use super::*;
 
     fn s<'a>(label: &'a str, design: &'a str, town: u64, neural: f64) -> Steady<'a> {
-        Steady { group: "cal", label, design, town, neural: Some(neural), average: Some(0.02) }
+        Steady {
+            group: "cal",
+            label,
+            design,
+            town,
+            neural: Some(neural),
+            average: Some(0.02),
+            neural_span: None,
+            average_span: None,
+        }
     }
 
     #[test]
@@ -212,6 +250,11 @@ mod tests {
         let per = per_design(&items);
         assert_eq!(per[0][3..], ["NeuralAE: none", "NeuralAE: cost", "AverageAE mid-grey (none)"]);
         assert_eq!(per[1], ["cal", "test town", "a", "1.00", "0.20", "0.02"]);
+        // Spans where recorded: a pinned controller's 1.0× beside mid-grey's 40×.
+        let mut spanned = items.clone();
+        spanned[0].neural_span = Some(1.04);
+        spanned[0].average_span = Some(40.2);
+        assert_eq!(per_design(&spanned)[1][3..], ["1.00 (1.0×)", "0.20", "0.02 (40×)"]);
         // Town 2 has design a only; b and c read "–".
         assert_eq!(per[5], ["cal", "town 2", "b", "–", "–", "–"]);
         let p = paired(&items);
