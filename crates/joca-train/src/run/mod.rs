@@ -6,8 +6,10 @@
 //! One idea per file: [`config`] (the `[run]` table and its validation), [`method`] (the fixed
 //! cameras; methods and scenarios are `joca_record`'s), this file (the loop over generations and
 //! candidates, then the test), [`state`] (the loop's checkpointed state and its steps: start or
-//! resume, a generation's members, one candidate trained and checkpointed), [`candidate`] (one candidate's k steps of joint training on its
-//! generation's scenes), [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
+//! resume, a generation's members, one candidate trained and checkpointed), [`stretches`] (which
+//! scenes a candidate plays), [`candidate`] (who learns: one candidate's k steps of joint
+//! training), [`judge`] (who judges a candidate that learned from scenes of its own),
+//! [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
 //! (choosing the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop
 //! driving: the test, the validation, the showcases; [`driver`] one sequence's controller and
 //! captures), [`scenes`] (where scenes come from: towns built once, or recordings), [`headroom`] (`joca headroom`), [`results`] (what a run reports),
@@ -20,6 +22,7 @@ mod config;
 mod driver;
 mod evaluate;
 mod hardware;
+mod judge;
 pub use hardware::HardwareMutation;
 pub mod headroom;
 mod method;
@@ -29,6 +32,7 @@ mod results;
 mod scenes;
 mod source;
 mod state;
+mod stretches;
 mod timing;
 mod warm_start;
 

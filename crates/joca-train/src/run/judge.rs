@@ -1,0 +1,36 @@
+//! Who judges a candidate when it learned from scenes of its own (`training_scenes = "fresh"`):
+//! the generation's common scenes, driven in closed loop by the controller and detector as they
+//! are after its training, without any update, so every candidate of a generation is scored on
+//! the same stretches and noise.
+
+use super::Context;
+use super::driver::Driver;
+use super::stretches::{Scenes, Stretches};
+use crate::TrainError;
+use joca_camera::CameraDesign;
+use joca_metrics::{TaskMetrics, TaskScores};
+use joca_nn::joint::JointModel;
+
+/// The fitness of `design` on generation `scenes`'s common scenes.
+pub(super) fn judge(
+    cx: &mut Context,
+    model: &mut JointModel,
+    design: &CameraDesign,
+    scenes: u64,
+) -> Result<TaskScores, TrainError> {
+    let c = cx.config.clone();
+    let stretches = Stretches::draw(&c, &cx.streams, &mut cx.scenes, Scenes::Common(scenes));
+    let camera = design.view(&c.input, c.lens);
+    // The controller carries its settings across stretches, as in training.
+    let mut driver = Driver::new(cx, model, design, stretches.frame_interval_s());
+    let mut metrics = TaskMetrics::default();
+    for step in 0..c.steps_per_candidate {
+        let at = stretches.at(step);
+        let mut noise =
+            cx.streams.indexed("judge-noise", scenes * c.steps_per_candidate as u64 + step as u64);
+        let episode = at.stretch.episode;
+        let s = driver.step(cx, model, at.source, &camera, episode, at.time_s, &mut noise)?;
+        metrics.update(&s.frame.boxes, &s.frame.ignore, &s.detections, s.frame.visible_180);
+    }
+    Ok(metrics.compute())
+}
