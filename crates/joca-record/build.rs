@@ -14,16 +14,20 @@ fn main() {
     let root = Path::new(&manifest).join("../..");
     // Any change to the sources, presets, lock file or the checked-out commit rebuilds the
     // record (cargo scans a directory named here for any file that changed).
-    for path in ["crates", "presets", "weights", "Cargo.lock", ".git/HEAD", ".git/index"] {
+    for path in ["crates", "presets", "weights", "Cargo.lock"] {
         println!("cargo:rerun-if-changed={}", root.join(path).display());
     }
-    // A commit moves the branch's ref, not HEAD (which names the branch): watch the ref too.
-    if let Some(branch) = std::fs::read_to_string(root.join(".git/HEAD"))
-        .ok()
-        .and_then(|h| h.strip_prefix("ref: ").map(|r| r.trim().to_owned()))
-    {
-        for path in [format!(".git/{branch}"), ".git/packed-refs".to_owned()] {
-            println!("cargo:rerun-if-changed={}", root.join(path).display());
+    // Git's own files, found through git (a worktree keeps HEAD and its index apart from the
+    // refs): HEAD names the branch, a commit moves the branch's ref (loose, or packed). Only files
+    // that exist are named: cargo rebuilds on every build while a named file is missing.
+    let mut git_files = vec!["HEAD".to_owned(), "index".to_owned(), "packed-refs".to_owned()];
+    git_files.extend(git(&root, &["symbolic-ref", "-q", "HEAD"]));
+    for name in git_files {
+        if let Some(path) = git(&root, &["rev-parse", "--git-path", &name]) {
+            let path = root.join(path);
+            if path.exists() {
+                println!("cargo:rerun-if-changed={}", path.display());
+            }
         }
     }
     let commit = git(&root, &["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
