@@ -32,9 +32,10 @@ pub(super) fn iris(config: &RunConfig, design: &CameraDesign) -> Option<Iris> {
 
 /// Trains on candidate `index` (`design`) for `steps_per_candidate` steps and scores its frames.
 ///
-/// The scenes come from `scenes` (the generation, see [`stretches`]): every candidate of a
-/// generation drives the same towns, episodes, start times and sensor noise (common random
-/// numbers), so the GA compares designs, not luck.
+/// With shared scenes the candidate learns from generation `scenes`'s ([`Stretches::draw`]):
+/// every candidate of a generation drives the same towns, episodes, start times and sensor noise
+/// (common random numbers), so the GA compares designs, not luck. With fresh scenes it learns
+/// from scenes of its own (`index`) and is judged on the generation's ([`judge`]).
 pub(super) fn train(
     cx: &mut Context,
     model: &mut JointModel,
