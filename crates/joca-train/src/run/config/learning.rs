@@ -94,7 +94,7 @@ pub(super) fn is_zero(w: &f64) -> bool {
     *w == 0.0
 }
 
-/// The smallest box side the joint loop trains on by default, px (`joca_core`'s, the pretraining's).
+/// The smallest box side, px, the joint loop trains on by default (the pretraining's).
 pub(super) fn training_min_box_px() -> f64 {
     f64::from(joca_core::TRAINING_MIN_BOX_PX)
 }
