@@ -19,8 +19,7 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 pub use learning::{AccOutput, WarmStart};
 use learning::{
-    check_detector_lr, is_paper_detector_lr, is_training_min_box_px, is_zero, paper_detector_lr,
-    training_min_box_px,
+    is_paper_detector_lr, is_training_min_box_px, is_zero, paper_detector_lr, training_min_box_px,
 };
 pub use search::{
     PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
@@ -254,22 +253,7 @@ impl RunConfig {
                 return bad(field, value.to_string(), &format!("{min} to {max}"));
             }
         }
-        if !(self.acc_lr > 0.0 && self.acc_lr <= 0.1) {
-            return bad("acc_lr", self.acc_lr.to_string(), "above 0, at most 0.1");
-        }
-        self.warm_start.check()?;
-        check_detector_lr(self.detector_lr)?;
-        if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
-            return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");
-        }
-        if !(0.0..=1000.0).contains(&self.step_weight) {
-            let allowed = "0 (no step cost, the paper's) to 1000";
-            return bad("step_weight", self.step_weight.to_string(), allowed);
-        }
-        if !(1.0..=64.0).contains(&self.min_box_px) {
-            let allowed = "1 (every reference object) to 64";
-            return bad("min_box_px", self.min_box_px.to_string(), allowed);
-        }
+        self.validate_learning()?;
         check_input(&self.input, "run")?;
         if !(0.0..=MAX_SPEED_MPS).contains(&self.max_speed_mps) {
             return bad(

@@ -1,10 +1,36 @@
 //! How the controller and the detector learn in `[run]`, beyond the paper's recipe: NeuralAE's
 //! output form (`acc_output`), its warm start (`warm_start`) and the detector's learning rate
-//! (`detector_lr`).
+//! (`detector_lr`); the learning fields' part of [`RunConfig::validate`].
 
+use super::RunConfig;
 use crate::TrainError;
 use joca_nn::acc::AccOutputForm;
 use serde::{Deserialize, Serialize};
+
+impl RunConfig {
+    /// The learning fields' part of [`RunConfig::validate`]: the rates, the warm start, the
+    /// loss weights and the smallest training box.
+    pub(super) fn validate_learning(&self) -> Result<(), TrainError> {
+        let bad = super::checks::refuse;
+        if !(self.acc_lr > 0.0 && self.acc_lr <= 0.1) {
+            return bad("acc_lr", self.acc_lr.to_string(), "above 0, at most 0.1");
+        }
+        self.warm_start.check()?;
+        check_detector_lr(self.detector_lr)?;
+        if !(self.task_weight > 0.0 && self.task_weight <= 1000.0) {
+            return bad("task_weight", self.task_weight.to_string(), "above 0, at most 1000");
+        }
+        if !(0.0..=1000.0).contains(&self.step_weight) {
+            let allowed = "0 (no step cost, the paper's) to 1000";
+            return bad("step_weight", self.step_weight.to_string(), allowed);
+        }
+        if !(1.0..=64.0).contains(&self.min_box_px) {
+            let allowed = "1 (every reference object) to 64";
+            return bad("min_box_px", self.min_box_px.to_string(), allowed);
+        }
+        Ok(())
+    }
+}
 
 /// The longest warm start, frames.
 pub const MAX_WARM_START_FRAMES: usize = 100_000;
