@@ -4,7 +4,7 @@
 //! trained controller, so the comparison that resolves it is the paired one.
 
 use crate::seeds::{interval_text, mean_interval};
-use crate::swap::{SwapCell, town_name};
+use crate::swap::{SwapCell, night_over_day, town_name};
 
 /// One cell's steadiness: where it sits and NeuralAE's and its AverageAE re-test's stops a frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,12 +28,6 @@ pub(crate) struct Steady<'a> {
     pub average_span: Option<f64>,
 }
 
-/// Night ÷ day mean exposure × gain of a test.
-fn span(r: &joca_record::RunResults) -> Option<f64> {
-    let of = |l| r.by_illumination.light(l)?.exposure_gain_ms;
-    Some(of(joca_record::Light::Night)? / of(joca_record::Light::Day)?)
-}
-
 impl<'a> Steady<'a> {
     fn of(c: &SwapCell<'a>) -> Self {
         Self {
@@ -43,8 +37,8 @@ impl<'a> Steady<'a> {
             town: c.town,
             neural: crate::sections::steady_mean(&c.neural.showcases),
             average: crate::sections::steady_mean(&c.average.showcases),
-            neural_span: span(&c.neural.results),
-            average_span: span(&c.average.results),
+            neural_span: night_over_day(&c.neural.results),
+            average_span: night_over_day(&c.average.results),
         }
     }
 }

@@ -53,7 +53,7 @@ fn light_of(
 }
 
 /// Night's exposure × gain over day's.
-fn night_over_day(r: &RunResults) -> Option<f64> {
+pub(crate) fn night_over_day(r: &RunResults) -> Option<f64> {
     Some(
         light_of(r, Light::Night, |l| l.exposure_gain_ms)?
             / light_of(r, Light::Day, |l| l.exposure_gain_ms)?,
