@@ -6,29 +6,20 @@
 //! [`super::judge`] where it learned from scenes of its own.
 
 use super::Context;
-use super::RunConfig;
 use super::config::TrainingScenes;
 use super::judge::judge;
 use super::perturbation::{self, Probe};
 use super::stretches::{Scenes, Stretch, Stretches};
 use crate::TrainError;
-use crate::control::{Decision, SensorLimits, controller};
-use joca_camera::{ApertureControl, CameraDesign, Iris};
-use joca_core::optics::CALIBRATION_F_NUMBER;
-use joca_core::{Frame, FrameRequest, Shot, SourceError, training_targets};
+use crate::control::{Decision, controller};
+use joca_camera::CameraDesign;
+use joca_core::{Frame, Shot, SourceError, training_targets};
 use joca_evolve::Ga;
 use joca_metrics::{TaskMetrics, TaskScores};
 use joca_nn::formation::Scene;
 use joca_nn::joint::{DfGradWeights, JointModel, Prediction, StepReport};
 use joca_record::{Event, LossRecord, Settings, StepRecord};
 use rand::Rng;
-
-/// The iris NeuralAE moves for `design` where the run sets the aperture frame by frame: from
-/// the design's f-number (the lens wide open) to the calibration's f/16.
-pub(super) fn iris(config: &RunConfig, design: &CameraDesign) -> Option<Iris> {
-    (config.aperture == ApertureControl::Dynamic)
-        .then(|| Iris::new(design.f_number, CALIBRATION_F_NUMBER))
-}
 
 /// Trains on candidate `index` (`design`) for `steps_per_candidate` steps and scores its frames.
 ///
@@ -48,13 +39,8 @@ pub(super) fn train(
     let fresh = c.training_scenes == TrainingScenes::Fresh;
     let drawn = if fresh { Scenes::Own(index) } else { Scenes::Common(scenes) };
     let stretches = Stretches::draw(&c, &cx.streams, &mut cx.scenes, drawn);
-    let camera = design.view(&c.input, c.lens);
-    let formation = cx.formation.for_design(design);
-    // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
-    // controller's whole range stays the camera's at every f-number).
-    let pitch = design.sensor().pixel_pitch_um;
-    let sensor = SensorLimits::new(pitch, cx.ranges, stretches.frame_interval_s())
-        .with_iris(iris(&c, design));
+    let rig = cx.rig(design, stretches.frame_interval_s());
+    let (camera, formation, sensor) = (&rig.camera, rig.formation, rig.sensor);
     model.set_max_exposure(sensor.max_exposure_s);
     let mut control = controller(c.method.neural(), sensor, cx.ranges);
     let weights = DfGradWeights { task: c.task_weight, ga: 1.0, step: c.step_weight };
@@ -83,22 +69,21 @@ pub(super) fn train(
         let f_number = control.f_number();
         cx.journal.watch.lap(|t| &mut t.acc_predict_ms);
         let at = stretches.at(step);
-        let request = FrameRequest {
-            episode: at.stretch.episode,
-            time_s: at.time_s,
-            exposure_s: decision.applied.exposure_s,
-            motion_scale: c.scenario.motion_scale(),
-        };
+        let request = rig.request(at.stretch.episode, at.time_s, decision.applied.exposure_s);
         // 2. Perturbation mode: the same instant with perturbed settings (each with its own
         // blur), rendered with the applied frame from one grid of sub-frames, and scored.
         let members = match (predicted, c.method.perturbations()) {
-            (Some(predicted), true) => {
-                perturbation::members(cx, perturbation, predicted, predicted_iris, &sensor)
-            }
+            (Some(predicted), true) => perturbation::members(
+                &c,
+                cx.ranges,
+                perturbation,
+                (predicted, predicted_iris),
+                &sensor,
+            ),
             _ => Vec::new(),
         };
         let shots = shots(Shot { exposure_s: decision.applied.exposure_s, f_number }, &members);
-        let mut frames = at.source.render_shots(&camera, &request, &shots)?.into_iter();
+        let mut frames = at.source.render_shots(camera, &request, &shots)?.into_iter();
         let frame = frames.next().ok_or_else(|| SourceError::OutOfRange {
             reason: "the frame source returned no frame".into(),
         })?;
@@ -120,16 +105,13 @@ pub(super) fn train(
         let noise_seed: u64 = cx.streams.indexed("noise", common).random();
         let normals = formation.input_normals(camera.width_px, camera.height_px, noise_seed);
         cx.journal.watch.lap(|t| &mut t.noise_ms);
-        let light_factor = match f_number {
-            Some(n) => formation.with_f_number(n)?.light_factor(),
-            None => formation.light_factor(),
-        };
+        let light_factor = rig.formation_at(f_number)?.light_factor();
         let scene = Scene {
             i0: frame.hdr.data(),
             normals: &normals,
             width: camera.width_px,
             height: camera.height_px,
-            pixel_pitch_um: pitch,
+            pixel_pitch_um: rig.pitch_um(),
             light_factor,
             iris: sensor.iris,
         };

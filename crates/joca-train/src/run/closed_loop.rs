@@ -11,7 +11,6 @@
 //!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
 //! - `<sequence>/NNN.png` — those frames.
 
-use super::driver::Driver;
 pub(super) use super::driver::WARMUP_FRAMES;
 use super::{Context, light_of};
 use crate::TrainError;
@@ -121,11 +120,11 @@ pub(super) fn test(
             (None, Some(town)) => &**town,
             (None, None) => unreachable!("the test towns are built above without a recording"),
         };
-        let mut driver = Driver::new(cx, model, design, source.frame_interval_s());
+        let mut driver = cx.driver(model, design, source.frame_interval_s(), cx.test.controller);
         for k in 0..WARMUP_FRAMES + plan.frames_per_episode {
             let time_s = start_s + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
-            let s = driver.step(cx, model, source, &camera, episode, time_s, &mut noise)?;
+            let s = driver.step(model, source, (episode, time_s), &mut noise)?;
             if k < WARMUP_FRAMES {
                 continue;
             }
@@ -268,7 +267,7 @@ fn showcases(
         };
         let frame_dir = dir.join(name);
         std::fs::create_dir_all(&frame_dir).map_err(|e| TrainError::io(&frame_dir, e))?;
-        let mut driver = Driver::new(cx, model, design, dt);
+        let mut driver = cx.driver(model, design, dt, cx.test.controller);
         let mut sequence = Showcase {
             name: name.to_owned(),
             illumination: light_of(Some(illumination)),
@@ -278,7 +277,7 @@ fn showcases(
         for k in 0..frames {
             let time_s = start_s + k as f64 * dt;
             let mut noise = cx.streams.indexed("showcase-noise", index as u64 * 10_000 + k as u64);
-            let s = driver.step(cx, model, &*sim, camera, episode, time_s, &mut noise)?;
+            let s = driver.step(model, &*sim, (episode, time_s), &mut noise)?;
             let save = illumination == Illumination::Tunnel || k + 1 == frames;
             let image = if save {
                 let rel = format!("{name}/{k:03}.png");

@@ -3,11 +3,11 @@
 //! training time but without any update. The test, the validation, the showcases, a fresh-scenes
 //! candidate's judging and `joca headroom` all drive their sequences through [`Driver`].
 
-use super::Context;
+use super::rig::Rig;
 use crate::TrainError;
-use crate::control::{ExposureControl, SensorLimits, test_control};
-use joca_camera::{CameraDesign, Capture, DynamicSettings, ImageFormation};
-use joca_core::{Detection, Frame, FrameRequest, FrameSource, PinholeCamera, Rgb8Image};
+use crate::control::ExposureControl;
+use joca_camera::{Capture, DynamicSettings};
+use joca_core::{Detection, Frame, FrameSource, Rgb8Image};
 use joca_nn::joint::JointModel;
 use joca_record::Settings;
 
@@ -20,9 +20,8 @@ pub(super) struct Driver {
     /// Settings the sensor uses for the next frame.
     applied: DynamicSettings,
     previous: Option<Rgb8Image>,
-    pixel_pitch_um: f64,
-    /// The run's formation on the design's native grid.
-    formation: ImageFormation,
+    /// How the design captures.
+    rig: Rig,
 }
 
 /// What one closed-loop frame produced.
@@ -38,25 +37,16 @@ pub(super) struct Step {
 }
 
 impl Driver {
-    /// Starts a sequence of `design` with the context's test controller.
+    /// Starts a sequence of `rig`'s design driven by `control`.
     pub(super) fn new(
-        cx: &Context,
+        rig: Rig,
+        mut control: Box<dyn ExposureControl>,
         model: &mut JointModel,
-        design: &CameraDesign,
-        frame_interval_s: f64,
     ) -> Self {
         model.reset_sequence();
-        // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
-        // controller's whole range stays the camera's at every f-number).
-        let pixel_pitch_um = design.sensor().pixel_pitch_um;
-        let sensor = SensorLimits::new(pixel_pitch_um, cx.ranges, frame_interval_s)
-            .with_iris(super::candidate::iris(&cx.config, design));
-        model.set_max_exposure(sensor.max_exposure_s);
-        let mut control =
-            test_control(cx.test.controller, cx.config.method.neural(), sensor, cx.ranges);
+        model.set_max_exposure(rig.sensor.max_exposure_s);
         let applied = control.start();
-        let formation = cx.formation.for_design(design);
-        Self { control, applied, previous: None, pixel_pitch_um, formation }
+        Self { control, applied, previous: None, rig }
     }
 
     /// The 8-bit frame last captured.
@@ -69,41 +59,22 @@ impl Driver {
         self.applied
     }
 
-    /// Sets this frame's exposure and gain from the previous frame, captures and detects.
-    #[allow(clippy::too_many_arguments)]
+    /// Sets this frame's exposure and gain from the previous frame, captures the instant
+    /// (`episode`, `time_s`) of `source` and detects.
     pub(super) fn step(
         &mut self,
-        cx: &Context,
         model: &mut JointModel,
-        sim: &dyn FrameSource,
-        camera: &PinholeCamera,
-        episode: u64,
-        time_s: f64,
+        source: &dyn FrameSource,
+        instant: (u64, f64),
         noise: &mut impl rand::Rng,
     ) -> Result<Step, TrainError> {
         if let Some(prev) = &self.previous {
             self.applied = self.control.next(model, prev).applied;
         }
-        let request = FrameRequest {
-            episode,
-            time_s,
-            exposure_s: self.applied.exposure_s,
-            motion_scale: cx.config.scenario.motion_scale(),
-        };
         // Where the controller sets the iris, the frame is seen and formed at its f-number.
         let f_number = self.control.f_number();
-        let formation = match f_number {
-            Some(n) => self.formation.with_f_number(n)?,
-            None => self.formation,
-        };
-        let Capture { frame, image } = formation.capture(
-            sim,
-            &camera.stopped_to(f_number)?,
-            &request,
-            self.applied,
-            self.pixel_pitch_um,
-            noise,
-        )?;
+        let Capture { frame, image } =
+            self.rig.capture(source, instant, self.applied, f_number, noise)?;
         let detections = model.observe(&image);
         let (mean_dn, clipped) = levels(&image);
         self.previous = Some(image);

@@ -4,7 +4,6 @@
 //! the same stretches and noise.
 
 use super::Context;
-use super::driver::Driver;
 use super::stretches::{Scenes, Stretches};
 use crate::TrainError;
 use joca_camera::CameraDesign;
@@ -20,16 +19,14 @@ pub(super) fn judge(
 ) -> Result<TaskScores, TrainError> {
     let c = cx.config.clone();
     let stretches = Stretches::draw(&c, &cx.streams, &mut cx.scenes, Scenes::Common(scenes));
-    let camera = design.view(&c.input, c.lens);
     // The controller carries its settings across stretches, as in training.
-    let mut driver = Driver::new(cx, model, design, stretches.frame_interval_s());
+    let mut driver = cx.driver(model, design, stretches.frame_interval_s(), cx.test.controller);
     let mut metrics = TaskMetrics::default();
     for step in 0..c.steps_per_candidate {
         let at = stretches.at(step);
         let mut noise =
             cx.streams.indexed("judge-noise", scenes * c.steps_per_candidate as u64 + step as u64);
-        let episode = at.stretch.episode;
-        let s = driver.step(cx, model, at.source, &camera, episode, at.time_s, &mut noise)?;
+        let s = driver.step(model, at.source, (at.stretch.episode, at.time_s), &mut noise)?;
         metrics.update(&s.frame.boxes, &s.frame.ignore, &s.detections, s.frame.visible_180);
     }
     Ok(metrics.compute())

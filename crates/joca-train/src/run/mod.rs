@@ -12,7 +12,7 @@
 //! [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
 //! (choosing the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop
 //! driving: the test, the validation, the showcases; [`driver`] one sequence's controller and
-//! captures), [`scenes`] (where scenes come from: towns built once, or recordings), [`headroom`] (`joca headroom`), [`results`] (what a run reports),
+//! captures; [`rig`] how a design captures), [`scenes`] (where scenes come from: towns built once, or recordings), [`headroom`] (`joca headroom`), [`results`] (what a run reports),
 //! [`timing`] (`joca bench step`).
 
 mod aperture;
@@ -29,6 +29,7 @@ mod method;
 mod perturbation;
 mod reference;
 mod results;
+mod rig;
 mod scenes;
 mod source;
 mod state;
@@ -47,10 +48,11 @@ pub use config::{
     TrainingScenes, WarmStart,
 };
 pub(crate) use config::{check_detector, check_input};
+use driver::Driver;
 pub use evaluate::{EvalOptions, MAX_TEST_TOWN, check_town, cpu_description, evaluate_run};
 use evaluate::{best_design, test_design};
 use joca_camera::{
-    AccRanges, Calibration, DesignSpace, GenomeCodec, ImageFormation, SensorEncoding,
+    AccRanges, Calibration, CameraDesign, DesignSpace, GenomeCodec, ImageFormation, SensorEncoding,
 };
 use joca_core::SeedStreams;
 use joca_core::output::{self, DirLock, OutputKind};
@@ -62,6 +64,7 @@ pub use method::{DesignSpec, FixedCamera};
 use rand::Rng;
 use results::summary;
 pub use results::{DesignSummary, RunResults, SearchTies};
+use rig::Rig;
 pub(crate) use scenes::light_of;
 use scenes::{RealSources, SceneSource};
 use state::RunState;
@@ -144,6 +147,25 @@ struct TestDrive {
 }
 
 impl Context {
+    /// How `design` captures in this run, driven at `frame_interval_s`.
+    fn rig(&self, design: &CameraDesign, frame_interval_s: f64) -> Rig {
+        Rig::new(&self.config, &self.formation, self.ranges, design, frame_interval_s)
+    }
+
+    /// A closed-loop sequence of `design` driven by `controller` (the run's own, or a swap).
+    fn driver(
+        &self,
+        model: &mut JointModel,
+        design: &CameraDesign,
+        frame_interval_s: f64,
+        controller: TestController,
+    ) -> Driver {
+        let rig = self.rig(design, frame_interval_s);
+        let neural = self.config.method.neural();
+        let control = crate::control::test_control(controller, neural, rig.sensor, self.ranges);
+        Driver::new(rig, control, model)
+    }
+
     /// Appends `event` to `events.jsonl`.
     fn log(&mut self, event: &Event) -> Result<(), TrainError> {
         let j = &mut self.journal;

@@ -92,22 +92,22 @@ impl Member {
 /// pitch, and its iris position where it sets the iris): the GA's population, or the ablation's
 /// four fixed perturbations (which leave the iris where NeuralAE put it).
 pub(super) fn members(
-    cx: &Context,
+    config: &RunConfig,
+    ranges: AccRanges,
     ga: &Ga,
-    predicted: DynamicSettings,
-    iris: Option<f64>,
+    (predicted, iris): (DynamicSettings, Option<f64>),
     sensor: &SensorLimits,
 ) -> Vec<Member> {
-    let offsets: Vec<Vec<f64>> = if cx.config.method == Method::FixedPerturbation {
+    let offsets: Vec<Vec<f64>> = if config.method == Method::FixedPerturbation {
         FIXED.iter().map(|p| p.to_vec()).collect()
     } else {
         ga.ask().to_vec()
     };
-    let steps = cx.config.perturbation_steps;
+    let steps = config.perturbation_steps;
     offsets
         .iter()
         .map(|p| {
-            let perturbed = perturb(steps, &cx.ranges, predicted, [p[0], p[1]]);
+            let perturbed = perturb(steps, &ranges, predicted, [p[0], p[1]]);
             // The iris's unit position is already even steps of log f-number: offset directly.
             let iris = iris.map(|u| (u + p.get(2).copied().unwrap_or(0.0)).clamp(0.0, 1.0));
             let f_number = sensor.iris.zip(iris).map(|(lens, u)| lens.f_number(u));

@@ -6,11 +6,10 @@
 //! the ACC ranges, so it also meets frames far from mid-grey. The detector does not change.
 
 use super::Context;
-use super::candidate::iris;
 use crate::TrainError;
-use crate::control::{ExposureControl, NeuralControl, SensorLimits};
+use crate::control::{ExposureControl, NeuralControl};
 use joca_camera::{AccRanges, AverageAe, CameraDesign, Capture, DynamicSettings};
-use joca_core::{FrameRequest, FrameSource, Rgb8Image};
+use joca_core::{FrameSource, Rgb8Image};
 use joca_nn::joint::{GaTarget, JointModel};
 use joca_record::{Event, WarmStartRecord};
 use joca_sim::{Illumination, train_map_seed};
@@ -58,13 +57,10 @@ pub(super) fn warm_start(
         let start = anywhere(&mut rng, cx.ranges);
         let mut noise = cx.streams.indexed("warm-start-noise", s as u64);
 
-        let camera = design.view(&c.input, c.lens);
-        let formation = cx.formation.for_design(design);
-        let pitch = design.sensor().pixel_pitch_um;
-        let sensor = SensorLimits::new(pitch, cx.ranges, dt).with_iris(iris(&c, design));
-        model.set_max_exposure(sensor.max_exposure_s);
+        let rig = cx.rig(design, dt);
+        model.set_max_exposure(rig.sensor.max_exposure_s);
         model.reset_sequence();
-        let mut control = NeuralControl::starting_at(sensor, start);
+        let mut control = NeuralControl::starting_at(rig.sensor, start);
         let mut last: Option<Rgb8Image> = None;
         for f in 0..frames {
             if let Some(prev) = &last {
@@ -75,26 +71,10 @@ pub(super) fn warm_start(
                     losses.push(model.imitate(&p, target, ws.lr)?);
                 }
             }
-            let f_number = control.f_number();
-            let formation = match f_number {
-                Some(n) => formation.with_f_number(n)?,
-                None => formation,
-            };
-            let request = FrameRequest {
-                episode,
-                time_s: t0 + f as f64 * dt,
-                exposure_s: control.applied().exposure_s,
-                motion_scale: c.scenario.motion_scale(),
-            };
-            let source: &dyn FrameSource = &*town;
-            let Capture { image, .. } = formation.capture(
-                source,
-                &camera.stopped_to(f_number)?,
-                &request,
-                control.applied(),
-                pitch,
-                &mut noise,
-            )?;
+            let instant = (episode, t0 + f as f64 * dt);
+            let (applied, f_number) = (control.applied(), control.f_number());
+            let Capture { image, .. } =
+                rig.capture(&*town, instant, applied, f_number, &mut noise)?;
             model.observe(&image);
             last = Some(image);
         }

@@ -13,14 +13,14 @@ pub mod ladder;
 mod policies;
 
 use super::closed_loop::{Plan, TOWN_START_S, towns};
-use super::driver::{Driver, WARMUP_FRAMES, levels};
+use super::driver::{WARMUP_FRAMES, levels};
 use super::evaluate::{best_design, load_run};
 use super::results::summary;
 use super::{Context, RunConfig, Scenario, cpu_description, light_of, setup};
 use crate::TrainError;
 use crate::control::TestController;
 use joca_camera::{CameraDesign, DynamicSettings};
-use joca_core::{Annotation, Detection, FrameRequest, FrameSource, Rgb8Image};
+use joca_core::{Annotation, Detection, FrameSource, Rgb8Image};
 use joca_nn::joint::JointModel;
 use joca_record::{HEADROOM_FORMAT_VERSION, HeadroomRecord, Light, Provenance, Settings};
 use ladder::LadderConfig;
@@ -187,30 +187,24 @@ fn ladder_outcomes(
     plan: Plan,
     rungs: &[DynamicSettings],
 ) -> Result<Vec<Vec<Outcome>>, TrainError> {
-    let camera = design.view(&cx.config.input, cx.config.lens);
-    let formation = cx.formation.for_design(design);
-    let pitch = design.sensor().pixel_pitch_um;
     let mut exposures: Vec<f64> = rungs.iter().map(|r| r.exposure_s).collect();
     exposures.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
     let towns = towns(cx, plan);
+    // Only the view, the formation and the motion: every rung's settings are the ladder's.
+    let rig = cx.rig(design, towns[0].frame_interval_s());
     let mut out = vec![Vec::new(); rungs.len()];
     for episode in 0..plan.episodes {
         let town = &towns[episode as usize % towns.len()];
         let light = light_of(Some(town.episode(episode).illumination));
         for k in WARMUP_FRAMES..WARMUP_FRAMES + plan.frames_per_episode {
             let time_s = TOWN_START_S + k as f64 * town.frame_interval_s();
-            let request = FrameRequest {
-                episode,
-                time_s,
-                exposure_s: exposures[0],
-                motion_scale: cx.config.scenario.motion_scale(),
-            };
-            let frames = town.render_exposures(&camera, &request, &exposures)?;
+            let request = rig.request(episode, time_s, exposures[0]);
+            let frames = town.render_exposures(&rig.camera, &request, &exposures)?;
             for (r, rung) in rungs.iter().enumerate() {
                 let i = exposures.iter().position(|e| (e - rung.exposure_s).abs() < 1e-12);
                 let frame = &frames[i.unwrap_or(0)];
                 let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
-                let image = formation.form(&frame.hdr, *rung, pitch, &mut noise);
+                let image = rig.formation.form(&frame.hdr, *rung, rig.pitch_um(), &mut noise);
                 let detections = model.observe(&image);
                 out[r].push(outcome(light, frame, detections, *rung, &image));
             }
@@ -228,19 +222,17 @@ fn closed_loop_outcomes(
     plan: Plan,
     controller: TestController,
 ) -> Result<Vec<Outcome>, TrainError> {
-    cx.test.controller = controller;
-    let camera = design.view(&cx.config.input, cx.config.lens);
     let towns = towns(cx, plan);
     let mut out = Vec::new();
     for episode in 0..plan.episodes {
         let town = &towns[episode as usize % towns.len()];
         let light = light_of(Some(town.episode(episode).illumination));
         let source: &dyn FrameSource = &**town;
-        let mut driver = Driver::new(cx, model, design, source.frame_interval_s());
+        let mut driver = cx.driver(model, design, source.frame_interval_s(), controller);
         for k in 0..WARMUP_FRAMES + plan.frames_per_episode {
             let time_s = TOWN_START_S + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
-            let s = driver.step(cx, model, source, &camera, episode, time_s, &mut noise)?;
+            let s = driver.step(model, source, (episode, time_s), &mut noise)?;
             if k >= WARMUP_FRAMES
                 && let Some(image) = driver.last_image()
             {
@@ -248,7 +240,6 @@ fn closed_loop_outcomes(
             }
         }
     }
-    cx.test.controller = TestController::Trained;
     Ok(out)
 }
 

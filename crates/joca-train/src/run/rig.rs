@@ -1,0 +1,95 @@
+//! One design as the run captures with it: its view at the detector's input, its formation on
+//! its native grid, the limits its controller works within (its pixel, the frame interval, the
+//! iris where the controller sets the aperture) and the scenario's motion. Training, judging,
+//! the warm start, the test and `joca headroom` all see and form a design's frames through a
+//! [`Rig`], so they cannot disagree on how a design captures.
+
+use super::RunConfig;
+use crate::TrainError;
+use crate::control::SensorLimits;
+use joca_camera::{AccRanges, ApertureControl, CameraDesign, Capture, DynamicSettings};
+use joca_camera::{ImageFormation, Iris};
+use joca_core::optics::CALIBRATION_F_NUMBER;
+use joca_core::{FrameRequest, FrameSource, PinholeCamera};
+
+/// How the run captures with one design (see the module's documentation).
+#[derive(Debug, Clone)]
+pub(super) struct Rig {
+    /// The design's pinhole view at the detector's input.
+    pub(super) camera: PinholeCamera,
+    /// The run's formation on the design's native grid.
+    pub(super) formation: ImageFormation,
+    /// What a controller may set on this design at this frame interval.
+    pub(super) sensor: SensorLimits,
+    /// The scenario's motion-blur scale.
+    motion_scale: f64,
+}
+
+impl Rig {
+    /// `design` in the run of `config` (its formation `formation`, the controller's `ranges`),
+    /// driven at `frame_interval_s`.
+    pub(super) fn new(
+        config: &RunConfig,
+        formation: &ImageFormation,
+        ranges: AccRanges,
+        design: &CameraDesign,
+        frame_interval_s: f64,
+    ) -> Self {
+        // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
+        // controller's whole range stays the camera's at every f-number).
+        let sensor = SensorLimits::new(design.sensor().pixel_pitch_um, ranges, frame_interval_s)
+            .with_iris(iris(config, design));
+        Self {
+            camera: design.view(&config.input, config.lens),
+            formation: formation.for_design(design),
+            sensor,
+            motion_scale: config.scenario.motion_scale(),
+        }
+    }
+
+    /// The design's pixel pitch, µm.
+    pub(super) fn pitch_um(&self) -> f64 {
+        self.sensor.pixel_pitch_um
+    }
+
+    /// The request for the instant (`episode`, `time_s`) with a shutter of `exposure_s`.
+    pub(super) fn request(&self, episode: u64, time_s: f64, exposure_s: f64) -> FrameRequest {
+        FrameRequest { episode, time_s, exposure_s, motion_scale: self.motion_scale }
+    }
+
+    /// The formation at `f_number` where the controller set the iris (`None`: the design's).
+    pub(super) fn formation_at(&self, f_number: Option<f64>) -> Result<ImageFormation, TrainError> {
+        Ok(match f_number {
+            Some(n) => self.formation.with_f_number(n)?,
+            None => self.formation,
+        })
+    }
+
+    /// Renders the instant (`episode`, `time_s`) of `source` with `applied` at `f_number` and
+    /// forms it on the design's grid with noise from `noise`.
+    pub(super) fn capture(
+        &self,
+        source: &dyn FrameSource,
+        (episode, time_s): (u64, f64),
+        applied: DynamicSettings,
+        f_number: Option<f64>,
+        noise: &mut impl rand::Rng,
+    ) -> Result<Capture, TrainError> {
+        let request = self.request(episode, time_s, applied.exposure_s);
+        Ok(self.formation_at(f_number)?.capture(
+            source,
+            &self.camera.stopped_to(f_number)?,
+            &request,
+            applied,
+            self.pitch_um(),
+            noise,
+        )?)
+    }
+}
+
+/// The iris NeuralAE moves for `design` where the run sets the aperture frame by frame: from
+/// the design's f-number (the lens wide open) to the calibration's f/16.
+pub(super) fn iris(config: &RunConfig, design: &CameraDesign) -> Option<Iris> {
+    (config.aperture == ApertureControl::Dynamic)
+        .then(|| Iris::new(design.f_number, CALIBRATION_F_NUMBER))
+}
