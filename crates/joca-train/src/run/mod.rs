@@ -1,19 +1,19 @@
-//! The joint optimisation loop of the paper (Sec. 5, docs/design.md's data flow), one loop for every
-//! method: what differs between methods is which parts are optimised (hardware GA or a fixed
-//! camera; NeuralAE or AverageAE; GA supervision, fixed perturbations or none; detector trained
-//! or frozen).
+//! The joint optimisation loop of the paper (Sec. 5, docs/design.md's data flow), one loop for
+//! every method: what differs between methods is which parts are optimised (hardware GA or a
+//! fixed camera; NeuralAE or AverageAE; GA supervision, fixed perturbations or none; detector
+//! trained or frozen).
 //!
 //! One idea per file: [`config`] (the `[run]` table and its validation), [`method`] (the fixed
 //! cameras; methods and scenarios are `joca_record`'s), this file (the loop over generations and
 //! candidates, then the test), [`state`] (the loop's checkpointed state and its steps: start or
 //! resume, a generation's members, one candidate trained and checkpointed), [`stretches`] (which
-//! scenes a candidate plays), [`candidate`] (who learns: one candidate's k steps of joint
-//! training), [`judge`] (who judges a candidate that learned from scenes of its own),
-//! [`perturbation`] (DF-Grad's perturbation search), [`evaluate`]
-//! (choosing the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop
-//! driving: the test, the validation, the showcases; [`driver`] one sequence's controller and
-//! captures; [`rig`] how a design captures), [`scenes`] (where scenes come from: towns built once, or recordings), [`headroom`] (`joca headroom`), [`results`] (what a run reports),
-//! [`timing`] (`joca bench step`).
+//! scenes a candidate plays), [`rig`] (how a design captures), [`candidate`] (who learns: one
+//! candidate's k steps of joint training), [`judge`] (who judges a candidate that learned from
+//! scenes of its own), [`perturbation`] (DF-Grad's perturbation search), [`evaluate`] (choosing
+//! the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop driving: the
+//! test, the validation, the showcases; [`driver`] one sequence's controller and captures),
+//! [`scenes`] (where scenes come from: towns built once, or recordings), [`headroom`] (`joca
+//! headroom`), [`results`] (what a run reports), [`timing`] (`joca bench step`).
 
 mod aperture;
 mod candidate;

@@ -1,10 +1,10 @@
-//! `joca headroom`: the room any exposure controller has on one design and detector (docs/design.md,
-//! "Evaluation protocol"). The test's frames — the same episodes, instants and noise draws as
-//! `joca run`'s test — are captured at every rung of a settings [`ladder`] (each rung with its
-//! own motion blur, noise and clipping) and under closed-loop controllers (AverageAE at several
-//! frame-mean targets, and a run's own trained controller), and every capture is detected and
-//! scored. [`policies`] then scores the choices made in hindsight: the best constant setting,
-//! the best target, either chosen per light, and the per-frame oracle over the ladder.
+//! `joca headroom`: the room any exposure controller has on one design and detector
+//! (docs/design.md, "Evaluation protocol"). The test's frames — the same episodes, instants and
+//! noise draws as `joca run`'s test — are captured at every rung of a settings [`ladder`] (each
+//! rung with its own motion blur, noise and clipping) and under closed-loop controllers (AverageAE
+//! at several frame-mean targets, and a run's own trained controller), and every capture is
+//! detected and scored. [`policies`] then scores the choices made in hindsight: the best constant
+//! setting, the best target, either chosen per light, and the per-frame oracle over the ladder.
 //!
 //! Nothing here trains: the detector and controller are a run's (from its checkpoint) or a
 //! weights file's on a fixed design.
