@@ -41,11 +41,10 @@ pub(super) fn train(
     let stretches = Stretches::draw(&c, &cx.streams, &mut cx.scenes, drawn);
     let rig = cx.rig(design, stretches.frame_interval_s());
     let (camera, formation, sensor) = (&rig.camera, rig.formation, rig.sensor);
-    model.set_max_exposure(sensor.max_exposure_s);
     let mut control = controller(c.method.neural(), sensor, cx.ranges);
     let weights = DfGradWeights { task: c.task_weight, ga: 1.0, step: c.step_weight };
     let mut metrics = TaskMetrics::default();
-    model.reset_sequence();
+    rig.start_sequence(model);
     let first = control.start();
     let mut previous_frame = None;
     for step in 0..c.steps_per_candidate {

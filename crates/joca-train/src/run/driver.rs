@@ -43,8 +43,7 @@ impl Driver {
         mut control: Box<dyn ExposureControl>,
         model: &mut JointModel,
     ) -> Self {
-        model.reset_sequence();
-        model.set_max_exposure(rig.sensor.max_exposure_s);
+        rig.start_sequence(model);
         let applied = control.start();
         Self { control, applied, previous: None, rig }
     }

@@ -11,6 +11,7 @@ use joca_camera::{AccRanges, ApertureControl, CameraDesign, Capture, DynamicSett
 use joca_camera::{ImageFormation, Iris};
 use joca_core::optics::CALIBRATION_F_NUMBER;
 use joca_core::{FrameRequest, FrameSource, PinholeCamera};
+use joca_nn::joint::JointModel;
 
 /// How the run captures with one design (see the module's documentation).
 #[derive(Debug, Clone)]
@@ -45,6 +46,13 @@ impl Rig {
             sensor,
             motion_scale: config.scenario.motion_scale(),
         }
+    }
+
+    /// Starts a sequence of this design on `model`: no previous frame, and the design's longest
+    /// exposure at this frame interval.
+    pub(super) fn start_sequence(&self, model: &mut JointModel) {
+        model.reset_sequence();
+        model.set_max_exposure(self.sensor.max_exposure_s);
     }
 
     /// The design's pixel pitch, µm.

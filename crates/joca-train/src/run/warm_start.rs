@@ -58,8 +58,7 @@ pub(super) fn warm_start(
         let mut noise = cx.streams.indexed("warm-start-noise", s as u64);
 
         let rig = cx.rig(design, dt);
-        model.set_max_exposure(rig.sensor.max_exposure_s);
-        model.reset_sequence();
+        rig.start_sequence(model);
         let mut control = NeuralControl::starting_at(rig.sensor, start);
         let mut last: Option<Rgb8Image> = None;
         for f in 0..frames {
