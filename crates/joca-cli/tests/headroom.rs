@@ -34,6 +34,28 @@ fn a_design_is_measured_and_tabulated() {
     // Chosen light by light among the same frames, the oracle starts from the best constant
     // of each light and never goes below it.
     assert!(map("oracle").0 >= map("constant-by-light").0 - 1e-12);
+    // The task loss's own choices: the rungs carry their mean loss per light, and the loss's
+    // choice per light holds, light by light, the least of them.
+    assert!(map("loss-by-light").1 && map("loss-oracle").1);
+    let policy = |name: &str| {
+        r["policies"].as_array().unwrap().iter().find(|p| p["policy"] == name).unwrap().clone()
+    };
+    let chosen = policy("loss-by-light");
+    for (light, x) in chosen["by_light"].as_object().unwrap() {
+        let least = (0..4)
+            .map(|i| policy(&format!("rung-{i}"))["by_light"][light]["task_loss"].as_f64().unwrap())
+            .fold(f64::MAX, f64::min);
+        assert_eq!(x["task_loss"].as_f64().unwrap(), least, "{light}");
+    }
+    assert!(
+        policy("average-127.5")["by_light"]
+            .as_object()
+            .unwrap()
+            .values()
+            .all(|x| x.get("task_loss").is_none())
+    );
+    let md = std::fs::read_to_string(out.join("headroom.md")).unwrap();
+    assert!(md.contains("## The ladder, light by light") && md.contains("| rung-3 |"), "{md}");
     assert!(r["provenance"]["commit"].as_str().unwrap().len() >= 7);
     // Two records tabulated: each difference paired.
     let o = cli!("headroom --table", out, out);

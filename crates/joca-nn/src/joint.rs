@@ -220,6 +220,15 @@ impl JointModel {
         self.det.detect_batch_in(frames, precision)
     }
 
+    /// Detections in a frame and its detector task loss from one forward pass, without touching
+    /// the sequence state (see [`crate::detector::DetectorModel::detect_with_loss`]).
+    pub fn detect_with_loss(
+        &self,
+        frame: crate::detector::TrainFrame<'_>,
+    ) -> (Vec<Detection>, f64) {
+        self.det.detect_with_loss(frame)
+    }
+
     /// Each frame's detector task loss, without a gradient or an update (see
     /// [`crate::detector::DetectorModel::losses_in`]).
     pub fn losses_in(

@@ -16,7 +16,8 @@ use std::collections::BTreeMap;
 /// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`); version 4 the
 /// GPU (`device`); version 5 tunnels as places (`tunnels`); version 6 daylight that follows the
 /// sun's elevation (`sun_elevation.daylight`); version 7 tunnel drives in one direction
-/// (`tunnels.drives`).
+/// (`tunnels.drives`). A policy's `task_loss` needs no version of its own: a reader that does
+/// not know it reads the rest correctly.
 pub const HEADROOM_FORMAT_VERSION: u32 = 7;
 
 /// What one design and detector leave to a controller (`headroom.json`).
@@ -56,7 +57,8 @@ pub struct HeadroomRecord {
     pub ladder: Vec<Settings>,
     /// Every policy's scores: the ladder's rungs (`rung-<i>`), the closed-loop controllers
     /// (`average-<DN>`, `trained`) and the choices in hindsight (`best-constant`,
-    /// `best-target`, `target-by-light`, `constant-by-light`, `oracle`).
+    /// `best-target`, `target-by-light`, `constant-by-light`, `oracle`, `loss-by-light`,
+    /// `loss-oracle`).
     pub policies: Vec<PolicyScores>,
     /// The CPU the numbers were computed on.
     pub cpu: String,
@@ -99,6 +101,10 @@ pub struct PolicyLight {
     pub mean_dn: f64,
     /// Mean share of pixels with a channel at 255.
     pub clipped_share: f64,
+    /// Mean detector task loss on the run's training objects (absent: not computed, as for the
+    /// closed-loop controllers).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task_loss: Option<f64>,
     /// Frames.
     pub frames: u64,
 }

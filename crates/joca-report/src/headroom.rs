@@ -73,6 +73,7 @@ pub fn headroom_markdown(r: &HeadroomRecord) -> String {
             per.join(" | ")
         );
     }
+    ladder_by_light(&mut s, r, &lights);
     let _ = writeln!(s, "\n## What each policy does to the frames\n");
     let _ =
         writeln!(s, "| policy | light | E (ms) | G (dB) | E × gain (ms) | frame (DN) | clipped |");
@@ -93,6 +94,37 @@ pub fn headroom_markdown(r: &HeadroomRecord) -> String {
         }
     }
     s
+}
+
+/// The ladder's rungs light by light: each rung's mAP, the detector's mean task loss (where the
+/// record has it) and the frame level, so that where the task loss is lowest can be read beside
+/// where the mAP is highest.
+fn ladder_by_light(s: &mut String, r: &HeadroomRecord, lights: &[Light]) {
+    let rungs: Vec<&PolicyScores> =
+        r.policies.iter().filter(|p| p.policy.starts_with("rung-")).collect();
+    if rungs.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## The ladder, light by light: mAP · the detector's task loss · frame level (DN)\n"
+    );
+    let header: Vec<String> = lights.iter().map(|l| l.name().to_owned()).collect();
+    let _ = writeln!(s, "| rung | E × gain (ms) | {} |", header.join(" | "));
+    let _ = writeln!(s, "|---|---|{}", "---|".repeat(lights.len()));
+    for (i, p) in rungs.iter().enumerate() {
+        let per: Vec<String> = lights
+            .iter()
+            .map(|l| {
+                p.by_light.get(l).map_or("–".into(), |x| {
+                    let loss = x.task_loss.map_or("–".into(), |v| format!("{v:.3}"));
+                    format!("{:.3} · {loss} · {:.0}", x.map, x.mean_dn)
+                })
+            })
+            .collect();
+        let product = r.ladder.get(i).map_or(f64::NAN, |x| x.exposure_gain_ms());
+        let _ = writeln!(s, "| {} | {product:.3} | {} |", p.policy, per.join(" | "));
+    }
 }
 
 /// Each policy minus the reference, paired by record (design, scenario and town measured alike),

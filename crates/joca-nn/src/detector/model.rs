@@ -243,6 +243,18 @@ impl DetectorModel {
         decode(&out, frame.width(), frame.height(), MAX_DETECTIONS, MIN_SCORE)
     }
 
+    /// [`DetectorModel::detect`]'s detections in `frame.image` and the frame's task loss (as
+    /// [`DetectorModel::losses_in`] in float32) from the same forward pass.
+    pub fn detect_with_loss(&self, frame: TrainFrame<'_>) -> (Vec<Detection>, f64) {
+        let _guard = tch::no_grad_guard();
+        let out = self.net.forward(&image_tensor(frame.image, self.device));
+        let s = out.heatmap.size();
+        let loss =
+            DetectionLoss::new(&out, &self.targets(&frame, (s[2], s[3]))).total.double_value(&[]);
+        let (w, h) = (frame.image.width(), frame.image.height());
+        (decode(&out, w, h, MAX_DETECTIONS, MIN_SCORE), loss)
+    }
+
     /// Whether the network's outputs on `frame` hold NaN or infinite values: weights that are
     /// finite but overflow in the forward pass give no detection and no other sign.
     pub fn diverges_on(&self, frame: &Rgb8Image) -> bool {

@@ -157,3 +157,21 @@ fn each_frames_loss_is_the_training_loss_of_that_frame_alone() {
     assert!(after[0] < after[1], "{after:?}");
     assert!(model.losses_in(&[], Precision::Fp32).unwrap().is_empty());
 }
+
+/// One forward pass gives what the two separate calls give: `detect`'s detections to the bit,
+/// and the training step's loss of the frame (reported before its update).
+#[test]
+fn detect_with_loss_is_detect_and_the_frames_training_loss() {
+    let _serial = crate::torch_serial();
+    let engine = Engine::cpu(1);
+    engine.seed(7);
+    let mut model = small_model(&engine);
+    let b = BBox::new(20.0, 16.0, 44.0, 36.0);
+    let seen = frame_with_box(64, 48, b);
+    let truth = [Annotation::new(b, Class::Vehicle)];
+    let (found, loss) =
+        model.detect_with_loss(TrainFrame { image: &seen, truth: &truth, ignore: &[] });
+    assert_eq!(found, model.detect(&seen));
+    let trained = model.train_step(&seen, &truth, &[]).unwrap().total;
+    assert!((trained - loss).abs() < 1e-5 * trained.abs().max(1.0), "{trained} {loss}");
+}

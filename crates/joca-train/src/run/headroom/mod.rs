@@ -20,7 +20,8 @@ use super::{Context, RunConfig, Scenario, cpu_description, light_of, setup};
 use crate::TrainError;
 use crate::control::TestController;
 use joca_camera::{CameraDesign, DynamicSettings};
-use joca_core::{Annotation, Detection, FrameSource, Rgb8Image};
+use joca_core::{Annotation, Detection, FrameSource, Rgb8Image, training_targets};
+use joca_nn::detector::TrainFrame;
 use joca_nn::joint::JointModel;
 use joca_record::{HEADROOM_FORMAT_VERSION, HeadroomRecord, Light, Provenance, Settings};
 use ladder::LadderConfig;
@@ -71,6 +72,9 @@ pub(crate) struct Outcome {
     pub(crate) clipped: f64,
     /// [`joca_metrics::frame_utility_of`] of the detections.
     pub(crate) utility: f64,
+    /// The detector's task loss on the capture (the loss DF-Grad descends, on the objects the
+    /// run trains on), where it was computed (the ladder's rungs).
+    pub(crate) loss: Option<f64>,
 }
 
 /// Measures the headroom of `subject` (see the module documentation).
@@ -142,7 +146,8 @@ pub fn headroom(
     let frame_interval_s = towns(&mut cx, plan)[0].frame_interval_s();
     let max_exposure_s = cx.ranges.exposure_s.max.min(frame_interval_s);
     let rungs = options.ladder.rungs(cx.ranges, max_exposure_s);
-    let ladder = ladder_outcomes(&mut cx, &mut model, &design, plan, &rungs)?;
+    let min_box_px = config.min_box_px as f32;
+    let ladder = ladder_outcomes(&mut cx, &model, &design, (plan, min_box_px), &rungs)?;
     let mut controllers = Vec::new();
     for target_dn in options.ladder.targets() {
         let c = TestController::Average { target_dn };
@@ -176,15 +181,16 @@ pub fn headroom(
     Ok(record)
 }
 
-/// Every scored test instant captured at every rung: `[rung][frame]`. An instant is rendered
-/// once per distinct exposure (the simulator shares its sub-frames between them); every rung
-/// draws the same noise (the test's stream for that instant), so rungs differ only by their
-/// settings.
+/// Every scored test instant captured at every rung: `[rung][frame]`, each with the detector's
+/// task loss on the objects of at least `min_box_px` (the smaller ones ignored, as training
+/// does). An instant is rendered once per distinct exposure (the simulator shares its
+/// sub-frames between them); every rung draws the same noise (the test's stream for that
+/// instant), so rungs differ only by their settings.
 fn ladder_outcomes(
     cx: &mut Context,
-    model: &mut JointModel,
+    model: &JointModel,
     design: &CameraDesign,
-    plan: Plan,
+    (plan, min_box_px): (Plan, f32),
     rungs: &[DynamicSettings],
 ) -> Result<Vec<Vec<Outcome>>, TrainError> {
     let mut exposures: Vec<f64> = rungs.iter().map(|r| r.exposure_s).collect();
@@ -205,8 +211,15 @@ fn ladder_outcomes(
                 let frame = &frames[i.unwrap_or(0)];
                 let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
                 let image = rig.formation.form(&frame.hdr, *rung, rig.pitch_um(), &mut noise);
-                let detections = model.observe(&image);
-                out[r].push(outcome(light, frame, detections, *rung, &image));
+                let (truth, ignore) = training_targets(&frame.boxes, &frame.ignore, min_box_px);
+                let (detections, loss) = model.detect_with_loss(TrainFrame {
+                    image: &image,
+                    truth: &truth,
+                    ignore: &ignore,
+                });
+                let mut o = outcome(light, frame, detections, *rung, &image);
+                o.loss = Some(loss);
+                out[r].push(o);
             }
         }
     }
@@ -263,6 +276,7 @@ fn outcome(
         mean_dn,
         clipped,
         utility,
+        loss: None,
     }
 }
 
