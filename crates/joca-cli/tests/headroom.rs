@@ -13,7 +13,7 @@ fn a_design_is_measured_and_tabulated() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("ladder.toml");
     // A short ladder keeps the test in seconds: 4 rungs, 2 stops apart, two targets.
-    std::fs::write(&cfg, "[ladder]\nsteps = 4\nstep_stops = 2.0\ntop_exposure_gain_ms = 400.0\ntargets_dn = [60.0]\n").unwrap();
+    std::fs::write(&cfg, "[ladder]\nsteps = 4\nstep_stops = 2.0\ntop_exposure_gain_ms = 400.0\ntargets_dn = [60.0]\nslopes = true\n").unwrap();
     let out = dir.path().join("h");
     let o = cli!("headroom", DESIGN, "--episodes 4 --frames 2 --config", cfg, "--out", out);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -54,6 +54,11 @@ fn a_design_is_measured_and_tabulated() {
             .values()
             .all(|x| x.get("task_loss").is_none())
     );
+    // With `slopes`, each rung's lights carry the loss's slope and the share asking for light.
+    for x in policy("rung-2")["by_light"].as_object().unwrap().values() {
+        let share = x["more_light_share"].as_f64().unwrap();
+        assert!(x["loss_slope"].as_f64().unwrap().is_finite() && (0.0..=1.0).contains(&share));
+    }
     let md = std::fs::read_to_string(out.join("headroom.md")).unwrap();
     assert!(md.contains("## The ladder, light by light") && md.contains("| rung-3 |"), "{md}");
     assert!(r["provenance"]["commit"].as_str().unwrap().len() >= 7);

@@ -229,6 +229,44 @@ impl JointModel {
         self.det.detect_with_loss(frame)
     }
 
+    /// The task loss of the frame the differentiable formation makes of `scene` at `settings`
+    /// (with this model's clip gradient), and its slope by the frame's light in stops,
+    /// `∂l_task/∂s` for an exposure of `E·2^s` at `s = 0`: the local pull DF-Grad's task gradient
+    /// puts on the light (negative: more light lowers the loss). Nothing is updated and no weight
+    /// gradient is accumulated.
+    pub fn loss_slope(
+        &self,
+        scene: &crate::formation::Scene<'_>,
+        truth: &[joca_core::Annotation],
+        ignore: &[joca_core::Annotation],
+        settings: DynamicSettings,
+    ) -> Result<(f64, f64), NnError> {
+        let kind = (tch::Kind::Float, self.device);
+        let stops = Tensor::zeros([1], kind).set_requires_grad(true);
+        let exposure = (&stops * std::f64::consts::LN_2).exp() * settings.exposure_s;
+        let gain = Tensor::from_slice(&[settings.gain_db as f32]).to_device(self.device);
+        let frame = crate::formation::form(
+            scene,
+            &exposure,
+            &gain,
+            &self.formation,
+            self.clip,
+            self.device,
+        );
+        let out = self.det.net.forward(&crate::formation::to_detector_input(&frame));
+        let sz = out.heatmap.size();
+        let classes = self.det.net.config().classes;
+        let targets =
+            crate::detector::Targets::new(truth, ignore, classes, sz[2], sz[3], self.device);
+        let loss = crate::detector::DetectionLoss::new(&out, &targets).total;
+        let value = loss.double_value(&[]);
+        if !value.is_finite() {
+            return Err(NnError::NonFinite { what: "detector", value });
+        }
+        let grads = Tensor::run_backward(&[&loss], &[&stops], false, false);
+        Ok((value, grads[0].double_value(&[0])))
+    }
+
     /// Each frame's detector task loss, without a gradient or an update (see
     /// [`crate::detector::DetectorModel::losses_in`]).
     pub fn losses_in(

@@ -105,6 +105,13 @@ pub struct PolicyLight {
     /// closed-loop controllers).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub task_loss: Option<f64>,
+    /// Mean slope of the task loss by the light in stops through the differentiable formation
+    /// (`[ladder] slopes`; negative: more light lowers the loss).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loss_slope: Option<f64>,
+    /// Share of frames whose slope is negative (more light would lower their loss).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub more_light_share: Option<f64>,
     /// Frames.
     pub frames: u64,
 }

@@ -109,6 +109,14 @@ fn ladder_by_light(s: &mut String, r: &HeadroomRecord, lights: &[Light]) {
         s,
         "\n## The ladder, light by light: mAP · the detector's task loss · frame level (DN)\n"
     );
+    if rungs.iter().any(|p| p.by_light.values().any(|x| x.loss_slope.is_some())) {
+        let _ = writeln!(
+            s,
+            "Then the loss's mean slope by the light per stop through the differentiable \
+             formation (DF-Grad's task pull; negative: more light lowers the loss) and the share \
+             of frames where it asks for more light.\n"
+        );
+    }
     let header: Vec<String> = lights.iter().map(|l| l.name().to_owned()).collect();
     let _ = writeln!(s, "| rung | E × gain (ms) | {} |", header.join(" | "));
     let _ = writeln!(s, "|---|---|{}", "---|".repeat(lights.len()));
@@ -118,7 +126,10 @@ fn ladder_by_light(s: &mut String, r: &HeadroomRecord, lights: &[Light]) {
             .map(|l| {
                 p.by_light.get(l).map_or("–".into(), |x| {
                     let loss = x.task_loss.map_or("–".into(), |v| format!("{v:.3}"));
-                    format!("{:.3} · {loss} · {:.0}", x.map, x.mean_dn)
+                    let slope = x.loss_slope.zip(x.more_light_share).map_or(String::new(), |v| {
+                        format!(" · {:+.3} ({:.0} %)", v.0, 100.0 * v.1)
+                    });
+                    format!("{:.3} · {loss} · {:.0}{slope}", x.map, x.mean_dn)
                 })
             })
             .collect();

@@ -215,3 +215,47 @@ fn the_step_cost_pulls_neural_ae_towards_holding() {
     let r = model.step(&scene, &[], &[], Exposure::Predicted(p), None, none).unwrap();
     assert_eq!(r.step_loss, None);
 }
+
+/// The loss's slope by the light in stops is the pull DF-Grad's task gradient puts on the
+/// exposure (the step's probe, `∂l/∂E · E · ln 2` per stop), and exactly 0 where every pixel is
+/// saturated and the clamp passes nothing.
+#[test]
+fn the_loss_slope_is_df_grads_task_pull_in_stops() {
+    let _serial = crate::torch_serial();
+    tch::manual_seed(6);
+    let engine = Engine::cpu(1);
+    let detector = DetectorConfig { width: 8, classes: 3, deep: false, shared_head: false };
+    let formation = ImageFormation::new(joca_camera::Calibration::DEFAULT).unwrap();
+    let mut model = JointModel::new(&engine, detector, AccRanges::PAPER, formation, false);
+    model.set_detector_trainable(false);
+    let (w, h) = (48usize, 32usize);
+    let normals: Vec<f32> = (0..w * h * 3).map(|i| ((i % 7) as f32 - 3.0) / 3.0).collect();
+    let truth = [joca_core::Annotation::new(
+        joca_core::BBox::new(10.0, 8.0, 30.0, 24.0),
+        joca_core::Class::Vehicle,
+    )];
+    let i0: Vec<f32> = (0..w * h * 3).map(|i| 5.0 + (i % 97) as f32 * 0.5).collect();
+    let white = vec![5.0e5f32; w * h * 3];
+    let scene = |i0| Scene {
+        i0,
+        normals: &normals,
+        width: w,
+        height: h,
+        pixel_pitch_um: formation.calibration().pixel_pitch_um,
+        light_factor: 1.0,
+        iris: None,
+    };
+    let frame =
+        Rgb8Image::from_vec(w, h, (0..w * h * 3).map(|i| (i % 251) as u8).collect()).unwrap();
+    let _ = model.observe(&frame);
+    let p = model.predict(&frame, DynamicSettings::new(8e-3, 10.0), None).unwrap();
+    let settings = p.settings();
+    let (loss, slope) = model.loss_slope(&scene(&i0), &truth, &[], settings).unwrap();
+    let weights = DfGradWeights { task: 1.0, ga: 0.0, step: 0.0 };
+    let r = model.step(&scene(&i0), &truth, &[], Exposure::Predicted(p), None, weights).unwrap();
+    let (a, b) = model.bounds.log_exposure;
+    let pull = r.task_gradient.unwrap()[0] / (b - a) * std::f64::consts::LN_2;
+    assert!((r.loss.total - loss).abs() < 1e-6 * loss.abs().max(1.0), "{loss} vs {:?}", r.loss);
+    assert!(slope != 0.0 && (slope - pull).abs() < 1e-4 * slope.abs(), "{slope} vs {pull}");
+    assert_eq!(model.loss_slope(&scene(&white), &truth, &[], settings).unwrap().1, 0.0);
+}

@@ -35,6 +35,11 @@ pub struct LadderConfig {
     /// The frame means AverageAE holds in the closed-loop rows, DN (each above 0 and below 255;
     /// mid-grey, 127.5, is always added: it is the reference).
     pub targets_dn: Vec<f64>,
+    /// Also measure, at every rung and frame, the task loss's slope by the light in stops through
+    /// the differentiable formation (the local pull DF-Grad's task gradient puts on the light),
+    /// about three times a rung's detection cost.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub slopes: bool,
 }
 
 impl Default for LadderConfig {
@@ -45,6 +50,7 @@ impl Default for LadderConfig {
             step_stops: 1.0,
             split: LadderSplit::ExposureFirst,
             targets_dn: vec![40.0, 80.0, 170.0, 210.0],
+            slopes: false,
         }
     }
 }

@@ -22,9 +22,11 @@ use crate::control::TestController;
 use joca_camera::{CameraDesign, DynamicSettings};
 use joca_core::{Annotation, Detection, FrameSource, Rgb8Image, training_targets};
 use joca_nn::detector::TrainFrame;
+use joca_nn::formation::Scene;
 use joca_nn::joint::JointModel;
 use joca_record::{HEADROOM_FORMAT_VERSION, HeadroomRecord, Light, Provenance, Settings};
 use ladder::LadderConfig;
+use rand::Rng;
 use std::path::{Path, PathBuf};
 
 /// Where the design and detector come from.
@@ -75,6 +77,9 @@ pub(crate) struct Outcome {
     /// The detector's task loss on the capture (the loss DF-Grad descends, on the objects the
     /// run trains on), where it was computed (the ladder's rungs).
     pub(crate) loss: Option<f64>,
+    /// The task loss's slope by the light in stops through the differentiable formation, where
+    /// it was asked for (`[ladder] slopes`).
+    pub(crate) slope: Option<f64>,
 }
 
 /// Measures the headroom of `subject` (see the module documentation).
@@ -147,7 +152,8 @@ pub fn headroom(
     let max_exposure_s = cx.ranges.exposure_s.max.min(frame_interval_s);
     let rungs = options.ladder.rungs(cx.ranges, max_exposure_s);
     let min_box_px = config.min_box_px as f32;
-    let ladder = ladder_outcomes(&mut cx, &model, &design, (plan, min_box_px), &rungs)?;
+    let slopes = options.ladder.slopes;
+    let ladder = ladder_outcomes(&mut cx, &model, &design, (plan, min_box_px, slopes), &rungs)?;
     let mut controllers = Vec::new();
     for target_dn in options.ladder.targets() {
         let c = TestController::Average { target_dn };
@@ -183,14 +189,14 @@ pub fn headroom(
 
 /// Every scored test instant captured at every rung: `[rung][frame]`, each with the detector's
 /// task loss on the objects of at least `min_box_px` (the smaller ones ignored, as training
-/// does). An instant is rendered once per distinct exposure (the simulator shares its
-/// sub-frames between them); every rung draws the same noise (the test's stream for that
-/// instant), so rungs differ only by their settings.
+/// does), and with `slopes` its slope by the light. An instant is rendered once per distinct
+/// exposure (the simulator shares its sub-frames between them); every rung draws the same noise
+/// (the test's stream for that instant), so rungs differ only by their settings.
 fn ladder_outcomes(
     cx: &mut Context,
     model: &JointModel,
     design: &CameraDesign,
-    (plan, min_box_px): (Plan, f32),
+    (plan, min_box_px, slopes): (Plan, f32, bool),
     rungs: &[DynamicSettings],
 ) -> Result<Vec<Vec<Outcome>>, TrainError> {
     let mut exposures: Vec<f64> = rungs.iter().map(|r| r.exposure_s).collect();
@@ -210,6 +216,8 @@ fn ladder_outcomes(
                 let i = exposures.iter().position(|e| (e - rung.exposure_s).abs() < 1e-12);
                 let frame = &frames[i.unwrap_or(0)];
                 let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
+                // The seed `form` draws, for the differentiable formation's equal frame.
+                let noise_seed: u64 = noise.clone().random();
                 let image = rig.formation.form(&frame.hdr, *rung, rig.pitch_um(), &mut noise);
                 let (truth, ignore) = training_targets(&frame.boxes, &frame.ignore, min_box_px);
                 let (detections, loss) = model.detect_with_loss(TrainFrame {
@@ -219,6 +227,20 @@ fn ladder_outcomes(
                 });
                 let mut o = outcome(light, frame, detections, *rung, &image);
                 o.loss = Some(loss);
+                if slopes {
+                    let (w, h) = (rig.camera.width_px, rig.camera.height_px);
+                    let normals = rig.formation.input_normals(w, h, noise_seed);
+                    let scene = Scene {
+                        i0: frame.hdr.data(),
+                        normals: &normals,
+                        width: w,
+                        height: h,
+                        pixel_pitch_um: rig.pitch_um(),
+                        light_factor: rig.formation.light_factor(),
+                        iris: None,
+                    };
+                    o.slope = Some(model.loss_slope(&scene, &truth, &ignore, *rung)?.1);
+                }
                 out[r].push(o);
             }
         }
@@ -277,6 +299,7 @@ fn outcome(
         clipped,
         utility,
         loss: None,
+        slope: None,
     }
 }
 

@@ -244,6 +244,12 @@ fn policy(name: String, label: String, hindsight: bool, frames: &[&Outcome]) -> 
                 mean_dn: mean(&|o| o.mean_dn),
                 clipped_share: mean(&|o| o.clipped),
                 task_loss: f.iter().map(|o| o.loss).sum::<Option<f64>>().map(|total| total / n),
+                loss_slope: f.iter().map(|o| o.slope).sum::<Option<f64>>().map(|t| t / n),
+                more_light_share: f
+                    .iter()
+                    .map(|o| o.slope.map(|s| f64::from(u8::from(s < 0.0))))
+                    .sum::<Option<f64>>()
+                    .map(|t| t / n),
                 frames: f.len() as u64,
             };
             (light, record)
@@ -277,6 +283,7 @@ mod tests {
             clipped: 0.0,
             // The loss follows the detection: 1 where seen, 2 where missed.
             loss: Some(if detected { 1.0 } else { 2.0 }),
+            slope: None,
         }
     }
 
