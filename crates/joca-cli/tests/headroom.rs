@@ -66,6 +66,7 @@ fn a_design_is_measured_and_tabulated() {
     let o = cli!("headroom --table", out, out);
     let table = String::from_utf8_lossy(&o.stdout).to_string();
     assert!(o.status.success() && table.contains("| oracle † |"), "{table}");
+    assert!(table.contains("Frame level (DN)") && table.contains("| oracle | "), "{table}");
     assert!(table.contains("2/2") || table.contains("0/2"), "{table}");
 }
 

@@ -183,7 +183,7 @@ pub fn headroom_summary_markdown(records: &[HeadroomRecord]) -> String {
             .collect::<Vec<_>>()
             .join(" | ")
     );
-    for name in names {
+    for name in names.iter().copied() {
         let diffs = |light: Option<Light>| -> Vec<f64> {
             records
                 .iter()
@@ -210,5 +210,37 @@ pub fn headroom_summary_markdown(records: &[HeadroomRecord]) -> String {
             per.join(" | ")
         );
     }
+    levels_table(&mut s, records, &lights, &names);
     s
+}
+
+/// Each policy's frame level and clipped share by light, mean ± 95 % t over the records: where
+/// in the light each policy puts its frames.
+fn levels_table(s: &mut String, records: &[HeadroomRecord], lights: &[Light], names: &[&str]) {
+    let _ = writeln!(
+        s,
+        "\nFrame level (DN) and share of pixels clipped by light, mean ± 95 % Student t over the \
+         same records.\n"
+    );
+    let header: Vec<String> = lights.iter().map(|l| l.name().to_owned()).collect();
+    let _ = writeln!(s, "| policy | {} |", header.join(" | "));
+    let _ = writeln!(s, "|---|{}", "---|".repeat(lights.len()));
+    for name in std::iter::once(REFERENCE_POLICY).chain(names.iter().copied()) {
+        let per: Vec<String> = lights
+            .iter()
+            .map(|l| {
+                let (dn, clipped): (Vec<f64>, Vec<f64>) = records
+                    .iter()
+                    .filter_map(|r| r.policy(name)?.by_light.get(l))
+                    .map(|x| (x.mean_dn, 100.0 * x.clipped_share))
+                    .unzip();
+                format!(
+                    "{} DN, {} %",
+                    interval_text(mean_interval(&dn), 0),
+                    interval_text(mean_interval(&clipped), 0)
+                )
+            })
+            .collect();
+        let _ = writeln!(s, "| {name} | {} |", per.join(" | "));
+    }
 }
