@@ -212,12 +212,16 @@ fn ladder_outcomes(
             let time_s = TOWN_START_S + k as f64 * town.frame_interval_s();
             let request = rig.request(episode, time_s, exposures[0]);
             let frames = town.render_exposures(&rig.camera, &request, &exposures)?;
+            let stream = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
+            // Every rung's noise field: the seed `form` draws from the instant's stream, drawn
+            // once for the differentiable formation's equal frame.
+            let (w, h) = (rig.camera.width_px, rig.camera.height_px);
+            let normals =
+                slopes.then(|| rig.formation.input_normals(w, h, stream.clone().random::<u64>()));
             for (r, rung) in rungs.iter().enumerate() {
                 let i = exposures.iter().position(|e| (e - rung.exposure_s).abs() < 1e-12);
                 let frame = &frames[i.unwrap_or(0)];
-                let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
-                // The seed `form` draws, for the differentiable formation's equal frame.
-                let noise_seed: u64 = noise.clone().random();
+                let mut noise = stream.clone();
                 let image = rig.formation.form(&frame.hdr, *rung, rig.pitch_um(), &mut noise);
                 let (truth, ignore) = training_targets(&frame.boxes, &frame.ignore, min_box_px);
                 let (detections, loss) = model.detect_with_loss(TrainFrame {
@@ -227,12 +231,10 @@ fn ladder_outcomes(
                 });
                 let mut o = outcome(light, frame, detections, *rung, &image);
                 o.loss = Some(loss);
-                if slopes {
-                    let (w, h) = (rig.camera.width_px, rig.camera.height_px);
-                    let normals = rig.formation.input_normals(w, h, noise_seed);
+                if let Some(normals) = &normals {
                     let scene = Scene {
                         i0: frame.hdr.data(),
-                        normals: &normals,
+                        normals,
                         width: w,
                         height: h,
                         pixel_pitch_um: rig.pitch_um(),
