@@ -5,8 +5,8 @@
 //! formation). The candidate's fitness scores its k frames together, or comes from
 //! [`super::judge`] where it learned from scenes of its own.
 
-use super::Context;
 use super::config::TrainingScenes;
+use super::context::Context;
 use super::judge::judge;
 use super::perturbation::{self, Probe};
 use super::stretches::{Scenes, Stretch, Stretches};
@@ -39,9 +39,9 @@ pub(super) fn train(
     let fresh = c.training_scenes == TrainingScenes::Fresh;
     let drawn = if fresh { Scenes::Own(index) } else { Scenes::Common(scenes) };
     let stretches = Stretches::draw(&c, &cx.streams, &mut cx.scenes, drawn);
-    let rig = cx.rig(design, stretches.frame_interval_s());
+    let rig = cx.rigs.rig(design, stretches.frame_interval_s());
     let (camera, formation, sensor) = (&rig.camera, rig.formation, rig.sensor);
-    let mut control = controller(c.method.neural(), sensor, cx.ranges);
+    let mut control = controller(c.method.neural(), sensor, cx.rigs.ranges);
     let weights = DfGradWeights { task: c.task_weight, ga: 1.0, step: c.step_weight };
     let mut metrics = TaskMetrics::default();
     rig.start_sequence(model);
@@ -74,7 +74,7 @@ pub(super) fn train(
         let members = match (predicted, c.method.perturbations()) {
             (Some(predicted), true) => perturbation::members(
                 &c,
-                cx.ranges,
+                cx.rigs.ranges,
                 perturbation,
                 (predicted, predicted_iris),
                 &sensor,
@@ -123,7 +123,7 @@ pub(super) fn train(
         cx.journal.watch.add_model_step(&report.timings);
         metrics.update(&frame.boxes, &frame.ignore, &report.detections, frame.visible_180);
         if step % 5 == 0 {
-            cx.log(&Event::Step(record(global, &report, f_number, at.stretch)))?;
+            cx.journal.log(&Event::Step(record(global, &report, f_number, at.stretch)))?;
         }
         previous_frame = Some(report.frame);
         on_step(step + 1, c.steps_per_candidate);

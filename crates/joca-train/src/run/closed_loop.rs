@@ -11,8 +11,9 @@
 //!   truth and detection boxes and, where saved, the PNG of the 8-bit frame the detector saw;
 //! - `<sequence>/NNN.png` — those frames.
 
+use super::context::Context;
 pub(super) use super::driver::WARMUP_FRAMES;
-use super::{Context, light_of};
+use super::light_of;
 use crate::TrainError;
 use crate::checkpoint::write_atomic;
 use joca_camera::CameraDesign;
@@ -120,7 +121,8 @@ pub(super) fn test(
             (None, Some(town)) => &**town,
             (None, None) => unreachable!("the test towns are built above without a recording"),
         };
-        let mut driver = cx.driver(model, design, source.frame_interval_s(), cx.test.controller);
+        let mut driver =
+            cx.rigs.driver(model, design, source.frame_interval_s(), cx.test.controller);
         for k in 0..WARMUP_FRAMES + plan.frames_per_episode {
             let time_s = start_s + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
@@ -267,7 +269,7 @@ fn showcases(
         };
         let frame_dir = dir.join(name);
         std::fs::create_dir_all(&frame_dir).map_err(|e| TrainError::io(&frame_dir, e))?;
-        let mut driver = cx.driver(model, design, dt, cx.test.controller);
+        let mut driver = cx.rigs.driver(model, design, dt, cx.test.controller);
         let mut sequence = Showcase {
             name: name.to_owned(),
             illumination: light_of(Some(illumination)),

@@ -3,8 +3,9 @@
 
 use super::closed_loop::{self, Plan};
 use super::config::ConfigFile;
+use super::context::{Context, setup};
 use super::results::summary;
-use super::{Context, RunResults, RunState, Scenario, setup};
+use super::{RunResults, RunState, Scenario};
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, read_json, write_atomic};
 use crate::control::TestController;

@@ -3,7 +3,7 @@
 //! are after its training, without any update, so every candidate of a generation is scored on
 //! the same stretches and noise.
 
-use super::Context;
+use super::context::Context;
 use super::stretches::{Scenes, Stretches};
 use crate::TrainError;
 use joca_camera::CameraDesign;
@@ -20,7 +20,8 @@ pub(super) fn judge(
     let c = cx.config.clone();
     let stretches = Stretches::draw(&c, &cx.streams, &mut cx.scenes, Scenes::Common(scenes));
     // The controller carries its settings across stretches, as in training.
-    let mut driver = cx.driver(model, design, stretches.frame_interval_s(), cx.test.controller);
+    let mut driver =
+        cx.rigs.driver(model, design, stretches.frame_interval_s(), cx.test.controller);
     let mut metrics = TaskMetrics::default();
     for step in 0..c.steps_per_candidate {
         let at = stretches.at(step);

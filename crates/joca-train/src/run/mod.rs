@@ -5,23 +5,27 @@
 //!
 //! One idea per file: [`config`] (the `[run]` table and its validation), [`method`] (the fixed
 //! cameras; methods and scenarios are `joca_record`'s), this file (the loop over generations and
-//! candidates, then the test), [`state`] (the loop's checkpointed state and its steps: start or
-//! resume, a generation's members, one candidate trained and checkpointed), [`stretches`] (which
-//! scenes a candidate plays), [`rig`] (how a design captures), [`candidate`] (who learns: one
-//! candidate's k steps of joint training), [`judge`] (who judges a candidate that learned from
-//! scenes of its own), [`perturbation`] (DF-Grad's perturbation search), [`evaluate`] (choosing
-//! the design by validation, testing it, `joca eval`), [`closed_loop`] (closed-loop driving: the
-//! test, the validation, the showcases; [`driver`] one sequence's controller and captures),
-//! [`scenes`] (where scenes come from: towns built once, or recordings), [`headroom`] (`joca
-//! headroom`), [`results`] (what a run reports), [`timing`] (`joca bench step`).
+//! candidates, then the test), [`context`] (the parts every stage shares and how a run opens
+//! them), [`journal`] (what a run records as it goes), [`state`] (the loop's checkpointed state
+//! and its steps: start or resume, a generation's members, one candidate trained and
+//! checkpointed), [`stretches`] (which scenes a candidate plays), [`rig`] (how a design
+//! captures, and its closed-loop drivers), [`candidate`] (who learns: one candidate's k steps of
+//! joint training), [`judge`] (who judges a candidate that learned from scenes of its own),
+//! [`perturbation`] (DF-Grad's perturbation search), [`evaluate`] (choosing the design by
+//! validation, testing it, `joca eval`), [`closed_loop`] (closed-loop driving: the test, the
+//! validation, the showcases; [`driver`] one sequence's controller and captures), [`scenes`]
+//! (where scenes come from: towns built once, or recordings), [`headroom`] (`joca headroom`),
+//! [`results`] (what a run reports), [`timing`] (`joca bench step`).
 
 mod aperture;
 mod candidate;
 mod closed_loop;
 mod config;
+mod context;
 mod driver;
 mod evaluate;
 mod hardware;
+mod journal;
 mod judge;
 pub use hardware::HardwareMutation;
 pub mod headroom;
@@ -48,31 +52,18 @@ pub use config::{
     TrainingScenes, WarmStart,
 };
 pub(crate) use config::{check_detector, check_input};
-use driver::Driver;
+use context::setup;
 pub use evaluate::{EvalOptions, MAX_TEST_TOWN, check_town, cpu_description, evaluate_run};
 use evaluate::{best_design, test_design};
-use joca_camera::{
-    AccRanges, Calibration, CameraDesign, DesignSpace, GenomeCodec, ImageFormation, SensorEncoding,
-};
-use joca_core::SeedStreams;
 use joca_core::output::{self, DirLock, OutputKind};
-use joca_nn::Engine;
-use joca_nn::joint::JointModel;
-use joca_record::Event;
 pub use joca_record::{Method, Scenario};
 pub use method::{DesignSpec, FixedCamera};
-use rand::Rng;
 use results::summary;
 pub use results::{DesignSummary, RunResults, SearchTies};
-use rig::Rig;
 pub(crate) use scenes::light_of;
-use scenes::{RealSources, SceneSource};
 use state::RunState;
-use std::io::Write;
 use std::ops::ControlFlow;
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use timing::Stopwatch;
+use std::path::Path;
 pub use timing::{CheckpointTiming, StepBreakdown, bench_checkpoint, bench_step};
 
 /// Progress of a run.
@@ -112,71 +103,6 @@ pub enum RunEvent {
     /// Testing started.
     Testing,
 }
-struct Context {
-    config: RunConfig,
-    streams: SeedStreams,
-    codec: GenomeCodec,
-    formation: ImageFormation,
-    /// Where scenes come from: the towns built so far, or the recordings.
-    scenes: SceneSource,
-    ranges: AccRanges,
-    /// What the closed-loop test drives: which controller, which town.
-    test: TestDrive,
-    /// What the run records as it goes: events, step timings, search ties.
-    journal: Journal,
-}
-
-/// What a run records as it goes.
-struct Journal {
-    /// `events.jsonl` (a sink where nothing is logged).
-    log: Box<dyn Write>,
-    log_path: PathBuf,
-    /// Where each step's time goes (only `joca bench step` reads it).
-    watch: Stopwatch,
-    /// The perturbation searches of the candidate in training, and their ties.
-    ties: SearchTies,
-}
-
-/// What a closed-loop test drives the chosen design with, and where.
-#[derive(Debug, Clone, Copy, Default)]
-struct TestDrive {
-    /// The controller (`joca eval --controller`; the run's own by default).
-    controller: TestController,
-    /// The test family's town (`joca eval --town`; 0: the test town).
-    town: u64,
-}
-
-impl Context {
-    /// How `design` captures in this run, driven at `frame_interval_s`.
-    fn rig(&self, design: &CameraDesign, frame_interval_s: f64) -> Rig {
-        Rig::new(&self.config, &self.formation, self.ranges, design, frame_interval_s)
-    }
-
-    /// A closed-loop sequence of `design` driven by `controller` (the run's own, or a swap).
-    fn driver(
-        &self,
-        model: &mut JointModel,
-        design: &CameraDesign,
-        frame_interval_s: f64,
-        controller: TestController,
-    ) -> Driver {
-        let rig = self.rig(design, frame_interval_s);
-        let neural = self.config.method.neural();
-        let control = crate::control::test_control(controller, neural, rig.sensor, self.ranges);
-        Driver::new(rig, control, model)
-    }
-
-    /// Appends `event` to `events.jsonl`.
-    fn log(&mut self, event: &Event) -> Result<(), TrainError> {
-        let j = &mut self.journal;
-        let line = serde_json::to_string(event).map_err(|e| TrainError::Corrupt {
-            path: j.log_path.display().to_string(),
-            reason: e.to_string(),
-        })?;
-        writeln!(j.log, "{line}").map_err(|e| TrainError::io(&j.log_path, e))
-    }
-}
-
 /// Runs (or resumes) a joint optimisation into `run_dir`, then tests the best design.
 pub fn run(
     config: &RunConfig,
@@ -262,69 +188,6 @@ pub fn run(
         &serde_json::to_string_pretty(&results).unwrap_or_default(),
     )?;
     Ok(results)
-}
-
-/// Engine, model (with its starting detector weights) and loop context for `config`.
-fn setup(
-    config: &RunConfig,
-    log: Box<dyn Write>,
-    log_path: PathBuf,
-) -> Result<(Context, JointModel), TrainError> {
-    let engine = Engine::open(config.device, config.threads)?;
-    let streams = SeedStreams::new(config.seed);
-    engine.seed(streams.stream("init").random());
-    let cal = Calibration::DEFAULT;
-    let ranges = AccRanges::PAPER;
-    let n = config.scenario.noise_scale();
-    // Frames are rendered at the detector's input; each design's formation (`for_sensor`) gives
-    // them the noise of its native grid carried through the configured resize.
-    let formation =
-        ImageFormation::new(cal)?.with_noise_scale(n)?.with_resampler(config.input.resampler);
-    let iris = config.aperture == joca_camera::ApertureControl::Dynamic;
-    let mut model = JointModel::new(&engine, config.detector, ranges, formation, iris);
-    if let Some(weights) = &config.detector_weights {
-        model.load_detector(weights)?;
-    }
-    model.set_detector_trainable(config.method != Method::FrozenDetector);
-    model.set_clip_gradient(config.clip_gradient);
-    model.set_acc_lr(config.acc_lr);
-    model.set_detector_lr(config.detector_lr);
-    model.set_acc_output(config.acc_output.0);
-    let (real, space) = match source::open(&config.source, &config.real)? {
-        None => {
-            let f = config.f_number;
-            (None, DesignSpace::synthetic().with_f_numbers(f.min, f.max)?)
-        }
-        Some(train) => {
-            // Without a test source the test plays the training recording itself: opening it a
-            // second time would read (and, for Waymo, hold) every frame twice.
-            let held_out = source::open(&config.test_source, &config.real)?;
-            // The recording fixes mount and lens (the nuScenes-like values stand in for them in
-            // the tables); only sensors whose pixel grid fits inside the recording are designed.
-            let (w, h) = train.recording_size_px();
-            let fixed = FixedCamera::Flir.design();
-            let space = DesignSpace::synthetic()
-                .with_fixed_mount(fixed.x_m, fixed.z_m, fixed.focal_length_mm)
-                .restricted_to_recording(w as usize, h as usize)?;
-            (Some(Arc::new(RealSources { train, held_out })), space)
-        }
-    };
-    let cx = Context {
-        config: config.clone(),
-        streams,
-        codec: GenomeCodec::new(space, SensorEncoding::QuantisedContinuous)?,
-        formation,
-        scenes: SceneSource::new(config, real),
-        ranges,
-        journal: Journal {
-            log,
-            log_path,
-            watch: Stopwatch::default(),
-            ties: SearchTies::default(),
-        },
-        test: TestDrive::default(),
-    };
-    Ok((cx, model))
 }
 
 fn ga_err(e: joca_evolve::GaError) -> TrainError {

@@ -11,7 +11,8 @@
 use super::config::{
     PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
 };
-use super::{Context, Method, RunConfig, ga_err};
+use super::context::Context;
+use super::{Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
 use joca_camera::{AccRanges, ApertureControl, CameraError, DynamicSettings, ImageFormation};

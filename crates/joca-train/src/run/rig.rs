@@ -1,17 +1,80 @@
-//! One design as the run captures with it: its view at the detector's input, its formation on
+//! How a run captures: [`Rigs`] holds what every design of the run shares (the formation, the
+//! controller's ranges, the detector's input, the lens model, the iris mode and the scenario's
+//! motion) and makes one [`Rig`] per design: its view at the detector's input, its formation on
 //! its native grid, the limits its controller works within (its pixel, the frame interval, the
-//! iris where the controller sets the aperture) and the scenario's motion. Training, judging,
-//! the warm start, the test and `joca headroom` all see and form a design's frames through a
-//! [`Rig`], so they cannot disagree on how a design captures.
+//! iris where the controller sets the aperture). Training, judging, the warm start, the test and
+//! `joca headroom` all see and form a design's frames through a [`Rig`], and drive closed-loop
+//! sequences through [`Rigs::driver`], so they cannot disagree on how a design captures.
 
 use super::RunConfig;
+use super::driver::Driver;
 use crate::TrainError;
-use crate::control::SensorLimits;
-use joca_camera::{AccRanges, ApertureControl, CameraDesign, Capture, DynamicSettings};
-use joca_camera::{ImageFormation, Iris};
+use crate::control::{SensorLimits, TestController, test_control};
+use joca_camera::{AccRanges, ApertureControl, CameraDesign, Capture, DetectorInput};
+use joca_camera::{DynamicSettings, ImageFormation, Iris, LensModel};
 use joca_core::optics::CALIBRATION_F_NUMBER;
 use joca_core::{FrameRequest, FrameSource, PinholeCamera};
 use joca_nn::joint::JointModel;
+
+/// What every design of a run captures with (see the module's documentation).
+#[derive(Debug, Clone)]
+pub(super) struct Rigs {
+    /// The run's formation (calibration, noise scale, resampler), before any design's grid.
+    formation: ImageFormation,
+    /// The controller's exposure and gain ranges.
+    pub(super) ranges: AccRanges,
+    input: DetectorInput,
+    lens: LensModel,
+    aperture: ApertureControl,
+    /// The scenario's motion-blur scale.
+    motion_scale: f64,
+    /// Whether the run's own controller is NeuralAE.
+    neural: bool,
+}
+
+impl Rigs {
+    /// The capture setup of the run of `config`, forming with `formation` under `ranges`.
+    pub(super) fn new(config: &RunConfig, formation: ImageFormation, ranges: AccRanges) -> Self {
+        Self {
+            formation,
+            ranges,
+            input: config.input,
+            lens: config.lens,
+            aperture: config.aperture,
+            motion_scale: config.scenario.motion_scale(),
+            neural: config.method.neural(),
+        }
+    }
+
+    /// How `design` captures in this run, driven at `frame_interval_s`.
+    pub(super) fn rig(&self, design: &CameraDesign, frame_interval_s: f64) -> Rig {
+        // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
+        // controller's whole range stays the camera's at every f-number).
+        let iris = (self.aperture == ApertureControl::Dynamic).then(|| iris_of(design));
+        let sensor =
+            SensorLimits::new(design.sensor().pixel_pitch_um, self.ranges, frame_interval_s)
+                .with_iris(iris);
+        Rig {
+            camera: design.view(&self.input, self.lens),
+            formation: self.formation.for_design(design),
+            sensor,
+            motion_scale: self.motion_scale,
+        }
+    }
+
+    /// A closed-loop sequence of `design` driven by `controller` (the run's own, or a swap).
+    pub(super) fn driver(
+        &self,
+        model: &mut JointModel,
+        design: &CameraDesign,
+        frame_interval_s: f64,
+        controller: TestController,
+    ) -> Driver {
+        let rig = self.rig(design, frame_interval_s);
+        let control = test_control(controller, self.neural, rig.sensor, self.ranges);
+        Driver::new(rig, control, model)
+    }
+}
 
 /// How the run captures with one design (see the module's documentation).
 #[derive(Debug, Clone)]
@@ -27,27 +90,6 @@ pub(super) struct Rig {
 }
 
 impl Rig {
-    /// `design` in the run of `config` (its formation `formation`, the controller's `ranges`),
-    /// driven at `frame_interval_s`.
-    pub(super) fn new(
-        config: &RunConfig,
-        formation: &ImageFormation,
-        ranges: AccRanges,
-        design: &CameraDesign,
-        frame_interval_s: f64,
-    ) -> Self {
-        // Eq. 4 compensates the pixel area; the aperture's light is the formation's (so the
-        // controller's whole range stays the camera's at every f-number).
-        let sensor = SensorLimits::new(design.sensor().pixel_pitch_um, ranges, frame_interval_s)
-            .with_iris(iris(config, design));
-        Self {
-            camera: design.view(&config.input, config.lens),
-            formation: formation.for_design(design),
-            sensor,
-            motion_scale: config.scenario.motion_scale(),
-        }
-    }
-
     /// Starts a sequence of this design on `model`: no previous frame, and the design's longest
     /// exposure at this frame interval.
     pub(super) fn start_sequence(&self, model: &mut JointModel) {
@@ -95,9 +137,8 @@ impl Rig {
     }
 }
 
-/// The iris NeuralAE moves for `design` where the run sets the aperture frame by frame: from
-/// the design's f-number (the lens wide open) to the calibration's f/16.
-pub(super) fn iris(config: &RunConfig, design: &CameraDesign) -> Option<Iris> {
-    (config.aperture == ApertureControl::Dynamic)
-        .then(|| Iris::new(design.f_number, CALIBRATION_F_NUMBER))
+/// The iris NeuralAE moves on `design` where the run sets the aperture frame by frame: from the
+/// design's f-number (the lens wide open) to the calibration's f/16.
+fn iris_of(design: &CameraDesign) -> Iris {
+    Iris::new(design.f_number, CALIBRATION_F_NUMBER)
 }

@@ -2,8 +2,9 @@
 //! stand, the best designs so far and the searches' ties; and the loop's steps on it — starting
 //! or resuming, the generation's members, one candidate trained, recorded and checkpointed.
 
+use super::context::Context;
 use super::results::summary;
-use super::{Context, RunConfig, RunEvent, candidate, ga_err, hardware, perturbation};
+use super::{RunConfig, RunEvent, candidate, ga_err, hardware, perturbation};
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, check_resume, read_json, write_atomic};
 use joca_evolve::Ga;
@@ -171,7 +172,7 @@ impl RunState {
             self.best = Some((genes.clone(), fitness));
         }
         self.rank(genes, fitness);
-        cx.log(&Event::Candidate(Box::new(CandidateRecord {
+        cx.journal.log(&Event::Candidate(Box::new(CandidateRecord {
             generation: self.generation,
             candidate: self.candidate,
             design: summary(&design, cx.config.hardware_search()),
@@ -213,7 +214,7 @@ impl RunState {
                 })
                 .map_err(ga_err)?;
         }
-        cx.log(&Event::Generation(GenerationRecord {
+        cx.journal.log(&Event::Generation(GenerationRecord {
             generation_done: self.generation,
             fitness: self.fitness.clone(),
         }))?;

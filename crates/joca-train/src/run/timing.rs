@@ -1,6 +1,7 @@
 //! Where a training step's time goes (`joca bench step`).
 
-use super::{RunConfig, TrainError, candidate, perturbation, setup};
+use super::context::setup;
+use super::{RunConfig, TrainError, candidate, perturbation};
 use joca_camera::CameraDesign;
 use joca_nn::detector::Precision;
 use joca_nn::device::DeviceSync;

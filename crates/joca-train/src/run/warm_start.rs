@@ -5,7 +5,7 @@
 //! it learns to recover from its own mistakes). Each stretch starts at settings drawn anywhere in
 //! the ACC ranges, so it also meets frames far from mid-grey. The detector does not change.
 
-use super::Context;
+use super::context::Context;
 use crate::TrainError;
 use crate::control::{ExposureControl, NeuralControl};
 use joca_camera::{AccRanges, AverageAe, CameraDesign, Capture, DynamicSettings};
@@ -41,7 +41,7 @@ pub(super) fn warm_start(
     }
     let started = std::time::Instant::now();
     let c = cx.config.clone();
-    let ae = AverageAe::new(cx.ranges);
+    let ae = AverageAe::new(cx.rigs.ranges);
     let mut rng = cx.streams.stream("warm-start");
     let mut losses = Vec::with_capacity(ws.frames);
     for s in 0..ws.frames.div_ceil(STRETCH_FRAMES) {
@@ -54,10 +54,10 @@ pub(super) fn warm_start(
         let dt = town.frame_interval_s();
         let span = town.config().episode_s - 1.0 - frames as f64 * dt;
         let t0 = rng.random_range(1.0..span.max(1.5));
-        let start = anywhere(&mut rng, cx.ranges);
+        let start = anywhere(&mut rng, cx.rigs.ranges);
         let mut noise = cx.streams.indexed("warm-start-noise", s as u64);
 
-        let rig = cx.rig(design, dt);
+        let rig = cx.rigs.rig(design, dt);
         rig.start_sequence(model);
         let mut control = NeuralControl::starting_at(rig.sensor, start);
         let mut last: Option<Rgb8Image> = None;
@@ -88,5 +88,5 @@ pub(super) fn warm_start(
         imitation_loss_last: mean(&losses[losses.len().saturating_sub(quarter)..]),
         warm_start_s: Some(started.elapsed().as_secs_f64()),
     };
-    cx.log(&Event::WarmStart(record))
+    cx.journal.log(&Event::WarmStart(record))
 }

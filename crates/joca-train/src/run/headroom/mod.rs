@@ -13,10 +13,11 @@ pub mod ladder;
 mod policies;
 
 use super::closed_loop::{Plan, TOWN_START_S, towns};
+use super::context::{Context, setup};
 use super::driver::{WARMUP_FRAMES, levels};
 use super::evaluate::{best_design, load_run};
 use super::results::summary;
-use super::{Context, RunConfig, Scenario, cpu_description, light_of, setup};
+use super::{RunConfig, Scenario, cpu_description, light_of};
 use crate::TrainError;
 use crate::control::TestController;
 use joca_camera::{CameraDesign, DynamicSettings};
@@ -112,7 +113,7 @@ pub fn headroom(
     }
     config.validate()?;
     let (mut cx, mut model) = setup(&config, Box::new(std::io::sink()), PathBuf::from("(none)"))?;
-    options.ladder.validate(cx.ranges, &options.ladder_file)?;
+    options.ladder.validate(cx.rigs.ranges, &options.ladder_file)?;
     if cx.scenes.recorded() {
         return Err(TrainError::Config {
             field: "run.source".into(),
@@ -149,8 +150,8 @@ pub fn headroom(
     cx.test.town = options.town;
     let plan = Plan::test(&config, options.town);
     let frame_interval_s = towns(&mut cx, plan)[0].frame_interval_s();
-    let max_exposure_s = cx.ranges.exposure_s.max.min(frame_interval_s);
-    let rungs = options.ladder.rungs(cx.ranges, max_exposure_s);
+    let max_exposure_s = cx.rigs.ranges.exposure_s.max.min(frame_interval_s);
+    let rungs = options.ladder.rungs(cx.rigs.ranges, max_exposure_s);
     let min_box_px = config.min_box_px as f32;
     let slopes = options.ladder.slopes;
     let ladder = ladder_outcomes(&mut cx, &model, &design, (plan, min_box_px, slopes), &rungs)?;
@@ -203,7 +204,7 @@ fn ladder_outcomes(
     exposures.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
     let towns = towns(cx, plan);
     // Only the view, the formation and the motion: every rung's settings are the ladder's.
-    let rig = cx.rig(design, towns[0].frame_interval_s());
+    let rig = cx.rigs.rig(design, towns[0].frame_interval_s());
     let mut out = vec![Vec::new(); rungs.len()];
     for episode in 0..plan.episodes {
         let town = &towns[episode as usize % towns.len()];
@@ -265,7 +266,7 @@ fn closed_loop_outcomes(
         let town = &towns[episode as usize % towns.len()];
         let light = light_of(Some(town.episode(episode).illumination));
         let source: &dyn FrameSource = &**town;
-        let mut driver = cx.driver(model, design, source.frame_interval_s(), controller);
+        let mut driver = cx.rigs.driver(model, design, source.frame_interval_s(), controller);
         for k in 0..WARMUP_FRAMES + plan.frames_per_episode {
             let time_s = TOWN_START_S + k as f64 * source.frame_interval_s();
             let mut noise = cx.streams.indexed(plan.noise, episode * 10_000 + k as u64);
