@@ -15,6 +15,7 @@ mod detector;
 mod flow;
 mod render;
 mod step;
+mod world;
 use detector::bench_detector;
 use render::bench_render;
 use step::bench_step;
@@ -25,8 +26,9 @@ pub enum Target {
     /// Image formation (Eq. 2–3) on a 1280×960 RGB frame.
     Formation,
     /// The simulator: sub-frames and motion-blurred frames at 320×240 and 640×480 by day and at
-    /// 320×240 by night, 1 and 2 threads; then the lens, the weather, cast shadows and veiling
-    /// glare against the ideal pinhole in clear air without them.
+    /// 320×240 by night, 1 and 2 threads; then the lens, the weather, cast shadows, veiling
+    /// glare and tunnels against the ideal pinhole in clear air without them, and every light at
+    /// once against the default world.
     Render,
     /// The detector: inference and training step at 320×240 and 640×480, against PyTorch.
     Detector,

@@ -1,5 +1,5 @@
-//! `joca bench render`: the simulator's frames, and what the lens, the weather, cast shadows
-//! and glare add to them.
+//! `joca bench render`: the simulator's frames, and what the lens, the weather, cast shadows,
+//! glare and tunnels add to them (all of them at once: [`super::world`]).
 
 use super::best_of;
 use anyhow::Result;
@@ -89,17 +89,18 @@ pub(super) fn bench_render(repeats: usize) -> Result<()> {
     bench_optics(&times, exposure_s)?;
     bench_shadows(&times, exposure_s)?;
     bench_glare(&times, exposure_s)?;
-    bench_tunnels(&times, exposure_s)
+    bench_tunnels(&times, exposure_s)?;
+    super::world::bench_every_light(&times, exposure_s)
 }
 
 /// The bench's camera: an IMX172 (6.2 × 4.65 mm) behind 3.6 mm at the nuScenes-like mount, an
 /// ideal pinhole at `w × h` px.
-fn imx172_behind_3_6_mm(w: usize, h: usize) -> PinholeCamera {
+pub(super) fn imx172_behind_3_6_mm(w: usize, h: usize) -> PinholeCamera {
     PinholeCamera::centred((w, h), (3.6 * w as f64 / 6.2, 3.6 * h as f64 / 4.65), [0.43, 0.0, 1.65])
 }
 
 /// Episode 1's frames at `times` with one exposure.
-fn frames_at(times: &[f64], exposure_s: f64) -> Vec<FrameRequest> {
+pub(super) fn frames_at(times: &[f64], exposure_s: f64) -> Vec<FrameRequest> {
     times
         .iter()
         .map(|&t| FrameRequest { episode: 1, time_s: t, exposure_s, motion_scale: 1.0 })
