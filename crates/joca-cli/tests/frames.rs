@@ -1,5 +1,5 @@
 //! Frames from outside the simulator: optical flow, exposure blur along it, runs on a recorded
-//! folder and the KITTI importer.
+//! folder and the KITTI importer; and `joca bench render`'s tables.
 #![allow(clippy::unwrap_used)] // a failed unwrap is a failed test
 
 use std::path::{Path, PathBuf};
@@ -288,4 +288,25 @@ fn import_writes_the_folder_format_or_nothing() {
     let (w, li, d) = (weights.to_str().unwrap(), list.to_str().unwrap(), dt.to_str().unwrap());
     let o = bounded(&["detect", "--weights", w, "--images", li, "--out", d]).unwrap();
     assert!(stderr(&o).contains("is not a regular file"), "{}", stderr(&o));
+}
+
+/// `joca bench render` prints every table, the last pricing every light at once: a row per light
+/// and one per light left out by day, each with a positive, finite ratio.
+#[test]
+fn bench_render_prices_every_light_at_once() {
+    let o = joca(&["bench", "render", "--repeats", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = stdout(&o);
+    let every = table.split("every light at once").nth(1).unwrap_or_else(|| panic!("{table}"));
+    let ratio = |row: &str| -> f64 {
+        let r = row.split_whitespace().last().and_then(|s| s.strip_suffix('x'));
+        r.and_then(|s| s.parse().ok()).unwrap_or_else(|| panic!("{row}"))
+    };
+    let starts = ["day ", "night ", "tunnel ", "cast shadows", "the low sun", "the sun's disc"];
+    let more = ["glare ", "tunnels as places "];
+    for start in starts.iter().chain(&more) {
+        let row = every.lines().find(|l| l.starts_with(start)).unwrap_or_else(|| panic!("{every}"));
+        let r = ratio(row);
+        assert!(r.is_finite() && r > 0.0, "{row}");
+    }
 }
