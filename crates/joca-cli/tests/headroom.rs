@@ -221,6 +221,21 @@ fn a_panel_is_measured_resumed_and_tabulated_in_its_own_world() {
     std::fs::write(&other, text.replace("\"cast_shadows\": true,", "")).unwrap();
     let o = cli!("headroom --table", record, other);
     assert!(stderr(&o).contains("cast_shadows differs"), "{}", stderr(&o));
+    // Dark streets: the records say so (layout 8), the table names the world, and a record of
+    // lit streets is not paired with them.
+    std::fs::write(&file, tiny_panel(1, "dark_streets = true")).unwrap();
+    let dark = dir.path().join("dark");
+    let o = cli!("headroom --jobs 2 --panel", file, "--out", dark);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = std::fs::read_to_string(dark.join("calibrated-town2.md")).unwrap();
+    assert!(table.contains("cast shadows, dark streets)"), "{table}");
+    let dark = dark.join("calibrated/town2/imx287");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dark.join("headroom.json")).unwrap())
+            .unwrap();
+    assert_eq!((r["dark_streets"].as_bool(), r["format_version"].as_u64()), (Some(true), Some(8)));
+    let o = cli!("headroom --table", record, dark);
+    assert!(stderr(&o).contains("dark_streets differs"), "{}", stderr(&o));
 }
 
 #[test]

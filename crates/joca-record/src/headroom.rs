@@ -16,9 +16,10 @@ use std::collections::BTreeMap;
 /// version 3 the lens's veiling glare (`glare`) and the sun's disc (`sun_disc`); version 4 the
 /// GPU (`device`); version 5 tunnels as places (`tunnels`); version 6 daylight that follows the
 /// sun's elevation (`sun_elevation.daylight`); version 7 tunnel drives in one direction
-/// (`tunnels.drives`). A policy's `task_loss` needs no version of its own: a reader that does
-/// not know it reads the rest correctly.
-pub const HEADROOM_FORMAT_VERSION: u32 = 7;
+/// (`tunnels.drives`); version 8 streets whose lamps stay dark at night (`dark_streets`). A
+/// policy's `task_loss` needs no version of its own: a reader that does not know it reads the
+/// rest correctly.
+pub const HEADROOM_FORMAT_VERSION: u32 = 8;
 
 /// What one design and detector leave to a controller (`headroom.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -44,6 +45,9 @@ pub struct HeadroomRecord {
     /// What the `tunnel` light was (absent: the switch of the whole frame's light).
     #[serde(default, skip_serializing_if = "Tunnels::is_default")]
     pub tunnels: Tunnels,
+    /// Whether the street lamps stayed dark at night (absent: no, they lit).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub dark_streets: bool,
     /// The design.
     pub design: DesignSummary,
     /// The detector: `trained` (a run's own, from its checkpoint) or the weights file.
@@ -117,13 +121,16 @@ pub struct PolicyLight {
 }
 
 impl HeadroomRecord {
-    /// The lowest layout version that holds this record: 7 with tunnel drives in one direction,
+    /// The lowest layout version that holds this record: 8 with dark streets, 7 with tunnel
+    /// drives in one direction,
     /// 6 with a clear sky's daylight, 5 with
     /// tunnels as places, 4 with a GPU,
     /// 3 with veiling glare or the sun's disc, 2 where the world's light is not the default one,
     /// else 1.
     pub fn layout_version(&self) -> u32 {
-        if !self.tunnels.drives.is_both() {
+        if self.dark_streets {
+            8
+        } else if !self.tunnels.drives.is_both() {
             7
         } else if !self.sun_elevation.daylight.is_constant() {
             6
@@ -161,6 +168,9 @@ impl HeadroomRecord {
             let t = self.tunnels;
             let drives = if t.drives.is_both() { String::new() } else { format!(", {}", t.drives) };
             parts.push(format!("{} tunnels (lamps {}{drives})", t.count, t.lamp_level));
+        }
+        if self.dark_streets {
+            parts.push("dark streets".to_owned());
         }
         if !self.glare.is_off() {
             let g = self.glare;

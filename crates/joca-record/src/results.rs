@@ -21,8 +21,9 @@ use serde::{Deserialize, Serialize};
 /// otherwise drop in silence; version 5 the lens's veiling glare (`glare`) and the sun's disc
 /// (`sun_disc`); version 6 the GPU (`device`); version 7 tunnels as places (`tunnels`); version 8
 /// daylight that follows the sun's elevation (`sun_elevation.daylight`); version 9 tunnel drives in
-/// one direction (`tunnels.drives`).
-pub const RESULTS_FORMAT_VERSION: u32 = 9;
+/// one direction (`tunnels.drives`); version 10 streets whose lamps stay dark at night
+/// (`dark_streets`).
+pub const RESULTS_FORMAT_VERSION: u32 = 10;
 
 /// Test results of a run (`results.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -122,6 +123,9 @@ pub struct RunResults {
     /// What the `tunnel` light was (absent: the switch of the whole frame's light).
     #[serde(default, skip_serializing_if = "Tunnels::is_default")]
     pub tunnels: Tunnels,
+    /// Whether the street lamps stayed dark at night (absent: no, they lit).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub dark_streets: bool,
     /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
     #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
     pub aperture: ApertureControl,
@@ -177,12 +181,16 @@ pub struct Validated {
 }
 
 impl RunResults {
-    /// The lowest layout version that holds this record: 9 with tunnel drives in one direction,
+    /// The lowest layout version that holds this record: 10 with dark streets, 9 with tunnel
+    /// drives in one direction,
     /// 8 with a clear sky's daylight, 7 with
     /// tunnels as places, 6 with a GPU, 5 with veiling glare or the sun's disc,
     /// 4 with cast shadows or another sun, 3 where the controller set the aperture, 2 where it
     /// uses a field of version 2 (a thin lens, weather, a design's f-number), else 1.
     pub fn layout_version(&self) -> u32 {
+        if self.dark_streets {
+            return 10;
+        }
         if !self.tunnels.drives.is_both() {
             return 9;
         }
@@ -268,6 +276,9 @@ impl RunResults {
                 t.lamp_level,
                 if t.drives.is_both() { String::new() } else { format!(", drives {}", t.drives) }
             ));
+        }
+        if self.dark_streets {
+            note.push_str(", the street lamps dark at night");
         }
         if !self.glare.is_off() {
             let g = self.glare;

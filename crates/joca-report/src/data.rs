@@ -279,11 +279,11 @@ mod tests {
         std::fs::write(&path, value.to_string()).unwrap();
         assert_eq!(RunData::load(dir.path()).unwrap().results.format_version, 0);
         // A newer layout: refused, naming the file and both versions.
-        value["format_version"] = 10.into();
+        value["format_version"] = 11.into();
         std::fs::write(&path, value.to_string()).unwrap();
         let e = RunData::load(dir.path()).unwrap_err().to_string();
-        assert!(e.contains("results.json") && e.contains("format_version 10 is newer"), "{e}");
-        assert!(e.contains("0 to 9"), "{e}");
+        assert!(e.contains("results.json") && e.contains("format_version 11 is newer"), "{e}");
+        assert!(e.contains("0 to 10"), "{e}");
         // Layout 2 (lens, weather, f-number) is read.
         value["format_version"] = 2.into();
         value["weather"] = "fog:300".into();
@@ -369,5 +369,13 @@ mod tests {
         assert_eq!((r.format_version, r.layout_version()), (9, 9));
         let note = r.conditions_note();
         assert!(note.contains("lamps at 0.01 of daylight, drives leaving)"), "{note}");
+        // Layout 10 (dark streets) is read and named.
+        value["format_version"] = 10.into();
+        value["dark_streets"] = true.into();
+        std::fs::write(&path, value.to_string()).unwrap();
+        let r = RunData::load(dir.path()).unwrap().results;
+        assert_eq!((r.format_version, r.layout_version()), (10, 10));
+        let note = r.conditions_note();
+        assert!(note.contains(", the street lamps dark at night"), "{note}");
     }
 }

@@ -73,6 +73,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     };
     run.glare = joca_sim::Glare { fraction: 0.02, scale_deg: 1.0 };
     run.sun_disc = true;
+    run.dark_streets = true;
     run.tunnels = joca_sim::Tunnels::places();
     run.device = joca_nn::device::DeviceChoice::Cuda(0);
     let mut pretrain: PretrainConfig =

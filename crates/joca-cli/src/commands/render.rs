@@ -112,6 +112,10 @@ pub struct Args {
     /// (with a low `--sun-elevation-deg`).
     #[arg(long)]
     sun: bool,
+    /// Streets whose lamps stay dark at night: only the cars' lights, the lit windows and the
+    /// night sky light the street (the same town).
+    #[arg(long)]
+    dark_streets: bool,
     /// The lens's veiling glare: the share of the light spread over the sensor, 0 to below 1
     /// [default: 0, none].
     #[arg(long, default_value_t = 0.0)]
@@ -357,6 +361,9 @@ fn print_header(
     );
     if let Some(l) = camera.lens {
         println!("lens f/{} focused at {:.2} m", l.f_number, l.focus_m);
+    }
+    if args.dark_streets {
+        println!("the street lamps stay dark at night");
     }
     if let Some(m) = episode.mouth {
         let (verb, level) = (if m.entering { "enters" } else { "leaves" }, args.tunnel_lamp_level);

@@ -66,6 +66,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         sun_elevation: Default::default(),
         glare: Default::default(),
         sun_disc: false,
+        dark_streets: false,
         tunnels: joca_core::tunnels::Tunnels::default(),
         aperture: Default::default(),
         perturbation_ties: None,

@@ -86,6 +86,10 @@ pub struct CityConfig {
     /// Covered road blocks (none unless `tunnels.kind` is places): drawn after everything else,
     /// so the rest of the town is the same town without them.
     pub tunnels: Tunnels,
+    /// Whether the street lamps light at night (default); `false`: the posts stand where they
+    /// would (the same town) but stay dark, so at night the street has only the cars' lights,
+    /// the lit windows and the night sky. Tunnel lamps are the tunnels' own and stay lit.
+    pub street_lamps: bool,
 }
 
 /// The default [`CityConfig::sign_probability`]. Signs are drawn with at most this first;
@@ -103,6 +107,7 @@ impl Default for CityConfig {
             sign_probability: SIGN_PROBABILITY,
             mid_block_signs: 0.0,
             tunnels: Tunnels::default(),
+            street_lamps: true,
         }
     }
 }
@@ -155,6 +160,8 @@ pub struct City {
     lightmap: Vec<f32>,
     lightmap_n: usize,
     tunnels: Vec<Tunnel>,
+    /// Whether the street lamps light at night ([`CityConfig::street_lamps`]).
+    street_lamps: bool,
 }
 
 impl City {
@@ -200,6 +207,7 @@ impl City {
             lightmap: Vec::new(),
             lightmap_n: 0,
             tunnels: Vec::new(),
+            street_lamps: config.street_lamps,
         };
         city.place_buildings(rng);
         let lamps = city.place_lamps(rng);
@@ -218,7 +226,16 @@ impl City {
         if config.tunnels.are_places() {
             city.place_tunnels(&config.tunnels, &lamps, rng);
         }
+        if !config.street_lamps {
+            // Every draw was made as with lit lamps: only their light is taken away.
+            city.bake_lightmap(&[]);
+        }
         city
+    }
+
+    /// Whether the street lamps light at night.
+    pub fn street_lamps_lit(&self) -> bool {
+        self.street_lamps
     }
 
     /// Number of intersections per side (roads per axis).

@@ -74,6 +74,11 @@ pub(super) struct BoxLight<'a> {
 }
 
 impl<'a> BoxLight<'a> {
+    /// Whether a street lamp's head glows: at night, where the town's lamps light.
+    fn lamps_on(&self) -> bool {
+        self.lights_on && self.city.street_lamps_lit()
+    }
+
     pub(super) fn new(
         city: &'a City,
         view: &'a View<'a>,
@@ -113,7 +118,7 @@ impl<'a> BoxLight<'a> {
         };
         let outside = self.view.lighting.sun_sky([0.0, 0.0, 1.0]);
         if let Some(e) = self.city.tunnel_irradiance(centre, share, outside) {
-            return (shade_for(material, face_index, &[e + head; 3], self.lights_on), None);
+            return (shade_for(material, face_index, &[e + head; 3], self.lamps_on()), None);
         }
         let sun_sky = self.view.lighting.sun_sky([n.x, n.y, n.z]);
         let lamp_share = if face_index == 4 { 1.0 } else { 0.5 };
@@ -126,16 +131,16 @@ impl<'a> BoxLight<'a> {
             dim: irradiance.map(|e| (e - sun).max(0.0) / e),
             layers: self.layers,
         });
-        (shade_for(material, face_index, &irradiance, self.lights_on), sunlit)
+        (shade_for(material, face_index, &irradiance, self.lamps_on()), sunlit)
     }
 }
 
-fn shade_for(material: Material, face_index: usize, e: &Rgb, lights_on: bool) -> Shade {
+fn shade_for(material: Material, face_index: usize, e: &Rgb, lamps_on: bool) -> Shade {
     let k = RADIANCE_SCALE_DN;
     let lit = |rho: Rgb| -> Rgb { std::array::from_fn(|c| k * rho[c] * e[c]) };
     match material {
         Material::Flat(rho) | Material::Underside(rho) => Shade::Constant(lit(rho)),
-        Material::Lamp if !lights_on => Shade::Constant(lit([0.5; 3])),
+        Material::Lamp if !lamps_on => Shade::Constant(lit([0.5; 3])),
         Material::Lamp | Material::Emissive(_) => {
             let radiance =
                 if let Material::Emissive(r) = material { r } else { crate::objects::LAMP };

@@ -7,6 +7,7 @@
 mod blur;
 #[path = "../common/mod.rs"]
 mod common;
+mod dark_streets;
 mod determinism;
 mod geometry;
 mod optics;

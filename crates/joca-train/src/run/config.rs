@@ -180,6 +180,12 @@ pub struct RunConfig {
     /// Simulator only.
     #[serde(default, skip_serializing_if = "Tunnels::is_default")]
     pub tunnels: Tunnels,
+    /// Streets whose lamps stay dark at night (`true` or `false`, default false): the posts
+    /// stand where they would (the same towns and draws), but at night the street has only the
+    /// cars' head and tail lights, the lit windows and the night sky, so oncoming head lights
+    /// are the brightest things in a dark frame. Tunnel lamps stay lit. Simulator only.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub dark_streets: bool,
     /// Training towns.
     pub train_maps: u64,
     /// Ego top speed, m/s.

@@ -287,6 +287,7 @@ pub(super) fn test_design(
         glare: config.glare,
         sun_disc: config.sun_disc,
         tunnels: config.tunnels,
+        dark_streets: config.dark_streets,
         aperture: config.aperture,
         validation,
         provenance: Some(Provenance::of_this_build(&config.identity())),

@@ -45,7 +45,11 @@ impl SceneSource {
             sun_elevation: config.sun_elevation,
             glare: config.glare,
             sun_disc: config.sun_disc,
-            city: CityConfig { tunnels: config.tunnels, ..CityConfig::default() },
+            city: CityConfig {
+                tunnels: config.tunnels,
+                street_lamps: !config.dark_streets,
+                ..CityConfig::default()
+            },
             ..SimConfig::default()
         };
         Self { template, towns: HashMap::new(), real }

@@ -62,6 +62,7 @@ fn tiny(method: Method) -> RunConfig {
         sun_elevation: Default::default(),
         glare: Default::default(),
         sun_disc: false,
+        dark_streets: false,
         tunnels: Default::default(),
         train_maps: 2,
         max_speed_mps: 15.0,

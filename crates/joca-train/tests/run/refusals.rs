@@ -154,12 +154,12 @@ fn assert_refused(cases: &[Case]) {
     assert!(tiny(Method::Joca).validate().is_ok());
 }
 
-/// The lens's veiling glare and the sun's disc: a fraction outside [0, 1), a scale outside
-/// 0.1–20°, or either on a recording is refused naming the field and the range.
+/// The lens's veiling glare, the sun's disc and dark streets: a fraction outside [0, 1), a scale
+/// outside 0.1–20°, or any of them on a recording is refused naming the field and the range.
 #[test]
 fn bad_glare_is_refused_naming_the_field_and_the_range() {
     type Edit = fn(&mut RunConfig);
-    let cases: [(Edit, &str); 5] = [
+    let cases: [(Edit, &str); 6] = [
         (
             |c| c.glare = Glare { fraction: 1.0, scale_deg: 1.0 },
             "run.glare.fraction = 1 is invalid: 0 (none) to below 1",
@@ -185,6 +185,13 @@ fn bad_glare_is_refused_naming_the_field_and_the_range() {
                 c.source = Source::Folder("/data/rec".into());
             },
             "run.sun_disc = true is invalid: false with a recording",
+        ),
+        (
+            |c| {
+                c.dark_streets = true;
+                c.source = Source::Folder("/data/rec".into());
+            },
+            "run.dark_streets = true is invalid: false with a recording",
         ),
     ];
     for (edit, message) in cases {

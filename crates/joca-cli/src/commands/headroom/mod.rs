@@ -250,6 +250,7 @@ fn unlike(
         ("sun_elevation", a.sun_elevation != b.sun_elevation),
         ("glare", a.glare != b.glare),
         ("sun_disc", a.sun_disc != b.sun_disc),
+        ("dark_streets", a.dark_streets != b.dark_streets),
         ("tunnels", a.tunnels != b.tunnels),
         ("frames", a.frames != b.frames),
         ("ladder", a.ladder != b.ladder),

@@ -1,5 +1,5 @@
-//! The simulator's settings that `joca render`'s flags ask for: the sun, the lens's glare and
-//! the tunnels, checked.
+//! The simulator's settings that `joca render`'s flags ask for: the sun, the lens's glare, the
+//! tunnels and the street lamps, checked.
 
 use super::Args;
 use anyhow::Result;
@@ -41,7 +41,7 @@ pub(super) fn sim_config(args: &Args, weather: Weather) -> Result<SimConfig> {
     }
     Ok(SimConfig {
         map_seed: args.map_seed,
-        city: CityConfig { tunnels, ..CityConfig::default() },
+        city: CityConfig { tunnels, street_lamps: !args.dark_streets, ..CityConfig::default() },
         max_speed_mps: args.max_speed_mps,
         illumination: args.illumination.map(Illumination::from),
         weather,

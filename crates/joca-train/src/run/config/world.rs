@@ -37,6 +37,9 @@ impl RunConfig {
             };
             return bad(&format!("glare.{field}"), value.to_string(), &allowed);
         }
+        if self.dark_streets && self.source.is_recording() {
+            return bad("dark_streets", "true".into(), "false with a recording");
+        }
         if self.sun_disc && self.source.is_recording() {
             return bad("sun_disc", "true".into(), "false with a recording");
         }

@@ -174,6 +174,7 @@ pub fn headroom(
         glare: config.glare,
         sun_disc: config.sun_disc,
         tunnels: config.tunnels,
+        dark_streets: config.dark_streets,
         design: summary(&design, config.hardware_search()),
         detector,
         run,

@@ -1,0 +1,57 @@
+//! Dark streets (`CityConfig::street_lamps = false`): the same town with the street lamps'
+//! light taken away and nothing else — the same objects and ground truth, the same frames by
+//! day to the bit, at night no pixel brighter and the street darker, and no lamp light left on
+//! the ground.
+
+use super::*;
+
+/// The default town under `light`, its street lamps lit or dark.
+fn town(light: Illumination, street_lamps: bool) -> Simulator {
+    let city = CityConfig { street_lamps, ..CityConfig::default() };
+    Simulator::new(SimConfig { illumination: Some(light), city, ..SimConfig::default() })
+}
+
+/// Frames 2, 4 and 6 s into episode 0, 160 × 120 at f = 100 px from the usual mount.
+fn frames(sim: &Simulator) -> Vec<joca_core::Frame> {
+    let cam = camera(160, 120, 100.0, [1.5, 0.0, 1.5]);
+    [2.0, 4.0, 6.0].iter().map(|&t| sim.render(&cam, &request(t, 10e-3, 1.0)).unwrap()).collect()
+}
+
+#[test]
+fn dark_streets_are_the_same_town_without_the_lamps_light() {
+    let (lit, dark) = (town(Illumination::Night, true), town(Illumination::Night, false));
+    // The same objects at the same places (the posts stand, every draw is the same).
+    let boxes = |s: &Simulator| -> Vec<String> {
+        let all = s.city().objects.iter().flat_map(|o| o.boxes_at(0.0).map(|(b, _)| b));
+        all.map(|b| format!("{:?}", b.centre)).collect()
+    };
+    assert_eq!(boxes(&lit), boxes(&dark));
+    // The lamps' light on the ground: a pool under each lamp when lit, none anywhere when dark.
+    let extent = lit.city().extent_m;
+    let points = (0..200).flat_map(|i| (0..200).map(move |j| (i, j)));
+    let samples: Vec<(f32, f32)> =
+        points.map(|(i, j)| (i as f32 * extent / 200.0, j as f32 * extent / 200.0)).collect();
+    let lit_max =
+        samples.iter().map(|&(x, y)| lit.city().lamp_irradiance(x, y)).fold(0.0, f32::max);
+    assert!(lit_max > 0.005, "lit lamps light the ground ({lit_max})");
+    assert!(samples.iter().all(|&(x, y)| dark.city().lamp_irradiance(x, y) == 0.0));
+    // At night: the same ground truth; no pixel brighter; the frame darker.
+    let (lit_frames, dark_frames) = (frames(&lit), frames(&dark));
+    for (l, d) in lit_frames.iter().zip(&dark_frames) {
+        assert_eq!(format!("{:?}", l.boxes), format!("{:?}", d.boxes));
+        let (l, d) = (l.hdr.data(), d.hdr.data());
+        assert!(l.iter().zip(d).all(|(a, b)| *b <= *a * (1.0 + 1e-5) + 1e-6));
+        let sum = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>();
+        assert!(sum(d) < 0.9 * sum(l), "the dark street is darker: {} against {}", sum(d), sum(l));
+    }
+}
+
+#[test]
+fn dark_streets_change_no_day_frame() {
+    let (lit, dark) =
+        (frames(&town(Illumination::Day, true)), frames(&town(Illumination::Day, false)));
+    for (l, d) in lit.iter().zip(&dark) {
+        assert_eq!(l.hdr.data(), d.hdr.data());
+        assert_eq!(format!("{:?}", l.boxes), format!("{:?}", d.boxes));
+    }
+}
