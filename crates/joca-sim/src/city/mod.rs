@@ -210,7 +210,9 @@ impl City {
             street_lamps: config.street_lamps,
         };
         city.place_buildings(rng);
-        let lamps = city.place_lamps(rng);
+        let heads = city.place_lamps(rng);
+        // Dark streets keep the posts (and so every draw) but light nothing.
+        let lamps = if config.street_lamps { heads } else { Vec::new() };
         city.bake_lightmap(&lamps);
         let empty_approaches = city.place_signs(config.sign_probability.min(SIGN_PROBABILITY), rng);
         city.place_vehicles(config, rng);
@@ -225,10 +227,6 @@ impl City {
         }
         if config.tunnels.are_places() {
             city.place_tunnels(&config.tunnels, &lamps, rng);
-        }
-        if !config.street_lamps {
-            // Every draw was made as with lit lamps: only their light is taken away.
-            city.bake_lightmap(&[]);
         }
         city
     }

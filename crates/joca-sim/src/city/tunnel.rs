@@ -195,7 +195,7 @@ impl City {
 
     /// Covers `spec.count` distinct blocks between the intersections a route can reach (two
     /// blocks inside the map's edge), drops the street lamps under them and bakes the lamps'
-    /// light map again without them (`lamps`: the heads of every street lamp).
+    /// light map again without them (`lamps`: the heads of every lit street lamp).
     pub(super) fn place_tunnels(&mut self, spec: &Tunnels, lamps: &[V3], rng: &mut impl Rng) {
         let n = self.roads_per_axis();
         let (lo, hi) = (2usize, n - 3);
