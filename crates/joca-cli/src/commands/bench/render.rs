@@ -100,6 +100,23 @@ pub(super) fn imx172_behind_3_6_mm(w: usize, h: usize) -> PinholeCamera {
 }
 
 /// Episode 1's frames at `times` with one exposure.
+/// Milliseconds a frame of `requests` takes a simulator of `config` through `camera` on `pool`,
+/// best of 3 passes after a first.
+pub(super) fn ms_per_frame(
+    pool: &rayon::ThreadPool,
+    config: SimConfig,
+    camera: &PinholeCamera,
+    requests: &[FrameRequest],
+) -> f64 {
+    let sim = Simulator::new(config);
+    let render_all = || {
+        for r in requests {
+            black_box(sim.render(camera, r).map(|f| f.boxes.len()).unwrap_or(0));
+        }
+    };
+    best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
+}
+
 pub(super) fn frames_at(times: &[f64], exposure_s: f64) -> Vec<FrameRequest> {
     times
         .iter()
@@ -242,17 +259,8 @@ fn bench_glare(times: &[f64], exposure_s: f64) -> Result<()> {
     ] {
         let camera = imx172_behind_3_6_mm(w, h);
         let ms = [Glare::default(), glare].map(|glare| {
-            let sim = Simulator::new(SimConfig {
-                illumination: Some(light),
-                glare,
-                ..SimConfig::default()
-            });
-            let render_all = || {
-                for r in &requests {
-                    black_box(sim.render(&camera, r).map(|f| f.boxes.len()).unwrap_or(0));
-                }
-            };
-            best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
+            let config = SimConfig { illumination: Some(light), glare, ..SimConfig::default() };
+            ms_per_frame(&pool, config, &camera, &requests)
         });
         let output = format!("{w}x{h}");
         println!(
@@ -282,17 +290,12 @@ fn bench_tunnels(times: &[f64], exposure_s: f64) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
     for light in [Illumination::Day, Illumination::Night, Illumination::Tunnel] {
         let ms = [joca_sim::Tunnels::default(), joca_sim::Tunnels::places()].map(|tunnels| {
-            let sim = Simulator::new(SimConfig {
+            let config = SimConfig {
                 illumination: Some(light),
                 city: joca_sim::CityConfig { tunnels, ..joca_sim::CityConfig::default() },
                 ..SimConfig::default()
-            });
-            let render_all = || {
-                for r in &requests {
-                    black_box(sim.render(&camera, r).map(|f| f.boxes.len()).unwrap_or(0));
-                }
             };
-            best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
+            ms_per_frame(&pool, config, &camera, &requests)
         });
         println!("{:<8} {:>12.2} {:>12.2} {:>9.2}x", light.name(), ms[0], ms[1], ms[1] / ms[0]);
     }

@@ -2,13 +2,10 @@
 //! in a clear sky's light with its disc, veiling glare, tunnels as places) against the default
 //! world, so what a user pays for turning them all on is one ratio of one run.
 
-use super::best_of;
-use super::render::{frames_at, imx172_behind_3_6_mm};
+use super::render::{frames_at, imx172_behind_3_6_mm, ms_per_frame};
 use anyhow::Result;
-use joca_core::FrameSource;
 use joca_core::sun::{Daylight, SunElevation};
-use joca_sim::{CityConfig, Glare, Illumination, SimConfig, Simulator, Tunnels};
-use std::hint::black_box;
+use joca_sim::{CityConfig, Glare, Illumination, SimConfig, Tunnels};
 
 /// The world with every light on: the low-sun headroom panel's (`experiments/headroom/
 /// low-sun-clear.toml`) with tunnels as places as well.
@@ -33,15 +30,7 @@ pub(super) fn bench_every_light(times: &[f64], exposure_s: f64) -> Result<()> {
     let camera = imx172_behind_3_6_mm(320, 240);
     let requests = frames_at(times, exposure_s);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
-    let time = |config: SimConfig| {
-        let sim = Simulator::new(config);
-        let render_all = || {
-            for r in &requests {
-                black_box(sim.render(&camera, r).map(|f| f.boxes.len()).unwrap_or(0));
-            }
-        };
-        best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
-    };
+    let time = |config: SimConfig| ms_per_frame(&pool, config, &camera, &requests);
     println!(
         "\nevery light at once (shadows, a 5-20° clear-sky sun and its disc, glare 2 % at 1°, \
             tunnels as places) against the default world, 320x240, 2 threads, {} frames, best of 3",
