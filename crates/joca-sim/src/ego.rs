@@ -327,12 +327,10 @@ mod tests {
     use crate::city::CityConfig;
     use joca_core::SeedStreams;
 
-    #[test]
-    fn path_is_continuous_and_speed_stays_in_range() {
-        let s = SeedStreams::new(3);
-        let city = City::generate(&CityConfig::default(), &mut s.stream("city"));
+    /// Drives five one-minute episodes through `city` and checks every 10 ms step.
+    fn assert_continuous_inside(city: &City, s: &SeedStreams) {
         for e in 0..5 {
-            let ego = EgoTrajectory::generate(&city, 60.0, 14.0, &mut s.indexed("ego", e));
+            let ego = EgoTrajectory::generate(city, 60.0, 14.0, &mut s.indexed("ego", e));
             let mut prev = ego.pose_at(0.0);
             for k in 1..6000 {
                 let t = k as f64 * 0.01;
@@ -350,6 +348,26 @@ mod tests {
             assert!(
                 prev.x > 0.0 && prev.x < city.extent_m && prev.y > 0.0 && prev.y < city.extent_m
             );
+        }
+    }
+
+    #[test]
+    fn path_is_continuous_and_speed_stays_in_range() {
+        let s = SeedStreams::new(3);
+        let city = City::generate(&CityConfig::default(), &mut s.stream("city"));
+        assert_continuous_inside(&city, &s);
+    }
+
+    #[test]
+    fn the_smallest_town_still_has_routes() {
+        // Asking for fewer blocks than a route needs (4 once left one intersection to start
+        // from and generate() looped forever) gets the smallest town that has routes.
+        let s = SeedStreams::new(5);
+        for blocks in [0, 4, City::MIN_BLOCKS] {
+            let config = CityConfig { blocks, ..CityConfig::default() };
+            let city = City::generate(&config, &mut s.stream("city"));
+            assert_eq!(city.roads_per_axis(), City::MIN_BLOCKS + 1, "{blocks} blocks asked");
+            assert_continuous_inside(&city, &s);
         }
     }
 }

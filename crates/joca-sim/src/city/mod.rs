@@ -69,7 +69,7 @@ enum Zone {
 /// Generation parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CityConfig {
-    /// Blocks per side of the grid.
+    /// Blocks per side of the grid; fewer than [`City::MIN_BLOCKS`] are raised to it.
     pub blocks: usize,
     /// Walkers per block edge, on average.
     pub walkers_per_edge: f32,
@@ -165,9 +165,14 @@ pub struct City {
 }
 
 impl City {
+    /// The fewest blocks per side: routes keep two roads inside the map's edge, so five blocks
+    /// (six roads) leave a 2 × 2 grid of intersections a route can turn through; four left one
+    /// intersection and no road to drive from it.
+    pub const MIN_BLOCKS: usize = 5;
+
     /// Generates a city from `rng`.
     pub fn generate(config: &CityConfig, rng: &mut impl Rng) -> Self {
-        let n = config.blocks.max(4);
+        let n = config.blocks.max(Self::MIN_BLOCKS);
         let lanes = |rng: &mut dyn rand::RngCore, outer: bool| -> u8 {
             if !outer && rng.random::<f32>() < 0.3 { 2 } else { 1 }
         };
