@@ -5,7 +5,10 @@
 //! e = 0.45) at its angle χ from the sun, relative to its value 90° away:
 //! `f(χ) = 1 + 10·(e^{−3χ} − e^{−3π/2}) + 0.45·cos²χ` ([`indicatrix`]): 11.4 times next to the
 //! sun, 1.36 opposite it, unchanged 90° away. The sky's gradation from horizon to zenith stays
-//! the renderer's own; surfaces are still lit by the sky's uniform share.
+//! the renderer's own; surfaces are still lit by the sky's uniform share. Every sky pixel of every
+//! sub-frame reads `e^{−3χ}` from a table in `u = sin(χ/2) = √((1 − cos χ)/2)`, in which
+//! `e^{−6·asin u}` is smooth, interpolated linearly ([`indicatrix_of_cos`]): within 5e-5 of the
+//! closed form (tested), without an `acos` and an `exp` per pixel.
 //!
 //! **The disc.**
 //! A white surface facing the sun reads `RADIANCE_SCALE_DN·SUN·ambient` (the renderer's unit:
@@ -37,6 +40,28 @@ pub fn disc_radiance(ambient: f32) -> f32 {
 pub fn indicatrix(chi: f32) -> f32 {
     let c = chi.cos();
     1.0 + 10.0 * ((-3.0 * chi).exp() - (-1.5 * std::f32::consts::PI).exp()) + 0.45 * c * c
+}
+
+/// Intervals of the table in `u = sin(χ/2)`: linear interpolation of `e^{−6·asin u}` (second
+/// derivative at most 36) errs by at most 36/(8·N²) = 4.3e-6, 4.3e-5 after the factor 10.
+const TABLE_N: usize = 1024;
+
+/// `e^{−3χ}` at `u = sin(χ/2) = k/TABLE_N`, k = 0 … TABLE_N.
+fn table() -> &'static [f32; TABLE_N + 1] {
+    static TABLE: std::sync::OnceLock<[f32; TABLE_N + 1]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|k| (-6.0 * (k as f64 / TABLE_N as f64).asin()).exp() as f32)
+    })
+}
+
+/// [`indicatrix`] at the angle whose cosine is `cos` (clamped to [−1, 1]), from the table.
+pub fn indicatrix_of_cos(cos: f32) -> f32 {
+    let c = cos.clamp(-1.0, 1.0);
+    let at = ((1.0 - c) * 0.5).sqrt() * TABLE_N as f32;
+    let k = (at as usize).min(TABLE_N - 1);
+    let (t, table) = (at - k as f32, table());
+    let g = table[k] + t * (table[k + 1] - table[k]);
+    1.0 + 10.0 * (g - (-1.5 * std::f32::consts::PI).exp()) + 0.45 * c * c
 }
 
 /// Brightens the sky of `target` towards the sun and draws the sun's disc over it (nothing
@@ -99,7 +124,7 @@ fn aureole(d: [f32; 3], cam: &CameraFrame, target: &mut Target) {
             continue;
         }
         let cos = cos_to_sun(cam, d, (p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
-        let f = indicatrix(cos.clamp(-1.0, 1.0).acos());
+        let f = indicatrix_of_cos(cos);
         colour.iter_mut().for_each(|c| *c *= f);
     }
 }
@@ -115,4 +140,25 @@ fn cos_to_sun(cam: &CameraFrame, d: [f32; 3], sx: f32, sy: f32) -> f32 {
     ];
     let norm = (ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]).sqrt();
     (ray[0] * d[0] + ray[1] * d[1] + ray[2] * d[2]) / norm
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The table against the closed form at the same cosine, over every angle from the sun
+    /// (finer near it, where the indicatrix is steepest).
+    #[test]
+    fn the_table_reads_the_indicatrix_within_5e_5() {
+        let mut worst = 0.0f64;
+        for i in 0..=200_000 {
+            let chi = std::f32::consts::PI * (i as f32 / 200_000.0).powi(2);
+            let c = chi.cos();
+            let exact = indicatrix(c.clamp(-1.0, 1.0).acos());
+            worst = worst.max((f64::from(indicatrix_of_cos(c)) / f64::from(exact) - 1.0).abs());
+        }
+        assert!(worst < 5e-5, "{worst}");
+        assert!((indicatrix_of_cos(1.0) / indicatrix(0.0) - 1.0).abs() < 1e-6);
+        assert!((indicatrix_of_cos(-1.5) / indicatrix(std::f32::consts::PI) - 1.0).abs() < 1e-6);
+    }
 }
