@@ -47,6 +47,20 @@ fn a_design_is_measured_and_tabulated() {
             .fold(f64::MAX, f64::min);
         assert_eq!(x["task_loss"].as_f64().unwrap(), least, "{light}");
     }
+    // The objects' choice holds, light by light, the least loss less its background term, a
+    // part of the loss (non-negative) that every rung carries beside it.
+    let objects = |p: &serde_json::Value, light: &str| {
+        let x = &p["by_light"][light];
+        let background = x["background_loss"].as_f64().unwrap();
+        assert!((0.0..=x["task_loss"].as_f64().unwrap()).contains(&background), "{x}");
+        x["task_loss"].as_f64().unwrap() - background
+    };
+    assert!(map("objects-loss-by-light").1 && map("objects-loss-oracle").1);
+    for light in policy("objects-loss-by-light")["by_light"].as_object().unwrap().keys() {
+        let least =
+            (0..4).map(|i| objects(&policy(&format!("rung-{i}")), light)).fold(f64::MAX, f64::min);
+        assert_eq!(objects(&policy("objects-loss-by-light"), light), least, "{light}");
+    }
     assert!(
         policy("average-127.5")["by_light"]
             .as_object()

@@ -225,7 +225,7 @@ impl JointModel {
     pub fn detect_with_loss(
         &self,
         frame: crate::detector::TrainFrame<'_>,
-    ) -> (Vec<Detection>, f64) {
+    ) -> (Vec<Detection>, crate::detector::FrameLoss) {
         self.det.detect_with_loss(frame)
     }
 

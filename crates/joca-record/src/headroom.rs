@@ -109,6 +109,10 @@ pub struct PolicyLight {
     /// closed-loop controllers).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub task_loss: Option<f64>,
+    /// Mean of the task loss's heatmap background term (confidence where no object is; the
+    /// loss less it is the loss on the objects), where the task loss was computed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub background_loss: Option<f64>,
     /// Mean slope of the task loss by the light in stops through the differentiable formation
     /// (`[ladder] slopes`; negative: more light lowers the loss).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -109,6 +109,13 @@ fn ladder_by_light(s: &mut String, r: &HeadroomRecord, lights: &[Light]) {
         s,
         "\n## The ladder, light by light: mAP · the detector's task loss · frame level (DN)\n"
     );
+    if rungs.iter().any(|p| p.by_light.values().any(|x| x.background_loss.is_some())) {
+        let _ = writeln!(
+            s,
+            "The loss is followed by its heatmap's background term in brackets (confidence where \
+             no object is); the loss less it is the loss on the objects alone.\n"
+        );
+    }
     if rungs.iter().any(|p| p.by_light.values().any(|x| x.loss_slope.is_some())) {
         let _ = writeln!(
             s,
@@ -125,7 +132,11 @@ fn ladder_by_light(s: &mut String, r: &HeadroomRecord, lights: &[Light]) {
             .iter()
             .map(|l| {
                 p.by_light.get(l).map_or("–".into(), |x| {
-                    let loss = x.task_loss.map_or("–".into(), |v| format!("{v:.3}"));
+                    let loss = match (x.task_loss, x.background_loss) {
+                        (Some(v), Some(b)) => format!("{v:.3} ({b:.3})"),
+                        (Some(v), None) => format!("{v:.3}"),
+                        _ => "–".into(),
+                    };
                     let slope = x.loss_slope.zip(x.more_light_share).map_or(String::new(), |v| {
                         format!(" · {:+.3} ({:.0} %)", v.0, 100.0 * v.1)
                     });

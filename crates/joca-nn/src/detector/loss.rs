@@ -290,6 +290,9 @@ pub struct DetectionLoss {
     pub total: Tensor,
     /// Focal heatmap loss.
     pub heatmap: f64,
+    /// The heatmap loss's background term: its share from the cells away from every object's
+    /// peak (confidence where nothing is, penalised down to the Gaussian's falloff), per object.
+    pub background: f64,
     /// Size L1 loss.
     pub size: f64,
     /// Offset L1 loss.
@@ -321,6 +324,7 @@ impl DetectionLoss {
         let neg_loss = ((-logits).log_sigmoid() * p.pow_tensor_scalar(2.0) * neg_weight * neg)
             .sum(Kind::Float);
         let num_pos = (targets.count as f64).max(1.0);
+        let background = -&neg_loss / num_pos;
         let heatmap = -(pos_loss + neg_loss) / num_pos;
         let (size, offset) = if targets.count == 0 {
             (logits.zeros_like().sum(Kind::Float), logits.zeros_like().sum(Kind::Float))
@@ -342,6 +346,7 @@ impl DetectionLoss {
         let total = &heatmap + &size * SIZE_WEIGHT + &offset * OFFSET_WEIGHT;
         Self {
             heatmap: heatmap.double_value(&[]),
+            background: background.double_value(&[]),
             size: size.double_value(&[]),
             offset: offset.double_value(&[]),
             total,

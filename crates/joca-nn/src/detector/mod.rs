@@ -33,7 +33,9 @@ mod precision;
 pub use bench::{forward_flops, time_detector, time_training, training_step_times};
 pub use decode::decode;
 pub use loss::{DetectionLoss, Regression, Targets};
-pub use model::{DetectorModel, LossParts, MAX_DETECTIONS, MIN_SCORE, TrainFrame, WeightAverage};
+pub use model::{
+    DetectorModel, FrameLoss, LossParts, MAX_DETECTIONS, MIN_SCORE, TrainFrame, WeightAverage,
+};
 
 use joca_core::{Class, Rgb8Image};
 use serde::{Deserialize, Serialize};

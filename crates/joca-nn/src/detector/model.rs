@@ -30,6 +30,16 @@ pub struct LossParts {
     pub offset: f64,
 }
 
+/// One frame's task loss from [`DetectorModel::detect_with_loss`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameLoss {
+    /// The loss the detector trains on (and DF-Grad's task term descends).
+    pub total: f64,
+    /// Its heatmap's background term ([`DetectionLoss::background`]): `total − background` is
+    /// the loss on the objects alone (their peaks, sizes and offsets).
+    pub background: f64,
+}
+
 /// Refuses an empty batch or one of frames of different sizes.
 fn one_size(batch: &[TrainFrame<'_>]) -> Result<(), NnError> {
     let Some(first) = batch.first() else {
@@ -245,12 +255,12 @@ impl DetectorModel {
 
     /// [`DetectorModel::detect`]'s detections in `frame.image` and the frame's task loss (as
     /// [`DetectorModel::losses_in`] in float32) from the same forward pass.
-    pub fn detect_with_loss(&self, frame: TrainFrame<'_>) -> (Vec<Detection>, f64) {
+    pub fn detect_with_loss(&self, frame: TrainFrame<'_>) -> (Vec<Detection>, FrameLoss) {
         let _guard = tch::no_grad_guard();
         let out = self.net.forward(&image_tensor(frame.image, self.device));
         let s = out.heatmap.size();
-        let loss =
-            DetectionLoss::new(&out, &self.targets(&frame, (s[2], s[3]))).total.double_value(&[]);
+        let parts = DetectionLoss::new(&out, &self.targets(&frame, (s[2], s[3])));
+        let loss = FrameLoss { total: parts.total.double_value(&[]), background: parts.background };
         let (w, h) = (frame.image.width(), frame.image.height());
         (decode(&out, w, h, MAX_DETECTIONS, MIN_SCORE), loss)
     }

@@ -173,5 +173,6 @@ fn detect_with_loss_is_detect_and_the_frames_training_loss() {
         model.detect_with_loss(TrainFrame { image: &seen, truth: &truth, ignore: &[] });
     assert_eq!(found, model.detect(&seen));
     let trained = model.train_step(&seen, &truth, &[]).unwrap().total;
+    let loss = loss.total;
     assert!((trained - loss).abs() < 1e-5 * trained.abs().max(1.0), "{trained} {loss}");
 }

@@ -52,6 +52,10 @@ fn firing_inside_an_ignore_region_costs_nothing() {
     };
     let extra = loss(6.0, &plain) - loss(-2.19, &plain);
     assert!((extra - expected).abs() < 1e-2 * expected, "{extra} vs {expected}");
+    // … all of it in the background term.
+    let background = |logit: f64| DetectionLoss::new(&output(logit), &plain).background;
+    let extra = background(6.0) - background(-2.19);
+    assert!((extra - expected).abs() < 1e-2 * expected, "{extra} vs {expected}");
 }
 
 #[test]
@@ -76,6 +80,12 @@ fn class_weights_scale_that_class_and_nothing_else() {
     // normalised by the 2 objects either way.
     let peak = 0.25 * 2f64.ln();
     assert!((weighted.heatmap - plain.heatmap - 2.0 * peak / 2.0).abs() < 1e-6);
+    // The background term is the heatmap less the peaks' (¼·ln 2 each, per object), and class
+    // weights leave it alone.
+    assert!((plain.heatmap - plain.background - peak).abs() < 1e-6);
+    assert!((weighted.heatmap - weighted.background - 2.0 * peak).abs() < 1e-6);
+    assert!((weighted.background - plain.background).abs() < 1e-9);
+    assert!(plain.background > 0.0);
     // Log sizes in cells: vehicle (ln 4, ln 4), walker (ln 2, ln 4); with output 0 the errors
     // are those values, averaged with weights 1 and 3 over both coordinates.
     let (l2, l4) = (2f64.ln(), 4f64.ln());

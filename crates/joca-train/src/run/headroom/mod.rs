@@ -9,6 +9,7 @@
 //! Nothing here trains: the detector and controller are a run's (from its checkpoint) or a
 //! weights file's on a fixed design.
 
+mod by_loss;
 pub mod ladder;
 mod policies;
 
@@ -78,6 +79,8 @@ pub(crate) struct Outcome {
     /// The detector's task loss on the capture (the loss DF-Grad descends, on the objects the
     /// run trains on), where it was computed (the ladder's rungs).
     pub(crate) loss: Option<f64>,
+    /// Its heatmap's background term (confidence where no object is), computed with it.
+    pub(crate) background: Option<f64>,
     /// The task loss's slope by the light in stops through the differentiable formation, where
     /// it was asked for (`[ladder] slopes`).
     pub(crate) slope: Option<f64>,
@@ -232,7 +235,7 @@ fn ladder_outcomes(
                     ignore: &ignore,
                 });
                 let mut o = outcome(light, frame, detections, *rung, &image);
-                o.loss = Some(loss);
+                (o.loss, o.background) = (Some(loss.total), Some(loss.background));
                 if let Some(normals) = &normals {
                     let scene = Scene {
                         i0: frame.hdr.data(),
@@ -303,6 +306,7 @@ fn outcome(
         clipped,
         utility,
         loss: None,
+        background: None,
         slope: None,
     }
 }

@@ -4,6 +4,7 @@
 //! Every policy's detections are pooled into one COCO evaluation, as the test pools its frames.
 
 use super::Outcome;
+use super::by_loss::{self, LossKey};
 use crate::control::TestController;
 use joca_camera::DynamicSettings;
 use joca_metrics::{TaskMetrics, TaskScores};
@@ -11,7 +12,8 @@ use joca_record::{Light, PolicyLight, PolicyScores, Settings};
 use std::collections::BTreeMap;
 
 /// Scores every policy: the rungs (`rung-<i>`), the controllers, then `best-constant`,
-/// `constant-by-light`, `best-target`, `target-by-light` and `oracle`.
+/// `constant-by-light`, `best-target`, `target-by-light` and `oracle`; where the ladder's
+/// captures carry their task loss, the loss's choices ([`LossKey`]).
 pub(super) fn score(
     rungs: &[DynamicSettings],
     ladder: &[Vec<Outcome>],
@@ -63,53 +65,16 @@ pub(super) fn score(
             .to_owned();
         out.push(policy("oracle".into(), label, true, &oracle(&rung_sets)));
     }
-    if ladder.iter().flatten().all(|o| o.loss.is_some()) && !ladder.is_empty() {
-        let label = "the constant setting of the lowest mean task loss for each light, in \
-                     hindsight (the level the detector's training loss asks for)"
-            .to_owned();
-        out.push(policy("loss-by-light".into(), label, true, &lowest_loss_by_light(&rung_sets)));
-        let label = "each frame's rung of the lowest task loss, in hindsight".to_owned();
-        out.push(policy("loss-oracle".into(), label, true, &lowest_loss_by_frame(&rung_sets)));
+    for key in [LossKey::Total, LossKey::Objects] {
+        if ladder.is_empty() || !ladder.iter().flatten().all(|o| key.computed(o)) {
+            continue;
+        }
+        let (name, label) = key.by_light_row();
+        out.push(policy(name, label, true, &by_loss::by_light(&rung_sets, key)));
+        let (name, label) = key.by_frame_row();
+        out.push(policy(name, label, true, &by_loss::by_frame(&rung_sets, key)));
     }
     out
-}
-
-/// A capture's task loss, a missing or non-finite one ranking last.
-fn loss_of(o: &Outcome) -> f64 {
-    o.loss.filter(|l| l.is_finite()).unwrap_or(f64::INFINITY)
-}
-
-/// The index of the lowest value (the first among equals).
-fn argmin(values: &[f64]) -> usize {
-    (0..values.len()).reduce(|a, b| if values[b] < values[a] { b } else { a }).unwrap_or(0)
-}
-
-/// For each light, the frames of the rung whose frames of that light have the lowest mean task
-/// loss.
-fn lowest_loss_by_light<'a>(rungs: &[&'a [Outcome]]) -> Vec<&'a Outcome> {
-    let Some(first) = rungs.first() else { return Vec::new() };
-    let mut chosen: BTreeMap<Light, usize> = BTreeMap::new();
-    for light in first.iter().map(|o| o.light) {
-        chosen.entry(light).or_insert_with(|| {
-            let means: Vec<f64> = rungs
-                .iter()
-                .map(|r| r.iter().filter(|o| o.light == light).map(loss_of).sum::<f64>())
-                .collect();
-            argmin(&means)
-        });
-    }
-    (0..first.len()).map(|f| &rungs[chosen[&first[f].light]][f]).collect()
-}
-
-/// Each frame from the rung of its lowest task loss.
-fn lowest_loss_by_frame<'a>(rungs: &[&'a [Outcome]]) -> Vec<&'a Outcome> {
-    let frames = rungs.first().map_or(0, |r| r.len());
-    (0..frames)
-        .map(|f| {
-            let losses: Vec<f64> = rungs.iter().map(|r| loss_of(&r[f])).collect();
-            &rungs[argmin(&losses)][f]
-        })
-        .collect()
 }
 
 fn refs(o: &[Outcome]) -> Vec<&Outcome> {
@@ -244,6 +209,7 @@ fn policy(name: String, label: String, hindsight: bool, frames: &[&Outcome]) -> 
                 mean_dn: mean(&|o| o.mean_dn),
                 clipped_share: mean(&|o| o.clipped),
                 task_loss: f.iter().map(|o| o.loss).sum::<Option<f64>>().map(|total| total / n),
+                background_loss: f.iter().map(|o| o.background).sum::<Option<f64>>().map(|t| t / n),
                 loss_slope: f.iter().map(|o| o.slope).sum::<Option<f64>>().map(|t| t / n),
                 more_light_share: f
                     .iter()
@@ -259,12 +225,16 @@ fn policy(name: String, label: String, hindsight: bool, frames: &[&Outcome]) -> 
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use joca_core::{BBox, Class, Detection};
 
     /// A frame of `light` with one vehicle, detected exactly (score 0.9) or not at all.
-    fn frame(light: Light, detected: bool, exposure_ms: f64) -> Outcome {
+    pub(in crate::run::headroom) fn frame(
+        light: Light,
+        detected: bool,
+        exposure_ms: f64,
+    ) -> Outcome {
         let bbox = BBox::new(10.0, 10.0, 50.0, 40.0);
         let detections = if detected {
             vec![Detection { bbox, class: Class::Vehicle, score: 0.9 }]
@@ -283,6 +253,7 @@ mod tests {
             clipped: 0.0,
             // The loss follows the detection: 1 where seen, 2 where missed.
             loss: Some(if detected { 1.0 } else { 2.0 }),
+            background: None,
             slope: None,
         }
     }
@@ -330,39 +301,5 @@ mod tests {
         assert_eq!(get("loss-oracle").by_light[&d].task_loss, Some(1.0));
         // The rungs carry their mean loss per light: rung 0's night, (2 + 2 + 1) / 3.
         assert!((get("rung-0").by_light[&n].task_loss.unwrap() - 5.0 / 3.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn the_loss_choices_follow_the_loss_where_it_disagrees_with_the_detections() {
-        // A loss that always prefers the darker rung (loss = exposure in ms): both loss choices
-        // take rung 0 in every light, whatever it detects; night then finds 1 of 3 objects,
-        // 34 of COCO's 101 recall points.
-        let (d, n) = (Light::Day, Light::Night);
-        let with_loss = |mut o: Outcome| {
-            o.loss = Some(o.settings.exposure_s * 1e3);
-            o
-        };
-        let rung0: Vec<Outcome> = [(d, true), (n, false), (n, false), (n, true)]
-            .map(|(l, seen)| with_loss(frame(l, seen, 1.0)))
-            .into();
-        let rung1: Vec<Outcome> = [(d, false), (n, true), (n, true), (n, false)]
-            .map(|(l, seen)| with_loss(frame(l, seen, 9.0)))
-            .into();
-        let rungs = [DynamicSettings::new(1e-3, 1.0), DynamicSettings::new(9e-3, 1.0)];
-        let scored = score(&rungs, &[rung0, rung1], &[]);
-        let get = |name: &str| scored.iter().find(|p| p.policy == name).unwrap();
-        for name in ["loss-by-light", "loss-oracle"] {
-            let p = get(name);
-            assert!(p.hindsight);
-            assert!((p.by_light[&n].map - 34.0 / 101.0).abs() < 1e-9, "{name}");
-            assert!((p.by_light[&n].settings.exposure_ms - 1.0).abs() < 1e-12, "{name}");
-            assert_eq!(p.by_light[&d].task_loss, Some(1.0), "{name}");
-        }
-        // A ladder without losses (no rung computed one) has no loss choices.
-        let mut bare = frame(d, true, 1.0);
-        bare.loss = None;
-        let scored = score(&rungs[..1], &[vec![bare]], &[]);
-        assert!(scored.iter().all(|p| !p.policy.starts_with("loss-")));
-        assert_eq!(scored[0].by_light[&d].task_loss, None);
     }
 }
