@@ -174,7 +174,7 @@ fn a_run_directory_adds_its_trained_controller() {
     );
     std::fs::write(&file, text).unwrap();
     let hp = dir.path().join("hp");
-    // Two at a time, but never two of one run (each holds its lock).
+    // Two at a time, both of the one run (readers share its directory's lock).
     let o = cli!("headroom --jobs 2 --panel", file, "--out", hp);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(hp.join("calibrated/town2/trained-run/headroom.json").is_file());

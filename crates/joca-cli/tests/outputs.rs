@@ -140,7 +140,7 @@ fn one_process_writes_a_run_directory_and_a_kill_frees_it() {
     let extra: &[&str] = if resume { &["--resume"] } else { &[] };
     let next = joca(&[&args[..], extra].concat());
     // (A resumed run with a shorter schedule is refused for its configuration, not the lock.)
-    assert!(!stderr(&next).contains("being written"), "{}", stderr(&next));
+    assert!(!stderr(&next).contains("in use by another"), "{}", stderr(&next));
 }
 
 #[test]

@@ -85,10 +85,10 @@ pub enum OutputError {
         /// A few of its entries.
         listing: String,
     },
-    /// Another process writes the folder.
+    /// Another process writes the folder, or reads it while this one would write it.
     #[error(
-        "{} is being written by another joca process ({holder}); wait for it to end, or choose \
-         another folder", path.display()
+        "{} is in use by another joca process ({holder}); wait for it to end, or choose another \
+         folder", path.display()
     )]
     Locked {
         /// The folder.
@@ -218,6 +218,16 @@ impl DirLock {
     /// Takes the lock of `dir` for `holder` (what the lock file tells a refused second writer,
     /// e.g. "joca run"), or refuses naming the current holder.
     pub fn acquire(dir: &Path, holder: &str) -> Result<Self, OutputError> {
+        Self::take(dir, holder, false)
+    }
+
+    /// Takes the lock of `dir` for reading: any number of readers hold it at once, no writer
+    /// while they do, and none while a writer does (refused naming the writer).
+    pub fn acquire_shared(dir: &Path, holder: &str) -> Result<Self, OutputError> {
+        Self::take(dir, &format!("{holder}, reading"), true)
+    }
+
+    fn take(dir: &Path, holder: &str, shared: bool) -> Result<Self, OutputError> {
         let path = dir.join(LOCK_FILE);
         let mut file = OpenOptions::new()
             .read(true)
@@ -226,7 +236,7 @@ impl DirLock {
             .truncate(false)
             .open(&path)
             .map_err(io("open", &path))?;
-        match file.try_lock() {
+        match if shared { file.try_lock_shared() } else { file.try_lock() } {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
                 let mut text = String::new();

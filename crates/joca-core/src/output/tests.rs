@@ -66,11 +66,32 @@ fn one_writer_holds_the_lock_and_the_next_gets_it_when_it_ends() {
     let first = DirLock::acquire(&dir, "joca run").unwrap();
     // A second open file description is refused, whatever process holds it, naming the holder.
     let e = DirLock::acquire(&dir, "joca eval").unwrap_err().to_string();
-    assert!(e.contains("being written by another joca process (joca run, process"), "{e}");
+    assert!(e.contains("in use by another joca process (joca run, process"), "{e}");
+    // A reader waits for the writer too.
+    let e = DirLock::acquire_shared(&dir, "joca headroom").unwrap_err().to_string();
+    assert!(e.contains("(joca run, process"), "{e}");
     drop(first);
     let second = DirLock::acquire(&dir, "joca eval").unwrap();
     let text = std::fs::read_to_string(dir.join(LOCK_FILE)).unwrap();
     assert!(text.starts_with("joca eval, process "), "{text}");
     drop(second);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn readers_share_the_lock_and_keep_writers_out() {
+    let dir = scratch("shared");
+    claim(&dir, OutputKind::Run).unwrap();
+    let one = DirLock::acquire_shared(&dir, "joca headroom").unwrap();
+    let two = DirLock::acquire_shared(&dir, "joca headroom").unwrap();
+    // A writer is refused while either reads, naming a reader; `lock_holder` (is anyone
+    // writing?) says no one.
+    let e = DirLock::acquire(&dir, "joca run").unwrap_err().to_string();
+    assert!(e.contains("in use by another joca process (joca headroom, reading, process"), "{e}");
+    assert_eq!(lock_holder(&dir), None);
+    drop(one);
+    assert!(DirLock::acquire(&dir, "joca run").is_err());
+    drop(two);
+    drop(DirLock::acquire(&dir, "joca run").unwrap());
     std::fs::remove_dir_all(&dir).unwrap();
 }

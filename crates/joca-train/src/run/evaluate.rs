@@ -67,11 +67,13 @@ pub fn check_town(town: u64) -> Result<(), TrainError> {
     Ok(())
 }
 
-/// A finished (or interrupted) run directory opened for reading: its configuration, its loop
-/// state and checkpoint folder, and the directory's lock (held while the caller works, so it
-/// never reads a checkpoint a run is writing).
+/// A finished (or interrupted) run directory opened: its configuration, its loop state and
+/// checkpoint folder, and the directory's lock (held while the caller works, so it never reads a
+/// checkpoint a run is writing): `joca eval`'s, which writes there, or with `reading` a reader's,
+/// which other readers share.
 pub(super) fn load_run(
     run_dir: &Path,
+    reading: bool,
 ) -> Result<(super::RunConfig, RunState, PathBuf, DirLock), TrainError> {
     if output::check(run_dir, OutputKind::Run)? != Some(output::Claimed::Earlier) {
         return Err(TrainError::Corrupt {
@@ -79,7 +81,11 @@ pub(super) fn load_run(
             reason: "not a run directory of joca's (it does not exist or is empty)".into(),
         });
     }
-    let lock = DirLock::acquire(run_dir, "joca eval")?;
+    let lock = if reading {
+        DirLock::acquire_shared(run_dir, "joca headroom")?
+    } else {
+        DirLock::acquire(run_dir, "joca eval")?
+    };
     let config_path = run_dir.join("config.toml");
     let text =
         std::fs::read_to_string(&config_path).map_err(|e| TrainError::io(&config_path, e))?;
@@ -136,7 +142,7 @@ pub fn evaluate_run(
         start_detector,
         device,
     } = *options;
-    let (mut config, state, dir, _lock) = load_run(run_dir)?;
+    let (mut config, state, dir, _lock) = load_run(run_dir, false)?;
     if let Some(d) = device {
         config.device = d;
     }

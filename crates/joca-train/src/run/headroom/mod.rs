@@ -92,9 +92,11 @@ pub fn headroom(
     options: &HeadroomOptions,
 ) -> Result<HeadroomRecord, TrainError> {
     super::evaluate::check_town(options.town)?;
-    let (mut config, loaded, _lock) = match subject {
+    // A reader's lock on the run directory, held only while its checkpoint is read (below): the
+    // measurement writes nothing there, so several may measure one run at once.
+    let (mut config, loaded, lock) = match subject {
         Subject::Run(dir) => {
-            let (config, state, checkpoint, lock) = load_run(dir)?;
+            let (config, state, checkpoint, lock) = load_run(dir, true)?;
             (config, Some((dir.clone(), state, checkpoint)), Some(lock))
         }
         Subject::Design(config) => (config.as_ref().clone(), None, None),
@@ -128,6 +130,7 @@ pub fn headroom(
         Some((dir, state, checkpoint)) => {
             model.load(checkpoint)?;
             let (design, _) = best_design(&mut cx, &mut model, state)?;
+            drop(lock);
             (design, "trained".to_owned(), Some(dir.display().to_string()), config.method.neural())
         }
         None => {

@@ -7,16 +7,8 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::Instant;
 
-/// The trained run a measurement holds, if any.
-fn run_of(m: &Measurement) -> Option<&Path> {
-    match &m.subject {
-        Subject::Trained(dir) => Some(dir.as_path()),
-        Subject::Design => None,
-    }
-}
-
-/// Runs the measurements as child processes, at most `jobs` at once, never two of one trained
-/// run at once (a measurement holds its run directory's lock).
+/// Runs the measurements as child processes, at most `jobs` at once (measurements of one trained
+/// run too: each only reads it, sharing its directory's lock).
 pub(super) fn run_children(
     panel: &HeadroomPanel,
     configs: &Path,
@@ -25,19 +17,16 @@ pub(super) fn run_children(
 ) -> Result<()> {
     let exe = crate::commands::own_executable()?;
     let started = Instant::now();
-    let mut queue: Vec<&Measurement> = todo.to_vec();
-    // (name, child, start, the trained run it holds).
-    let mut running: Vec<(String, Child, Instant, Option<&Path>)> = Vec::new();
+    let mut queue = todo.iter().copied();
+    // (name, child, start).
+    let mut running: Vec<(String, Child, Instant)> = Vec::new();
     let (mut done, total) = (0usize, todo.len());
     loop {
         while running.len() < jobs {
-            let free =
-                |m: &&Measurement| run_of(m).is_none_or(|d| running.iter().all(|r| r.3 != Some(d)));
-            let Some(k) = queue.iter().position(free) else { break };
-            let m = queue.remove(k);
+            let Some(m) = queue.next() else { break };
             let child = spawn(&exe, panel, configs, m, jobs)?;
             let name = format!("{} {} town {}", m.design, m.scenario.name(), m.town);
-            running.push((name, child, Instant::now(), run_of(m)));
+            running.push((name, child, Instant::now()));
         }
         if running.is_empty() {
             return Ok(());
@@ -46,7 +35,7 @@ pub(super) fn run_children(
         let mut i = 0;
         while i < running.len() {
             if let Some(status) = running[i].1.try_wait()? {
-                let (name, _, t, _) = running.remove(i);
+                let (name, _, t) = running.remove(i);
                 done += 1;
                 let verdict = if status.success() { "done  " } else { "FAILED" };
                 println!(
