@@ -46,22 +46,36 @@ pub fn indicatrix(chi: f32) -> f32 {
 /// derivative at most 36) errs by at most 36/(8·N²) = 4.3e-6, 4.3e-5 after the factor 10.
 const TABLE_N: usize = 1024;
 
-/// `e^{−3χ}` at `u = sin(χ/2) = k/TABLE_N`, k = 0 … TABLE_N.
-fn table() -> &'static [f32; TABLE_N + 1] {
-    static TABLE: std::sync::OnceLock<[f32; TABLE_N + 1]> = std::sync::OnceLock::new();
-    TABLE.get_or_init(|| {
-        std::array::from_fn(|k| (-6.0 * (k as f64 / TABLE_N as f64).asin()).exp() as f32)
-    })
+/// The indicatrix in tabled form: `e^{−3χ}` at `u = sin(χ/2) = k/TABLE_N`, k = 0 … TABLE_N, and
+/// the formula's constant `e^{−3π/2}`, made once.
+struct Indicatrix {
+    g: [f32; TABLE_N + 1],
+    at_right_angle: f32,
+}
+
+impl Indicatrix {
+    fn get() -> &'static Self {
+        static TABLE: std::sync::OnceLock<Indicatrix> = std::sync::OnceLock::new();
+        TABLE.get_or_init(|| Indicatrix {
+            g: std::array::from_fn(|k| (-6.0 * (k as f64 / TABLE_N as f64).asin()).exp() as f32),
+            at_right_angle: (-1.5 * std::f32::consts::PI).exp(),
+        })
+    }
+
+    #[inline]
+    fn of_cos(&self, cos: f32) -> f32 {
+        let c = cos.clamp(-1.0, 1.0);
+        let at = ((1.0 - c) * 0.5).sqrt() * TABLE_N as f32;
+        let k = (at as usize).min(TABLE_N - 1);
+        let t = at - k as f32;
+        let g = self.g[k] + t * (self.g[k + 1] - self.g[k]);
+        1.0 + 10.0 * (g - self.at_right_angle) + 0.45 * c * c
+    }
 }
 
 /// [`indicatrix`] at the angle whose cosine is `cos` (clamped to [−1, 1]), from the table.
 pub fn indicatrix_of_cos(cos: f32) -> f32 {
-    let c = cos.clamp(-1.0, 1.0);
-    let at = ((1.0 - c) * 0.5).sqrt() * TABLE_N as f32;
-    let k = (at as usize).min(TABLE_N - 1);
-    let (t, table) = (at - k as f32, table());
-    let g = table[k] + t * (table[k + 1] - table[k]);
-    1.0 + 10.0 * (g - (-1.5 * std::f32::consts::PI).exp()) + 0.45 * c * c
+    Indicatrix::get().of_cos(cos)
 }
 
 /// Brightens the sky of `target` towards the sun and draws the sun's disc over it (nothing
@@ -118,13 +132,13 @@ pub(super) fn draw_sun(view: &View<'_>, cam: &CameraFrame, target: &mut Target) 
 /// Multiplies every sky pixel of `target` by the indicatrix at its view ray's angle from the
 /// sun (direction `d`).
 fn aureole(d: [f32; 3], cam: &CameraFrame, target: &mut Target) {
-    let w = target.width;
+    let (w, indicatrix) = (target.width, Indicatrix::get());
     for (p, colour) in target.colour.chunks_exact_mut(3).enumerate() {
         if target.inv_depth[p] != 0.0 {
             continue;
         }
         let cos = cos_to_sun(cam, d, (p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
-        let f = indicatrix_of_cos(cos);
+        let f = indicatrix.of_cos(cos);
         colour.iter_mut().for_each(|c| *c *= f);
     }
 }

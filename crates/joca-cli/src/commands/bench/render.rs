@@ -99,7 +99,6 @@ pub(super) fn imx172_behind_3_6_mm(w: usize, h: usize) -> PinholeCamera {
     PinholeCamera::centred((w, h), (3.6 * w as f64 / 6.2, 3.6 * h as f64 / 4.65), [0.43, 0.0, 1.65])
 }
 
-/// Episode 1's frames at `times` with one exposure.
 /// Milliseconds a frame of `requests` takes a simulator of `config` through `camera` on `pool`,
 /// best of 3 passes after a first.
 pub(super) fn ms_per_frame(
@@ -117,6 +116,7 @@ pub(super) fn ms_per_frame(
     best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
 }
 
+/// Episode 1's frames at `times` with one exposure.
 pub(super) fn frames_at(times: &[f64], exposure_s: f64) -> Vec<FrameRequest> {
     times
         .iter()
