@@ -65,6 +65,8 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     run.detector_lr = 1e-5;
     run.step_weight = 0.1;
     run.min_box_px = 4.0;
+    run.perturbation_score = joca_train::PerturbationScore::Map;
+    run.perturbation_window = 16;
     run.cast_shadows = true;
     run.sun_elevation = joca_sim::SunElevation {
         min_deg: 10.0,

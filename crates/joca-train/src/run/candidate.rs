@@ -9,6 +9,7 @@ use super::config::TrainingScenes;
 use super::context::Context;
 use super::judge::judge;
 use super::perturbation::{self, Probe};
+use super::pooled::{Capture, Window};
 use super::stretches::{Scenes, Stretch, Stretches};
 use crate::TrainError;
 use crate::control::{Decision, controller};
@@ -47,6 +48,7 @@ pub(super) fn train(
     rig.start_sequence(model);
     let first = control.start();
     let mut previous_frame = None;
+    let mut window = Window::new(c.perturbation_window);
     for step in 0..c.steps_per_candidate {
         let global = index * c.steps_per_candidate as u64 + step as u64;
         // The noise of the frame: the scene's (shared by the generation's candidates, or this
@@ -93,7 +95,13 @@ pub(super) fn train(
             .count_subframes(perturbed.iter().map(|f| f.subframes).fold(frame.subframes, u32::max));
         let mut ga_target = None;
         if !members.is_empty() {
-            let probe = Probe { sensor, formation, global_step: global, scene_step: common };
+            let probe = Probe {
+                sensor,
+                formation,
+                global_step: global,
+                scene_step: common,
+                window: &window,
+            };
             let best = perturbation::search(cx, model, perturbation, &probe, &members, &perturbed)?;
             if step % c.ga_every == 0 {
                 ga_target = best;
@@ -122,6 +130,12 @@ pub(super) fn train(
         cx.journal.watch.restart();
         cx.journal.watch.add_model_step(&report.timings);
         metrics.update(&frame.boxes, &frame.ignore, &report.detections, frame.visible_180);
+        window.push(Capture {
+            truth: &frame.boxes,
+            ignore: &frame.ignore,
+            visible_180: frame.visible_180,
+            detections: &report.detections,
+        });
         if step % 5 == 0 {
             cx.journal.log(&Event::Step(record(global, &report, f_number, at.stretch)))?;
         }

@@ -70,10 +70,15 @@ pub struct RunConfig {
     #[serde(default)]
     pub perturbation_tie_break: TieBreak,
     /// What scores a perturbation member: `loss` (the presets': the detector's task loss on the
-    /// perturbed frame, lower better) or `ap50` (the paper's: the perturbed frame's AP50; what
-    /// a configuration without this field, written before it existed, ran).
+    /// perturbed frame, lower better), `ap50` (the paper's: the perturbed frame's AP50; what
+    /// a configuration without this field, written before it existed, ran) or `map`.
     #[serde(default)]
     pub perturbation_score: PerturbationScore,
+    /// Frames an `ap50` or `map` score pools (1 to 400; default 1, the perturbed frame alone):
+    /// each member's detections are ranked with those of the W − 1 frames the controller
+    /// captured before it in the candidate's sequence, as the test ranks every frame's.
+    #[serde(default = "search::one_frame", skip_serializing_if = "search::is_one_frame")]
+    pub perturbation_window: usize,
     /// How a perturbation offsets the exposure: `linear` (the paper's: a share of the range in
     /// milliseconds) or `relative` (a share of the log-exposure range: a factor).
     #[serde(default)]
@@ -260,6 +265,7 @@ impl RunConfig {
             }
         }
         self.validate_learning()?;
+        self.validate_search()?;
         check_input(&self.input, "run")?;
         if !(0.0..=MAX_SPEED_MPS).contains(&self.max_speed_mps) {
             return bad(

@@ -31,6 +31,7 @@ pub use hardware::HardwareMutation;
 pub mod headroom;
 mod method;
 mod perturbation;
+mod pooled;
 mod reference;
 mod results;
 mod rig;

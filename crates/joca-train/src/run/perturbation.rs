@@ -2,7 +2,8 @@
 //! NeuralAE's prediction by a fraction of each range; the instant is rendered with the
 //! perturbed exposure too (so with its own motion blur, which no gradient can see; the applied
 //! and perturbed shutters share one grid of sub-frames), formed, detected and scored by the
-//! detector's task loss (the presets') or by AP50 (the paper's; `perturbation_score`). The best
+//! detector's task loss (the presets'), by AP50 (the paper's) or by mAP (`perturbation_score`;
+//! the last two pooled with the frames before it where `perturbation_window` asks). The best
 //! member's settings become the target of the GA loss l_GA. Each search counts whether members
 //! tied for the best score (then the tie-break or the GA's order chose), for `results.json`.
 //! Where NeuralAE sets the iris too, each member also offsets the iris's unit position (a third
@@ -12,6 +13,7 @@ use super::config::{
     PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
 };
 use super::context::Context;
+use super::pooled::{Capture, Window};
 use super::{Method, RunConfig, ga_err};
 use crate::TrainError;
 use crate::control::{SensorLimits, for_sensor};
@@ -19,7 +21,6 @@ use joca_camera::{AccRanges, ApertureControl, CameraError, DynamicSettings, Imag
 use joca_core::units::DB_PER_STOP;
 use joca_core::{Frame, Rgb8Image, SeedStreams, training_targets};
 use joca_evolve::{Ga, GaConfig};
-use joca_metrics::TaskMetrics;
 use joca_nn::detector::{Precision, PrecisionExt, TrainFrame};
 use joca_nn::joint::{GaTarget, JointModel};
 use joca_record::SearchTies;
@@ -60,8 +61,8 @@ pub(super) fn ga(config: &RunConfig, streams: &SeedStreams) -> Result<Ga, TrainE
     Ok(Ga::new(ga_config, &mut streams.stream("perturbation-init")))
 }
 
-/// The frame being perturbed: the sensor and the step's indices.
-pub(super) struct Probe {
+/// The frame being perturbed: the sensor, the step's indices and the frames before it.
+pub(super) struct Probe<'w> {
     pub(super) sensor: SensorLimits,
     /// The run's formation on the design's native grid.
     pub(super) formation: ImageFormation,
@@ -69,6 +70,8 @@ pub(super) struct Probe {
     pub(super) global_step: u64,
     /// The step's scene index, common to the candidates of a generation: seeds the noise.
     pub(super) scene_step: u64,
+    /// The frames the controller captured before this one, which a pooled score ranks with it.
+    pub(super) window: &'w Window,
 }
 
 /// One member of a perturbation search: its settings for the calibration pitch (what l_GA
@@ -142,27 +145,27 @@ fn perturb(
     ranges.clamp(DynamicSettings::new(exposure_s, gain_db))
 }
 
-/// Each perturbed frame's score, higher better: its AP50, or its negated task loss.
+/// Each perturbed frame's score, higher better: its AP50 or mAP (pooled with `window`'s
+/// frames), or its negated task loss.
 fn raw_scores(
     score: PerturbationScore,
     min_box_px: f32,
     model: &JointModel,
-    frames: &[Frame],
+    (frames, window): (&[Frame], &Window),
     images: &[&Rgb8Image],
     precision: Precision,
 ) -> Result<Vec<f64>, TrainError> {
     match score {
-        PerturbationScore::Ap50 => {
+        PerturbationScore::Ap50 | PerturbationScore::Map => {
             let detections = model.detect_batch_in(images, precision);
-            Ok(frames
-                .iter()
-                .zip(&detections)
-                .map(|(frame, found)| {
-                    let mut one = TaskMetrics::default();
-                    one.update(&frame.boxes, &frame.ignore, found, frame.visible_180);
-                    one.compute().ap50
-                })
-                .collect())
+            let members = frames.iter().zip(&detections).map(|(frame, found)| Capture {
+                truth: &frame.boxes,
+                ignore: &frame.ignore,
+                visible_180: frame.visible_180,
+                detections: found,
+            });
+            let map = score == PerturbationScore::Map;
+            Ok(window.scores(members).map(|s| if map { s.map } else { s.ap50 }).collect())
         }
         PerturbationScore::Loss => {
             // The objects the detector is trained on (small ones are ignore regions there).
@@ -183,12 +186,12 @@ fn raw_scores(
     }
 }
 
-/// Each member's fitness: its score, plus the tie-break (AP50 only); and whether two or more
+/// Each member's fitness: its score, plus the tie-break (AP50 and mAP); and whether two or more
 /// members tied for the best score.
 fn score(
     config: &RunConfig,
     model: &JointModel,
-    frames: &[Frame],
+    frames: (&[Frame], &Window),
     images: &[&Rgb8Image],
     precision: Precision,
 ) -> Result<(Vec<f64>, bool), TrainError> {
@@ -206,7 +209,7 @@ fn score(
         .iter()
         .zip(images)
         .map(|(r, image)| match (config.perturbation_score, config.perturbation_tie_break) {
-            (PerturbationScore::Ap50, TieBreak::Clipping) => {
+            (PerturbationScore::Ap50 | PerturbationScore::Map, TieBreak::Clipping) => {
                 r + TIE_BREAK_WEIGHT * (1.0 - clipped_share(image.data()))
             }
             _ => *r,
@@ -224,8 +227,8 @@ fn best_member(fitness: &[f64]) -> usize {
 
 /// Scores the members' frames (`frames[i]` rendered with `members[i].applied`'s exposure, all of
 /// one instant): each is formed on the same noise sample, the frames go through the detector as
-/// one batch, and each is scored by its task loss (the presets') or by AP50 (ties by fewer clipped
-/// pixels, unless switched off; `perturbation_score`).
+/// one batch, and each is scored by its task loss (the presets') or by AP50 or mAP, pooled with
+/// the probe's window (ties by fewer clipped pixels, unless switched off; `perturbation_score`).
 /// Unless the perturbations are fixed, tells the GA their fitness. Returns the best member's
 /// settings (equal fitness goes to the first member), for the calibration pitch, and iris;
 /// `None` without members.
@@ -233,7 +236,7 @@ pub(super) fn search(
     cx: &mut Context,
     model: &JointModel,
     ga: &mut Ga,
-    probe: &Probe,
+    probe: &Probe<'_>,
     members: &[Member],
     frames: &[Frame],
 ) -> Result<Option<GaTarget>, TrainError> {
@@ -262,14 +265,15 @@ pub(super) fn search(
     cx.journal.watch.lap(|t| &mut t.perturbation_render_ms);
     let refs: Vec<&Rgb8Image> = images.iter().collect();
     let precision = cx.config.scoring_precision.on_device(model.device());
-    let (fitness, tied) = score(&cx.config, model, frames, &refs, precision)?;
+    let scored = (frames, probe.window);
+    let (fitness, tied) = score(&cx.config, model, scored, &refs, precision)?;
     cx.journal.ties.add(SearchTies { searches: 1, tied: u64::from(tied) });
     cx.journal.watch.lap(|t| &mut t.perturbation_detect_ms);
     let best = best_member(&fitness);
     // `joca bench step` only: would the other precision have chosen the same member, and what
     // does this precision's choice lose by the other's scores?
     if let Some(other) = cx.journal.watch.check_precision {
-        let (reference, _) = score(&cx.config, model, frames, &refs, other)?;
+        let (reference, _) = score(&cx.config, model, scored, &refs, other)?;
         let top = reference.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let bottom = reference.iter().copied().fold(f64::INFINITY, f64::min);
         cx.journal.watch.count_check(

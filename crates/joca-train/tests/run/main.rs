@@ -38,6 +38,7 @@ fn tiny(method: Method) -> RunConfig {
         perturbation_mutation: PerturbationMutation::Additive,
         perturbation_tie_break: Default::default(),
         perturbation_score: Default::default(),
+        perturbation_window: 1,
         perturbation_steps: Default::default(),
         // The run's default: bfloat16 scoring where native (float32 elsewhere).
         scoring_precision: Precision::Bf16,

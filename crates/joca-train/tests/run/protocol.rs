@@ -62,7 +62,7 @@ fn candidates_of_a_generation_share_their_scenes_and_the_validation_picks_the_de
 
 /// Every perturbation search is counted once (steps after a candidate's first, where NeuralAE
 /// predicts), with how many a tie decided; the presets' score, the task loss, scores members
-/// apart (with either step); the paper's AP50 is still selectable.
+/// apart (with either step); the paper's AP50 is still selectable, and mAP pooled over a window.
 #[test]
 fn the_results_count_the_perturbation_searches_and_their_ties() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -78,6 +78,16 @@ fn the_results_count_the_perturbation_searches_and_their_ties() {
     let t = ap50.perturbation_ties.unwrap();
     assert_eq!(t.searches, searches);
     assert!(t.tied <= searches);
+    // mAP pooled with the frames before each search runs every search (what it scores:
+    // run/pooled.rs's tests; this tiny detector finds nothing, so its members all tie).
+    let pooled_cfg = RunConfig {
+        perturbation_score: PerturbationScore::Map,
+        perturbation_window: 4,
+        ..base.clone()
+    };
+    let pooled = run(&pooled_cfg, &dir.path().join("map-4"), false, &mut go).unwrap();
+    let pt = pooled.perturbation_ties.unwrap();
+    assert_eq!(pt.searches, searches);
     let relative = RunConfig { perturbation_steps: PerturbationSteps::Relative, ..base.clone() };
     for (name, cfg) in [("loss", &base), ("loss-relative", &relative)] {
         let loss = run(cfg, &dir.path().join(name), false, &mut go).unwrap();

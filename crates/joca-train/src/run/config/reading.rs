@@ -28,6 +28,7 @@ impl RunConfig {
         }
         if !c.method.perturbations() {
             c.perturbation_score = PerturbationScore::default();
+            c.perturbation_window = 1;
             c.perturbation_steps = PerturbationSteps::default();
             c.perturbation_tie_break = TieBreak::default();
         }

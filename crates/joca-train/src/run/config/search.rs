@@ -46,7 +46,42 @@ joca_core::named_enum! {
         /// preset names it: chosen over AP50 on a panel of six designs in calibrated and blur ×4
         /// (docs/results/2026-11-27-perturbation-panel.md).
         Loss = "loss",
+        /// The perturbed frame's COCO mAP (AP at IoU 0.50–0.95, what the result tables report),
+        /// higher better; with `perturbation_window` above 1 pooled with the frames before it
+        /// in one ranking of confidences, as the test pools every frame's.
+        Map = "map",
     }
+}
+
+/// The most frames `perturbation_window` pools.
+pub const MAX_PERTURBATION_WINDOW: usize = 400;
+
+impl super::RunConfig {
+    /// The search fields' part of [`super::RunConfig::validate`]: the window's range, and that
+    /// it pools a score that pools (a loss is a sum over frames: the frames before a member's
+    /// add the same to every member's, so a window would rank them as one frame does).
+    pub(super) fn validate_search(&self) -> Result<(), crate::TrainError> {
+        let w = self.perturbation_window;
+        if !(1..=MAX_PERTURBATION_WINDOW).contains(&w) {
+            let allowed = format!("1 (the perturbed frame alone) to {MAX_PERTURBATION_WINDOW}");
+            return super::checks::refuse("perturbation_window", w.to_string(), &allowed);
+        }
+        if w > 1 && self.perturbation_score == PerturbationScore::Loss {
+            let allowed = "1 with perturbation_score = \"loss\" (a loss is a sum over frames); \
+                           a window pools \"ap50\" or \"map\"";
+            return super::checks::refuse("perturbation_window", w.to_string(), allowed);
+        }
+        Ok(())
+    }
+}
+
+/// Whether `perturbation_window` is 1 (the field is then left out of saved configurations).
+pub(super) fn is_one_frame(w: &usize) -> bool {
+    *w == 1
+}
+
+pub(super) fn one_frame() -> usize {
+    1
 }
 
 /// The widest `perturbation_steps = "stops:S"` allows, stops on each of exposure and gain.

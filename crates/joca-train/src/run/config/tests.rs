@@ -111,3 +111,38 @@ fn controller_options_are_read_as_absent_where_the_method_has_no_use_for_them() 
     assert_eq!(frozen.as_read().detector_lr, 1e-4);
     assert_eq!((with.as_read().detector_lr, with.as_read().warm_start.frames), (1e-5, 600));
 }
+
+/// A window pools a score that ranks confidences (`ap50`, `map`) over 1 to 400 frames; zero
+/// frames, too many, or a window over the loss (a sum, which a window cannot change the ranking
+/// of) are refused naming the field and what is allowed. One frame is what an absent field
+/// means, and is left out of a saved configuration, so earlier cells keep their identity.
+#[test]
+fn the_perturbation_window_pools_ranked_scores_within_its_range() {
+    use super::PerturbationScore;
+    let quick: RunConfig = run_table("presets/quick.toml").try_into().unwrap();
+    assert_eq!(quick.perturbation_window, 1);
+    assert!(!toml::to_string(&quick).unwrap().contains("perturbation_window"));
+    let pooled =
+        |score, w| RunConfig { perturbation_score: score, perturbation_window: w, ..quick.clone() };
+    for score in [PerturbationScore::Map, PerturbationScore::Ap50] {
+        assert!(pooled(score, 16).validate().is_ok());
+        assert!(pooled(score, 400).validate().is_ok());
+        let text = toml::to_string(&pooled(score, 16)).unwrap();
+        assert!(text.contains("perturbation_window = 16"), "{text}");
+    }
+    for (score, w, allowed) in [
+        (PerturbationScore::Map, 0, "1 (the perturbed frame alone) to 400"),
+        (PerturbationScore::Ap50, 401, "1 (the perturbed frame alone) to 400"),
+        (PerturbationScore::Loss, 16, "a window pools \"ap50\" or \"map\""),
+    ] {
+        let e = pooled(score, w).validate().unwrap_err().to_string();
+        assert!(e.contains("run.perturbation_window") && e.contains(allowed), "{e}");
+        assert!(e.contains(&w.to_string()), "{e}");
+    }
+    // AverageAE searches nothing: its window reads as absent.
+    let average = RunConfig {
+        method: joca_record::Method::TacosAverage,
+        ..pooled(PerturbationScore::Map, 16)
+    };
+    assert_eq!(average.as_read().perturbation_window, 1);
+}
