@@ -34,6 +34,8 @@ fn a_design_is_measured_and_tabulated() {
     // Chosen light by light among the same frames, the oracle starts from the best constant
     // of each light and never goes below it.
     assert!(map("oracle").0 >= map("constant-by-light").0 - 1e-12);
+    // The mAP-scored search's choices over the rungs, the frame alone and pooled: hindsight rows.
+    assert!(map("map-search").1 && map("map-search-16").1);
     // The task loss's own choices: the rungs carry their mean loss per light, and the loss's
     // choice per light holds, light by light, the least of them.
     assert!(map("loss-by-light").1 && map("loss-oracle").1);

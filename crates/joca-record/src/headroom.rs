@@ -61,8 +61,9 @@ pub struct HeadroomRecord {
     pub ladder: Vec<Settings>,
     /// Every policy's scores: the ladder's rungs (`rung-<i>`), the closed-loop controllers
     /// (`average-<DN>`, `trained`) and the choices in hindsight (`best-constant`,
-    /// `best-target`, `target-by-light`, `constant-by-light`, `oracle`, `loss-by-light`,
-    /// `loss-oracle`).
+    /// `best-target`, `target-by-light`, `constant-by-light`, `oracle`, `map-search`,
+    /// `map-search-16`, `loss-by-light`, `loss-oracle`, `objects-loss-by-light`,
+    /// `objects-loss-oracle`).
     pub policies: Vec<PolicyScores>,
     /// The CPU the numbers were computed on.
     pub cpu: String,

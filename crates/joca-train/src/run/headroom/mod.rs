@@ -10,6 +10,7 @@
 //! weights file's on a fixed design.
 
 mod by_loss;
+mod by_map;
 pub mod ladder;
 mod policies;
 

@@ -5,6 +5,7 @@
 
 use super::Outcome;
 use super::by_loss::{self, LossKey};
+use super::by_map;
 use crate::control::TestController;
 use joca_camera::DynamicSettings;
 use joca_metrics::{TaskMetrics, TaskScores};
@@ -12,8 +13,9 @@ use joca_record::{Light, PolicyLight, PolicyScores, Settings};
 use std::collections::BTreeMap;
 
 /// Scores every policy: the rungs (`rung-<i>`), the controllers, then `best-constant`,
-/// `constant-by-light`, `best-target`, `target-by-light` and `oracle`; where the ladder's
-/// captures carry their task loss, the loss's choices ([`LossKey`]).
+/// `constant-by-light`, `best-target`, `target-by-light`, `oracle` and the mAP-scored search's
+/// choices (`map-search`, `map-search-16`: [`by_map`]); where the ladder's captures carry their
+/// task loss, the loss's choices ([`LossKey`]).
 pub(super) fn score(
     rungs: &[DynamicSettings],
     ladder: &[Vec<Outcome>],
@@ -64,6 +66,10 @@ pub(super) fn score(
                      coordinate ascent on its light's pooled mAP (a lower estimate of the optimum)"
             .to_owned();
         out.push(policy("oracle".into(), label, true, &oracle(&rung_sets)));
+        for w in by_map::WINDOWS {
+            let (name, label) = by_map::row(w);
+            out.push(policy(name, label, true, &by_map::by_window(&rung_sets, w)));
+        }
     }
     for key in [LossKey::Total, LossKey::Objects] {
         if ladder.is_empty() || !ladder.iter().flatten().all(|o| key.computed(o)) {
