@@ -65,8 +65,8 @@ pub struct RunConfig {
     /// The perturbation GA's mutation: `additive` (default) or `paper`.
     #[serde(default)]
     pub perturbation_mutation: PerturbationMutation,
-    /// How perturbation members whose AP50 ties are ranked: `clipping` (fewer clipped pixels
-    /// first) or `none` (the GA's order).
+    /// How perturbation members whose AP50 or mAP ties are ranked: `clipping` (fewer clipped
+    /// pixels first) or `none` (the GA's order).
     #[serde(default)]
     pub perturbation_tie_break: TieBreak,
     /// What scores a perturbation member: `loss` (the presets': the detector's task loss on the

@@ -16,7 +16,7 @@ joca_core::named_enum! {
 }
 
 joca_core::named_enum! {
-    /// How the perturbation search ranks members of equal AP50.
+    /// How the perturbation search ranks members of equal AP50 or mAP (`perturbation_score`).
     #[derive(Default)]
     pub enum TieBreak("tie-break") {
         /// The share of clipped pixels (at 0 or 255) breaks ties, fewer first: a member's fitness
