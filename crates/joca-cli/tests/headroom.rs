@@ -290,3 +290,35 @@ fn bad_panels_are_refused_naming_the_file_and_field() {
         assert!(!out.join("calibrated").exists(), "{text}: measured anyway");
     }
 }
+
+/// `--chosen-on`: the targets and rungs per light chosen on another town's records of the same
+/// designs (the committed shipped-detector panel of 2026-12-03), scored on the tabulated town's;
+/// records of another world, or without their design there, are refused naming why.
+#[test]
+fn choices_made_on_another_town_are_scored_out_of_sample() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/results");
+    let panel = root.join("2026-12-03-headroom/calibrated");
+    let designs = ["basler", "flir", "imx287-10mm"];
+    let town = |t: &str| -> Vec<std::path::PathBuf> {
+        designs.iter().map(|d| panel.join(t).join(d)).collect()
+    };
+    let (t0, t2) = (town("town0"), town("town2"));
+    let o = cli!("headroom --table", t0[0], t0[1], t0[2], "--chosen-on", t2[0], t2[1], t2[2]);
+    let table = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(table.contains("| oracle † |") && table.contains("over 3 records"), "{table}");
+    for row in ["| target per light, chosen on town 2 |", "| constant setting per light, chosen"] {
+        let line = table.lines().find(|l| l.starts_with(row)).unwrap_or_else(|| panic!("{table}"));
+        assert_eq!(line.matches("/3)").count(), 4, "one cell per light: {line}");
+    }
+    // A design missing from the other town's records.
+    let o = cli!("headroom --table", t0[0], t0[1], "--chosen-on", t2[0]);
+    assert!(stderr(&o).contains("--chosen-on: no record of"), "{}", stderr(&o));
+    // Another world: the shadows panel's town 2.
+    let shadows = root.join("2026-12-05-headroom-shadows/calibrated/town2/basler");
+    let o = cli!("headroom --table", t0[0], "--chosen-on", shadows);
+    assert!(stderr(&o).contains("cast_shadows differs"), "{}", stderr(&o));
+    // Only with --table.
+    let o = cli!("headroom --chosen-on", t2[0]);
+    assert!(!o.status.success() && stderr(&o).contains("--table"), "{}", stderr(&o));
+}

@@ -24,6 +24,7 @@ mod experiment;
 mod figures;
 mod frames;
 mod headroom;
+mod headroom_elsewhere;
 mod html;
 mod paired;
 mod plot;
@@ -43,6 +44,7 @@ pub use figures::write_figures;
 
 pub use frames::DRAW_MIN_SCORE;
 pub use headroom::{REFERENCE_POLICY, headroom_markdown, headroom_summary_markdown};
+pub use headroom_elsewhere::{chosen_elsewhere_markdown, same_subject};
 pub use joca_record::{
     DesignSummary, HEADROOM_FORMAT_VERSION, HeadroomRecord, Light, RunResults, Showcase,
     ShowcaseFrame,

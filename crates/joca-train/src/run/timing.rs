@@ -18,7 +18,7 @@ pub struct StepBreakdown {
     pub render_ms: f64,
     /// Perturbation mode: forming the perturbed frames (8-bit, with noise).
     pub perturbation_render_ms: f64,
-    /// Perturbation mode: detecting and scoring (AP50) the perturbed frames.
+    /// Perturbation mode: detecting and scoring (`perturbation_score`) the perturbed frames.
     pub perturbation_detect_ms: f64,
     /// Perturbation GA update.
     pub perturbation_ga_ms: f64,

@@ -20,6 +20,11 @@ pub struct Args {
     /// Tabulate earlier measurements: each policy minus AverageAE at mid-grey, paired over them.
     #[arg(long)]
     table: bool,
+    /// With `--table`: records of the same designs and detectors on other frames (another
+    /// town's), on which a target and a rung per light are chosen and then scored on the
+    /// tabulated records' frames (out of sample).
+    #[arg(long, value_name = "PATH", num_args = 1.., requires = "table")]
+    chosen_on: Vec<PathBuf>,
     /// Measure every design of a panel file (its scenarios, towns, `[run]`, `[ladder]` and
     /// `[panel]`) into `--out`, then tabulate each scenario and town; again to resume.
     #[arg(
@@ -195,12 +200,59 @@ fn table(args: &Args) -> Result<()> {
     if args.paths.is_empty() {
         bail!("--table: give the folders (or headroom.json files) of earlier measurements");
     }
-    write_table(&args.paths, args.out.as_deref())
+    write_table(&args.paths, (&args.chosen_on, true), args.out.as_deref())
 }
 
 /// Reads the records at `paths` (folders or `headroom.json` files), refuses records not measured
-/// alike, prints their paired table and writes it to `out`.
-fn write_table(paths: &[PathBuf], out: Option<&Path>) -> Result<()> {
+/// alike, prints their paired table (and, with `chosen_on`'s records, the choices per light made
+/// on those; `strict`: every record must have its subject's there) and writes it to `out`.
+fn write_table(
+    paths: &[PathBuf],
+    (chosen_on, strict): (&[PathBuf], bool),
+    out: Option<&Path>,
+) -> Result<()> {
+    let records = read_alike(paths)?;
+    let mut text = joca_report::headroom_summary_markdown(&records);
+    if !chosen_on.is_empty() {
+        let elsewhere = read_alike(chosen_on)?;
+        if strict
+            && let Some(r) =
+                records.iter().find(|r| !elsewhere.iter().any(|e| joca_report::same_subject(r, e)))
+        {
+            bail!(
+                "--chosen-on: no record of {} (detector {}{}) among its paths",
+                r.design.sensor,
+                r.detector,
+                r.run.as_deref().map(|d| format!(", run {d}")).unwrap_or_default()
+            );
+        }
+        // Every field but the town must match the tabulated records'.
+        let same_town = |e: &joca_report::HeadroomRecord| {
+            let mut e = e.clone();
+            e.town = records.first().map_or(e.town, |r| r.town);
+            e
+        };
+        if let (Some(a), Some(b)) = (records.first(), elsewhere.first())
+            && let Some(field) = unlike(a, &same_town(b))
+        {
+            bail!(
+                "--chosen-on: its records and the tabulated ones were not measured alike ({field} \
+                 differs): a choice made on other frames must be scored in the same world"
+            );
+        }
+        text.push_str(&joca_report::chosen_elsewhere_markdown(&records, &elsewhere));
+    }
+    if let Some(out) = out {
+        joca_core::fs::write_atomic(out, text.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
+    }
+    print!("{text}");
+    Ok(())
+}
+
+/// Reads the records at `paths` (folders or `headroom.json` files), refusing records not
+/// measured alike.
+fn read_alike(paths: &[PathBuf]) -> Result<Vec<joca_report::HeadroomRecord>> {
     let mut records: Vec<(PathBuf, joca_report::HeadroomRecord)> = Vec::new();
     for p in paths {
         let file = if p.is_dir() { p.join("headroom.json") } else { p.clone() };
@@ -228,14 +280,7 @@ fn write_table(paths: &[PathBuf], out: Option<&Path>) -> Result<()> {
         }
         records.push((file, record));
     }
-    let records: Vec<_> = records.into_iter().map(|(_, r)| r).collect();
-    let text = joca_report::headroom_summary_markdown(&records);
-    if let Some(out) = out {
-        joca_core::fs::write_atomic(out, text.as_bytes())
-            .with_context(|| format!("cannot write {}", out.display()))?;
-    }
-    print!("{text}");
-    Ok(())
+    Ok(records.into_iter().map(|(_, r)| r).collect())
 }
 
 /// The first field in which two records' measurements differ, if any.

@@ -162,10 +162,19 @@ pub fn run(file: &Path, out: &Path, jobs: usize) -> Result<()> {
                 if dirs.is_empty() {
                     continue;
                 }
+                // The choices per light made on the panel's next town, scored here.
+                let other = panel.towns.iter().find(|t| *t != town);
+                let chosen_on: Vec<PathBuf> = all
+                    .iter()
+                    .filter(|m| m.scenario == *scenario && Some(&m.town) == other)
+                    .filter(|m| matches!(m.subject, Subject::Trained(_)) == trained)
+                    .map(|m| m.dir.clone())
+                    .filter(|d| d.join("headroom.json").is_file())
+                    .collect();
                 let table = out.join(format!("{}-town{town}{suffix}.md", scenario.name()));
                 let what = if trained { ", trained runs" } else { "" };
                 println!("\n## {}, town {town}{what}\n", scenario.name());
-                super::write_table(&dirs, Some(&table))?;
+                super::write_table(&dirs, (&chosen_on, false), Some(&table))?;
             }
         }
     }
