@@ -321,4 +321,16 @@ fn choices_made_on_another_town_are_scored_out_of_sample() {
     // Only with --table.
     let o = cli!("headroom --chosen-on", t2[0]);
     assert!(!o.status.success() && stderr(&o).contains("--table"), "{}", stderr(&o));
+    // A panel of two towns scores each town's choices on the other in each town's table.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("panel.toml");
+    std::fs::write(&file, tiny_panel(1, "").replace("towns = [2]", "towns = [0, 2]")).unwrap();
+    let out = dir.path().join("hp");
+    let o = cli!("headroom --jobs 2 --panel", file, "--out", out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (town, other) in [(0, 2), (2, 0)] {
+        let table = std::fs::read_to_string(out.join(format!("calibrated-town{town}.md"))).unwrap();
+        let row = format!("| target per light, chosen on town {other} |");
+        assert!(table.contains(&row) && table.contains("over 2 records (ahead"), "{table}");
+    }
 }
