@@ -17,6 +17,33 @@ pub enum Event {
     Generation(GenerationRecord),
     /// NeuralAE's warm start, before the first generation.
     WarmStart(WarmStartRecord),
+    /// A part of the run finished, with its wall time in this process.
+    Phase(PhaseRecord),
+}
+
+joca_core::named_enum! {
+    /// The parts of a run whose wall time `events.jsonl` records (the warm start has its own
+    /// record).
+    pub enum RunPhase("run phase") {
+        /// The generations trained in one process (a resumed run writes one record a process).
+        Training = "training",
+        /// Choosing the design to test: the best candidates re-scored on the validation towns.
+        Selection = "selection",
+        /// The test in closed loop with the run's own controller.
+        Test = "test",
+        /// The same test with AverageAE at mid-grey (NeuralAE methods).
+        AverageRetest = "average-retest",
+    }
+}
+
+/// The wall time of one part of a run, seconds, on whatever else the machine ran: a record of
+/// where the time went, not a benchmark.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PhaseRecord {
+    /// Which part.
+    pub phase: RunPhase,
+    /// Its wall time, seconds.
+    pub wall_s: f64,
 }
 
 /// NeuralAE's warm start: how closely it imitated AverageAE, at the start and at the end.
@@ -122,4 +149,24 @@ pub struct TraceRecord {
     /// Mean 8-bit value of the formed frame, DN.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mean_dn: Option<f64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A phase line reads back as a phase, and as nothing else (the enum is untagged); an
+    /// unknown part is refused naming the allowed ones.
+    #[test]
+    fn a_phase_record_round_trips_and_is_told_from_the_other_events() {
+        let e = Event::Phase(PhaseRecord { phase: RunPhase::AverageRetest, wall_s: 8.5 });
+        let line = serde_json::to_string(&e).unwrap();
+        assert_eq!(line, r#"{"phase":"average-retest","wall_s":8.5}"#);
+        assert_eq!(serde_json::from_str::<Event>(&line).unwrap(), e);
+        let warm =
+            r#"{"warm_start_frames":3,"imitation_loss_first":1.0,"imitation_loss_last":0.5}"#;
+        assert!(matches!(serde_json::from_str::<Event>(warm).unwrap(), Event::WarmStart(_)));
+        let e = serde_json::from_str::<PhaseRecord>(r#"{"phase":"lunch","wall_s":1.0}"#);
+        assert!(e.unwrap_err().to_string().contains("lunch"));
+    }
 }

@@ -36,7 +36,8 @@ pub use joca_metrics::{BandScores, TaskScores};
 
 pub use by_light::{ByLight, LightResults};
 pub use events::{
-    CandidateRecord, Event, GenerationRecord, LossRecord, StepRecord, TraceRecord, WarmStartRecord,
+    CandidateRecord, Event, GenerationRecord, LossRecord, PhaseRecord, RunPhase, StepRecord,
+    TraceRecord, WarmStartRecord,
 };
 pub use headroom::{HEADROOM_FORMAT_VERSION, HeadroomRecord, PolicyLight, PolicyScores};
 pub use method::{Method, Scenario};

@@ -57,6 +57,9 @@ pub struct RunData {
     pub skipped_events: Vec<usize>,
     /// NeuralAE's warm start, where the run had one.
     pub warm_start: Option<joca_record::WarmStartRecord>,
+    /// Wall time by part of the run, seconds, summed over the processes that recorded it
+    /// (`events.jsonl`; empty for runs made before it was recorded).
+    pub wall: Vec<(joca_record::RunPhase, f64)>,
 }
 
 impl RunData {
@@ -78,6 +81,7 @@ impl RunData {
         };
         let (generations, steps, skipped_events) = parse_events(&bytes);
         let warm_start = warm_start_of(&bytes);
+        let wall = wall_of(&bytes);
         let show_path = dir.join("test").join("showcase.json");
         let showcases =
             if show_path.exists() { parse(&show_path, &read(&show_path)?)? } else { Vec::new() };
@@ -90,6 +94,7 @@ impl RunData {
             showcases,
             skipped_events,
             warm_start,
+            wall,
         })
     }
 
@@ -127,6 +132,7 @@ impl RunData {
             },
             skipped_events: Vec::new(),
             warm_start: None,
+            wall: Vec::new(),
         }))
     }
 
@@ -188,6 +194,22 @@ fn warm_start_of(bytes: &[u8]) -> Option<joca_record::WarmStartRecord> {
     })
 }
 
+/// The wall time of each part of a run in an `events.jsonl`, summed over its records (a resumed
+/// run writes one a process; a process killed before a part ended wrote none for it), in the
+/// order the parts first appear.
+fn wall_of(bytes: &[u8]) -> Vec<(joca_record::RunPhase, f64)> {
+    let mut wall: Vec<(joca_record::RunPhase, f64)> = Vec::new();
+    for line in bytes.split(|&b| b == b'\n').filter_map(|l| std::str::from_utf8(l).ok()) {
+        if let Ok(Event::Phase(p)) = serde_json::from_str(line) {
+            match wall.iter_mut().find(|(phase, _)| *phase == p.phase) {
+                Some((_, s)) => *s += p.wall_s,
+                None => wall.push((p.phase, p.wall_s)),
+            }
+        }
+    }
+    wall
+}
+
 fn parse_events(bytes: &[u8]) -> (Vec<GenerationFitness>, Vec<StepLog>, Vec<usize>) {
     let mut generations = BTreeMap::new();
     let mut steps = BTreeMap::new();
@@ -231,6 +253,20 @@ fn parse_events(bytes: &[u8]) -> (Vec<GenerationFitness>, Vec<StepLog>, Vec<usiz
 
 #[cfg(test)]
 mod tests {
+
+    /// A resumed run's parts are summed over its processes, in the order they first appear;
+    /// other events and cut lines are passed over.
+    #[test]
+    fn a_resumed_runs_parts_are_summed() {
+        let bytes = b"{\"phase\":\"training\",\"wall_s\":10.0}\n{\"phase\":\"tra\n\
+            {\"phase\":\"training\",\"wall_s\":5.5}\n{\"phase\":\"test\",\"wall_s\":2.0}\n";
+        let wall = wall_of(bytes);
+        assert_eq!(
+            wall,
+            vec![(joca_record::RunPhase::Training, 15.5), (joca_record::RunPhase::Test, 2.0)]
+        );
+    }
+
     use super::*;
     use joca_record::Light;
 

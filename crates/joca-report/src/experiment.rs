@@ -329,6 +329,19 @@ fn summary_sections(
         md.push('\n');
         crate::steadiness::sections(&mut md, &mut html, &swaps);
     }
+    let mut variants: Vec<(String, String, Vec<&RunData>)> = Vec::new();
+    for (spec, run) in runs {
+        match variants.iter_mut().find(|(g, l, _)| *g == spec.group && *l == spec.label) {
+            Some(v) => v.2.push(run),
+            None => variants.push((spec.group.clone(), spec.label.clone(), vec![run])),
+        }
+    }
+    let wall = crate::walltime::table(&variants);
+    if !wall.is_empty() {
+        let (title, note) = (crate::walltime::TITLE, crate::walltime::NOTE);
+        titled_table(&mut md, &mut html, 2, title, note, &wall);
+        md.push('\n');
+    }
     let start = crate::detector_start::detector_start_table(exp_dir, runs)?;
     if !start.is_empty() {
         let (title, note) = (crate::detector_start::TITLE, crate::detector_start::NOTE);

@@ -35,6 +35,7 @@ mod seeds;
 mod steadiness;
 mod swap;
 mod table;
+mod walltime;
 
 pub use data::{GenerationFitness, RunData, StepLog};
 pub use experiment::{
@@ -223,6 +224,9 @@ pub fn write_run_report_with(
                 the first quarter, {:.3} in the last{time}).\n",
             w.warm_start_frames, w.imitation_loss_first, w.imitation_loss_last
         );
+    }
+    if let Some(line) = walltime::run_sentence(&run) {
+        let _ = writeln!(md, "{line}");
     }
     if let Some(s) = &swap {
         let _ = writeln!(

@@ -53,10 +53,11 @@ pub use config::{
     TrainingScenes, WarmStart,
 };
 pub(crate) use config::{check_detector, check_input};
-use context::setup;
+use context::{Context, setup};
 pub use evaluate::{EvalOptions, MAX_TEST_TOWN, check_town, cpu_description, evaluate_run};
 use evaluate::{best_design, test_design};
 use joca_core::output::{self, DirLock, OutputKind};
+use joca_record::{Event, PhaseRecord, RunPhase};
 pub use joca_record::{Method, Scenario};
 pub use method::{DesignSpec, FixedCamera};
 use results::summary;
@@ -138,6 +139,7 @@ pub fn run(
         &run_dir.join("config.toml"),
         &toml::to_string(&ConfigFile { run: config.clone() }).unwrap_or_default(),
     )?;
+    let mut clock = PhaseClock::start();
     while state.generation < config.generations {
         let members = state.members(&cx)?;
         while state.candidate < members.len() {
@@ -160,8 +162,10 @@ pub fn run(
             }
         }
     }
+    clock.lap(&mut cx, RunPhase::Training)?;
     let _ = progress(&RunEvent::Testing);
     let (design, validation) = best_design(&mut cx, &mut model, &state)?;
+    clock.lap(&mut cx, RunPhase::Selection)?;
     write_atomic(
         &run_dir.join("best_design.json"),
         &serde_json::to_string_pretty(&summary(&design, config.hardware_search()))
@@ -170,6 +174,7 @@ pub fn run(
     let out = run_dir.join("test");
     let results =
         test_design(&mut cx, &mut model, &state, (&design, validation.clone()), Some(&out))?;
+    clock.lap(&mut cx, RunPhase::Test)?;
     if config.method.neural() {
         // Does the learned controller earn its place? The same design, detector and test
         // scenes driven by AverageAE at mid-grey (what `joca eval --controller average` writes).
@@ -183,12 +188,29 @@ pub fn run(
             &serde_json::to_string_pretty(&r).unwrap_or_default(),
         )?;
         cx.test.controller = TestController::Trained;
+        clock.lap(&mut cx, RunPhase::AverageRetest)?;
     }
     write_atomic(
         &run_dir.join("results.json"),
         &serde_json::to_string_pretty(&results).unwrap_or_default(),
     )?;
     Ok(results)
+}
+
+/// Wall time from one part of a run to the next, each lap logged to `events.jsonl`.
+struct PhaseClock(std::time::Instant);
+
+impl PhaseClock {
+    fn start() -> Self {
+        Self(std::time::Instant::now())
+    }
+
+    /// Logs the time since the last lap as `phase`'s and starts the next.
+    fn lap(&mut self, cx: &mut Context, phase: RunPhase) -> Result<(), TrainError> {
+        let wall_s = self.0.elapsed().as_secs_f64();
+        self.0 = std::time::Instant::now();
+        cx.journal.log(&Event::Phase(PhaseRecord { phase, wall_s }))
+    }
 }
 
 fn ga_err(e: joca_evolve::GaError) -> TrainError {

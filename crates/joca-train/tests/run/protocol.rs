@@ -142,7 +142,7 @@ fn fresh_scenes_give_each_candidate_its_own_training_frames() {
 
 /// NeuralAE's warm start runs once, before the first generation: its record is logged, the
 /// checkpoint written after it lets a run stopped after its first candidate resume without
-/// repeating it, to the results of a run never stopped.
+/// repeating it, to the results of a run never stopped. Each part's wall time is logged.
 #[test]
 fn a_warm_start_runs_once_and_a_resumed_run_does_not_repeat_it() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -168,6 +168,16 @@ fn a_warm_start_runs_once_and_a_resumed_run_does_not_repeat_it() {
     let resumed = run(&cfg, b.path(), true, &mut go).unwrap();
     assert_eq!(warm(b.path()).len(), 1, "the resumed run warmed NeuralAE again");
     assert_eq!(whole.test, resumed.test);
+    // Each part's wall time is logged once it ends: the stopped process ended none.
+    let phases = |dir: &std::path::Path| -> Vec<String> {
+        let records: Vec<serde_json::Value> =
+            events(dir).into_iter().filter(|v| v.get("phase").is_some()).collect();
+        assert!(records.iter().all(|v| v["wall_s"].as_f64().unwrap() >= 0.0), "{records:?}");
+        records.iter().map(|v| v["phase"].as_str().unwrap().to_owned()).collect()
+    };
+    let parts = ["training", "selection", "test", "average-retest"];
+    assert_eq!(phases(a.path()), parts);
+    assert_eq!(phases(b.path()), parts);
     // The saved configuration names the options, and one without them leaves them out.
     let saved = std::fs::read_to_string(a.path().join("config.toml")).unwrap();
     assert!(saved.contains("acc_output = \"relative:3\"") && saved.contains("frames = 20"));
