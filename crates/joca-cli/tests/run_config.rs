@@ -99,7 +99,18 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
             "hardware_mutation = \"gaussian\"",
             "unknown variant `gaussian`, expected `tacos` or `paper`",
         ),
-        ("perturbation_score = \"median\"", "unknown variant `median`, expected `ap50` or `loss`"),
+        (
+            "perturbation_score = \"median\"",
+            "unknown variant `median`, expected one of `ap50`, `loss`, `map`",
+        ),
+        (
+            "perturbation_window = 0",
+            "run.perturbation_window = 0 is invalid: 1 (the perturbed frame alone) to 400",
+        ),
+        (
+            "perturbation_window = 16",
+            "run.perturbation_window = 16 is invalid: 1 with perturbation_score = \"loss\"",
+        ),
         (
             "perturbation_steps = \"log\"",
             "\"log\": expected \"linear\", \"relative\" or \"stops:S\"",
