@@ -20,6 +20,7 @@
 mod controls;
 mod data;
 mod detector_start;
+mod event_log;
 mod experiment;
 mod figures;
 mod frames;
@@ -33,11 +34,13 @@ mod retests;
 mod sections;
 mod seeds;
 mod steadiness;
+mod summary;
 mod swap;
 mod table;
 mod walltime;
 
-pub use data::{GenerationFitness, RunData, StepLog};
+pub use data::RunData;
+pub use event_log::{GenerationFitness, StepLog};
 pub use experiment::{
     CellSpec, CellState, Manifest, write_experiment_report, write_experiment_report_with,
 };

@@ -5,7 +5,7 @@
 //! light: the task pull's median (its sign: negative asks for more light), its median size and
 //! the share of steps on which it asked for more exposure.
 
-use crate::data::StepLog;
+use crate::event_log::StepLog;
 use joca_record::Light;
 use std::fmt::Write as _;
 

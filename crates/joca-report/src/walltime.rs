@@ -3,7 +3,10 @@
 //! whatever else the machine ran: a record of where the time went, not a benchmark.
 
 use crate::data::RunData;
+use crate::experiment::CellSpec;
+use crate::paired::variants;
 use crate::seeds::{interval_text, mean_interval};
+use crate::table::Row;
 use joca_record::RunPhase;
 
 /// The parts in report order.
@@ -60,24 +63,28 @@ pub fn run_sentence(run: &RunData) -> Option<String> {
     ))
 }
 
-/// The experiment's table: one row per variant (group, label, its cells' runs) with a recorded
-/// part; empty where no cell recorded one.
-pub fn table(variants: &[(String, String, Vec<&RunData>)]) -> Vec<Vec<String>> {
+/// The experiment's table: one row per variant of `rows` whose cells (their runs in `runs`, by
+/// cell id) recorded a part; empty where none did.
+pub fn table(rows: &[Row], runs: &[(CellSpec, RunData)]) -> Vec<Vec<String>> {
     let mut out = vec![
         ["scenario", "variant", "cells", "warm start", "training", "selection", "test"]
             .map(str::to_owned)
             .to_vec(),
     ];
     out[0].extend(["AverageAE re-test", "in all"].map(str::to_owned));
-    for (group, label, runs) in variants {
-        let recorded: Vec<&RunData> = runs.iter().copied().filter(|r| !r.wall.is_empty()).collect();
+    for (group, label, members) in variants(rows) {
+        let recorded: Vec<&RunData> = members
+            .iter()
+            .filter_map(|m| runs.iter().find(|(spec, _)| spec.id == m.cell).map(|(_, r)| r))
+            .filter(|r| !r.wall.is_empty())
+            .collect();
         if recorded.is_empty() {
             continue;
         }
         let cell = |v: Vec<f64>| {
             if v.is_empty() { "–".to_owned() } else { interval_text(mean_interval(&v), 0) }
         };
-        let mut row = vec![group.clone(), label.clone(), recorded.len().to_string()];
+        let mut row = vec![group, label, recorded.len().to_string()];
         row.push(cell(
             recorded.iter().filter_map(|r| r.warm_start.as_ref()?.warm_start_s).collect(),
         ));
@@ -104,6 +111,35 @@ mod tests {
         run
     }
 
+    /// Cell `id` of the variant "loss" in group "Calibrated", with `run`.
+    fn experiment_cell(id: &str, run: RunData) -> (CellSpec, RunData) {
+        let spec = CellSpec {
+            id: id.into(),
+            label: "loss".into(),
+            group: "Calibrated".into(),
+            dir: id.into(),
+            seed: 0,
+            design: String::new(),
+            towns: Vec::new(),
+            follow_ups: Vec::new(),
+        };
+        (spec, run)
+    }
+
+    /// The result table's rows of `cells`.
+    fn table_rows(cells: &[(CellSpec, RunData)]) -> Vec<Row> {
+        cells
+            .iter()
+            .map(|(spec, run)| Row {
+                group: spec.group.clone(),
+                label: spec.label.clone(),
+                cell: spec.id.clone(),
+                design: spec.design.clone(),
+                results: run.results.clone(),
+            })
+            .collect()
+    }
+
     #[test]
     fn a_run_says_where_its_time_went_and_a_variant_averages_its_cells() {
         // Made before parts were recorded: no sentence, no row.
@@ -113,12 +149,18 @@ mod tests {
         let line = run_sentence(&a).unwrap();
         assert!(line.contains("warm start 21 s, training 60 s, test 10 s (91 s in all)"), "{line}");
         let b = cell(vec![(RunPhase::Training, 70.0), (RunPhase::Test, 10.4)]);
-        let rows = table(&[("Calibrated".into(), "loss".into(), vec![&old, &a, &b])]);
+        let cells = vec![
+            experiment_cell("old", old.clone()),
+            experiment_cell("a", a),
+            experiment_cell("b", b),
+        ];
+        let rows = table(&table_rows(&cells), &cells);
         assert_eq!(rows.len(), 2, "{rows:?}");
         // Two cells recorded: training 65 ± t(0.975, 1)·7.07/√2 = 65 ± 64; no selection part.
         assert_eq!(rows[1][2], "2");
         assert_eq!(rows[1][4], "65 ± 64");
         assert_eq!(rows[1][5], "–");
-        assert!(table(&[("Calibrated".into(), "loss".into(), vec![&old])]).is_empty());
+        let only_old = vec![experiment_cell("old", old)];
+        assert!(table(&table_rows(&only_old), &only_old).is_empty());
     }
 }
