@@ -48,7 +48,9 @@ pub(super) fn train(
     rig.start_sequence(model);
     let first = control.start();
     let mut previous_frame = None;
-    let mut window = Window::new(c.perturbation_window);
+    // The frames a pooled search ranks with its members (none where the method searches none).
+    let pooled = if c.method.perturbations() { c.perturbation_window } else { 1 };
+    let mut window = Window::new(pooled);
     for step in 0..c.steps_per_candidate {
         let global = index * c.steps_per_candidate as u64 + step as u64;
         // The noise of the frame: the scene's (shared by the generation's candidates, or this

@@ -32,7 +32,7 @@ const FIXED: [[f64; 2]; 4] = [[0.025, 0.025], [0.025, -0.025], [-0.025, 0.025], 
 
 /// Weight of the clipping tie-break in a member's fitness: below any AP50 difference a frame can
 /// make (one object of a frame with hundreds of reference objects moves AP50 by more).
-const TIE_BREAK_WEIGHT: f64 = 1e-3;
+pub(super) const TIE_BREAK_WEIGHT: f64 = 1e-3;
 
 /// Share of 8-bit values at 0 or 255.
 pub(super) fn clipped_share(data: &[u8]) -> f64 {

@@ -6,14 +6,12 @@
 //! of the frames after it.
 
 use super::Outcome;
-use joca_metrics::TaskMetrics;
+use crate::run::perturbation::TIE_BREAK_WEIGHT;
+use crate::run::pooled::{Capture, Window};
 
 /// The windows the headroom scores: the frame alone, and the 16 frames the training experiment
 /// pools (experiments/pooled-score-quick.toml).
 pub(super) const WINDOWS: [usize; 2] = [1, 16];
-
-/// Weight of the clipping tie-break: as the perturbation search's.
-const TIE_BREAK_WEIGHT: f64 = 1e-3;
 
 /// The name and label of the choice with window `w`.
 pub(super) fn row(w: usize) -> (String, String) {
@@ -33,27 +31,27 @@ pub(super) fn row(w: usize) -> (String, String) {
 }
 
 /// Each frame from the rung of the highest mAP pooled with the `window − 1` frames chosen before
-/// it (`window` at least 1), the first of equal fitness.
+/// it (`window` at least 1; the perturbation search's [`Window`]), the first of equal fitness.
 pub(super) fn by_window<'a>(rungs: &[&'a [Outcome]], window: usize) -> Vec<&'a Outcome> {
     let frames = rungs.first().map_or(0, |r| r.len());
+    let capture = |o: &'a Outcome| Capture {
+        truth: &o.truth,
+        ignore: &o.ignore,
+        visible_180: o.visible_180,
+        detections: &o.detections,
+    };
+    let mut before = Window::new(window.max(1));
     let mut chosen: Vec<&'a Outcome> = Vec::with_capacity(frames);
     for f in 0..frames {
-        let mut before = TaskMetrics::default();
-        for o in &chosen[chosen.len().saturating_sub(window.max(1) - 1)..] {
-            before.update(&o.truth, &o.ignore, &o.detections, o.visible_180);
-        }
-        let fitness: Vec<f64> = rungs
-            .iter()
-            .map(|r| {
-                let o = &r[f];
-                let mut pooled = before.clone();
-                pooled.update(&o.truth, &o.ignore, &o.detections, o.visible_180);
-                pooled.compute().map + TIE_BREAK_WEIGHT * (1.0 - o.clipped)
-            })
+        let fitness: Vec<f64> = before
+            .scores(rungs.iter().map(|r| capture(&r[f])))
+            .zip(rungs)
+            .map(|(s, r)| s.map + TIE_BREAK_WEIGHT * (1.0 - r[f].clipped))
             .collect();
         let best = (0..rungs.len())
             .reduce(|a, b| if fitness[b] > fitness[a] { b } else { a })
             .unwrap_or(0);
+        before.push(capture(&rungs[best][f]));
         chosen.push(&rungs[best][f]);
     }
     chosen
