@@ -227,13 +227,8 @@ fn write_table(
             );
         }
         // Every field but the town must match the tabulated records'.
-        let same_town = |e: &joca_report::HeadroomRecord| {
-            let mut e = e.clone();
-            e.town = records.first().map_or(e.town, |r| r.town);
-            e
-        };
         if let (Some(a), Some(b)) = (records.first(), elsewhere.first())
-            && let Some(field) = unlike(a, &same_town(b))
+            && let Some(field) = unlike_but_town(a, b)
         {
             bail!(
                 "--chosen-on: its records and the tabulated ones were not measured alike ({field} \
@@ -288,9 +283,20 @@ fn unlike(
     a: &joca_report::HeadroomRecord,
     b: &joca_report::HeadroomRecord,
 ) -> Option<&'static str> {
+    match unlike_but_town(a, b) {
+        Some("scenario") => Some("scenario"),
+        _ if a.town != b.town => Some("town"),
+        other => other,
+    }
+}
+
+/// [`unlike`] without the town: the scenario, the world, the frame count and the ladder.
+fn unlike_but_town(
+    a: &joca_report::HeadroomRecord,
+    b: &joca_report::HeadroomRecord,
+) -> Option<&'static str> {
     [
         ("scenario", a.scenario != b.scenario),
-        ("town", a.town != b.town),
         ("cast_shadows", a.cast_shadows != b.cast_shadows),
         ("sun_elevation", a.sun_elevation != b.sun_elevation),
         ("glare", a.glare != b.glare),
