@@ -18,7 +18,8 @@ fn shown(record: &HeadroomRecord) -> Vec<&PolicyScores> {
     shown
 }
 
-fn lights(record: &HeadroomRecord) -> Vec<Light> {
+/// The lights of a record's reference policy, in order.
+pub(crate) fn lights(record: &HeadroomRecord) -> Vec<Light> {
     record.policy(REFERENCE_POLICY).map_or_else(Vec::new, |p| p.by_light.keys().copied().collect())
 }
 

@@ -35,7 +35,7 @@ pub fn same_subject(a: &HeadroomRecord, b: &HeadroomRecord) -> bool {
 /// The table of choices made on `elsewhere` scored on `records`: per light, mean ± 95 % t over
 /// the records of the chosen policy's mAP minus mid-grey's, and the records ahead. Each record
 /// is paired with the first record of `elsewhere` of the same subject; one without a partner is
-/// left out and named.
+/// left out (the table says over how many records).
 pub fn chosen_elsewhere_markdown(
     records: &[HeadroomRecord],
     elsewhere: &[HeadroomRecord],
@@ -44,9 +44,7 @@ pub fn chosen_elsewhere_markdown(
     let Some(first) = records.first() else {
         return String::new();
     };
-    let lights: Vec<Light> = first
-        .policy(REFERENCE_POLICY)
-        .map_or_else(Vec::new, |p| p.by_light.keys().copied().collect());
+    let lights = crate::headroom::lights(first);
     let pairs: Vec<(&HeadroomRecord, &HeadroomRecord)> = records
         .iter()
         .filter_map(|r| elsewhere.iter().find(|e| same_subject(r, e)).map(|e| (r, e)))
