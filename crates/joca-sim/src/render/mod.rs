@@ -21,6 +21,7 @@
 //! per object, how many pixels its camera-facing faces cover before the depth test; ground truth
 //! uses both (visible pixels over covered pixels is the visible fraction).
 
+mod fill;
 pub mod fog;
 pub mod glare;
 pub mod glow;

@@ -1,6 +1,7 @@
 //! Triangle rasterisation with a z-buffer: near-plane clipping, edge functions, perspective-
 //! correct depth and texture coordinates, and the per-pixel material patterns.
 
+use super::fill::{Step, fill_shaded};
 pub(crate) use super::shade::Shade;
 use super::shadow::{Polygon, Shadows};
 use super::{CameraFrame, NEAR_M, Target};
@@ -25,34 +26,74 @@ pub(crate) struct FaceSun {
 }
 
 impl FaceSun {
-    /// Marks in `mask` (one entry per pixel of the span from column `x0` to `x1` of the row
-    /// whose centre is at `yc`) the pixels whose centres lie in a shadow. A polygon's edge
-    /// `a·u + b·v ≤ c` is, with `u = U/W`, `v = V/W` and `W = 1/z > 0` all linear on the
-    /// screen, the linear inequality `a·U + b·V − c·W ≤ 0`: one bound on the column.
-    fn mask_span(
-        &self,
-        planes: [&Plane; 3],
-        yc: f64,
-        (x0, x1): (usize, usize),
-        mask: &mut Vec<bool>,
-    ) {
+    /// The shadows' edges on the screen: a polygon's edge `a·u + b·v ≤ c` is, with `u = U/W`,
+    /// `v = V/W` and `W = 1/z > 0` all linear on the screen (`planes`), the linear inequality
+    /// `a·U + b·V − c·W ≤ 0`, which on the row through `y` bounds the column `x` by a bound
+    /// linear in `y`. Made once a face, so that a row costs one multiply-add an edge.
+    fn on_screen(&self, planes: [&Plane; 3]) -> ScreenShadows {
         let [uz, vz, iz] = planes;
-        mask.clear();
-        mask.resize(x1 + 1 - x0, false);
+        let mut edges = Vec::new();
+        let mut ends = Vec::with_capacity(self.polygons.len());
         for polygon in &self.polygons {
-            let (mut lo, mut hi) = (x0 as f64 + 0.5, x1 as f64 + 0.5);
             for &[a, b, c] in polygon.planes() {
                 let (a, b, c) = (f64::from(a), f64::from(b), f64::from(c));
                 let rate = a * uz.a + b * vz.a - c * iz.a;
-                let at0 = a * (uz.b * yc + uz.c) + b * (vz.b * yc + vz.c) - c * (iz.b * yc + iz.c);
-                if rate > 0.0 {
-                    hi = hi.min(-at0 / rate);
-                } else if rate < 0.0 {
-                    lo = lo.max(-at0 / rate);
-                } else if at0 > 0.0 {
-                    hi = f64::NEG_INFINITY;
+                // The edge's value at column 0 of the row through y: at_y·y + at_0.
+                let at_y = a * uz.b + b * vz.b - c * iz.b;
+                let at_0 = a * uz.c + b * vz.c - c * iz.c;
+                edges.push(if rate == 0.0 {
+                    ScreenEdge::Row { at_y, at_0 }
+                } else if rate > 0.0 {
+                    ScreenEdge::Below { slope: -at_y / rate, at_0: -at_0 / rate }
+                } else {
+                    ScreenEdge::Above { slope: -at_y / rate, at_0: -at_0 / rate }
+                });
+            }
+            ends.push(edges.len());
+        }
+        ScreenShadows { edges, ends }
+    }
+}
+
+/// One shadow edge on the screen, on the row through `y`: the column is at most (`Below`) or
+/// at least (`Above`) `slope·y + at_0`, or (`Row`, parallel to the rows) the whole row is
+/// outside where `at_y·y + at_0 > 0`.
+#[derive(Debug, Clone, Copy)]
+enum ScreenEdge {
+    Below { slope: f64, at_0: f64 },
+    Above { slope: f64, at_0: f64 },
+    Row { at_y: f64, at_0: f64 },
+}
+
+/// A face's shadow polygons on the screen ([`FaceSun::on_screen`]): polygon `k`'s edges are
+/// `edges[ends[k − 1]..ends[k]]`.
+#[derive(Debug, Clone, Default)]
+struct ScreenShadows {
+    edges: Vec<ScreenEdge>,
+    ends: Vec<usize>,
+}
+
+impl ScreenShadows {
+    /// Marks in `mask` (one entry per pixel of the span from column `x0` to `x1` of the row
+    /// whose centre is at `yc`) the pixels whose centres lie in a shadow.
+    fn mask_span(&self, yc: f64, (x0, x1): (usize, usize), mask: &mut Vec<bool>) {
+        mask.clear();
+        mask.resize(x1 + 1 - x0, false);
+        let mut start = 0;
+        for &end in &self.ends {
+            let (mut lo, mut hi) = (x0 as f64 + 0.5, x1 as f64 + 0.5);
+            for edge in &self.edges[start..end] {
+                match *edge {
+                    ScreenEdge::Below { slope, at_0 } => hi = hi.min(slope * yc + at_0),
+                    ScreenEdge::Above { slope, at_0 } => lo = lo.max(slope * yc + at_0),
+                    ScreenEdge::Row { at_y, at_0 } => {
+                        if at_y * yc + at_0 > 0.0 {
+                            hi = f64::NEG_INFINITY;
+                        }
+                    }
                 }
             }
+            start = end;
             let (first, last) = centre_span_f64(lo, hi, x1 + 1);
             if first <= last {
                 mask[first as usize - x0..=last as usize - x0].iter_mut().for_each(|m| *m = true);
@@ -167,71 +208,6 @@ impl Plane {
     }
 }
 
-/// A span's values at its first pixel and their steps to the next.
-#[derive(Clone, Copy)]
-struct Step {
-    inv_z: f32,
-    d_inv_z: f32,
-    u: f32,
-    du: f32,
-    v: f32,
-    dv: f32,
-}
-
-/// Depth-tests and fills one span: `colour_at(1/z, (u/z, v/z))` gives a visible pixel's colour.
-#[inline(always)]
-fn fill(
-    depth: &mut [f32],
-    ids: &mut [u32],
-    colour: &mut [f32],
-    id: u32,
-    s: Step,
-    colour_at: impl Fn(f32, (f32, f32)) -> Rgb,
-) {
-    let Step { mut inv_z, d_inv_z, mut u, du, mut v, dv } = s;
-    for ((d, i), rgb) in depth.iter_mut().zip(ids).zip(colour.chunks_exact_mut(3)) {
-        if inv_z > *d {
-            *d = inv_z;
-            *i = id;
-            rgb.copy_from_slice(&colour_at(inv_z, (u, v)));
-        }
-        inv_z += d_inv_z;
-        u += du;
-        v += dv;
-    }
-}
-
-/// [`fill`] for a face partly in shadow: where `mask` (one entry per pixel of the span) is set,
-/// the colour is multiplied by `dim`; `colour_at(z, u/z, v/z)`.
-#[inline(always)]
-fn fill_masked(
-    depth: &mut [f32],
-    ids: &mut [u32],
-    colour: &mut [f32],
-    id: u32,
-    s: Step,
-    (mask, dim): (&[bool], Rgb),
-    colour_at: impl Fn(f32, f32, f32) -> Rgb,
-) {
-    let Step { mut inv_z, d_inv_z, mut u, du, mut v, dv } = s;
-    let pixels = depth.iter_mut().zip(ids).zip(colour.chunks_exact_mut(3)).zip(mask);
-    for (((d, i), rgb), &shadowed) in pixels {
-        if inv_z > *d {
-            *d = inv_z;
-            *i = id;
-            let c = colour_at(1.0 / inv_z, u, v);
-            if shadowed {
-                rgb.copy_from_slice(&[c[0] * dim[0], c[1] * dim[1], c[2] * dim[2]]);
-            } else {
-                rgb.copy_from_slice(&c);
-            }
-        }
-        inv_z += d_inv_z;
-        u += du;
-        v += dv;
-    }
-}
-
 /// Rasterises a convex polygon, sampling at pixel centres. Each row's covered span is solved
 /// from the edge inequalities (no per-pixel inside test), and 1/z, u/z, v/z are planes in
 /// screen space, so a pixel costs one reciprocal and a depth test. Set-up is in f64 so that
@@ -284,9 +260,9 @@ fn convex(p: &[Projected], shade: &dyn Fn() -> FaceShading, id: u32, target: &mu
     } else {
         (Plane { a: 0.0, b: 0.0, c: 0.0 }, Plane { a: 0.0, b: 0.0, c: 0.0 })
     };
-    let constant = if let Shade::Constant(c) = shade { *c } else { [0.0; 3] };
     let mut covered = 0u32;
-    let mut mask = Vec::new();
+    let shadows = sun.as_ref().map(|sun| (sun.on_screen([&uz, &vz, &iz]), sun.dim));
+    let mut shadowed = Vec::new();
     // An id-only target (the ground-truth pass) has no colour buffer.
     let with_colour = !target.colour.is_empty();
     for y in y0 as usize..=y1 as usize {
@@ -324,29 +300,11 @@ fn convex(p: &[Projected], shade: &dyn Fn() -> FaceShading, id: u32, target: &mu
         if with_colour {
             let colour = &mut target.colour[span.start * 3..span.end * 3];
             let step = Step { inv_z, d_inv_z, u, du, v, dv };
-            // One loop per kind of shading, so that the pixel loop does not branch on it.
-            if let Some(sun) = &sun {
-                sun.mask_span([&uz, &vz, &iz], yc, (x0, x1), &mut mask);
-                fill_masked(depth, ids, colour, id, step, (&mask, sun.dim), |z, u, v| {
-                    shade.at(u * z, v * z)
-                });
-                continue;
-            }
-            match *shade {
-                Shade::Constant(_) => fill(depth, ids, colour, id, step, |_, _| constant),
-                Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed } => {
-                    // Rebuilt here so that, inlined, `at` knows the variant.
-                    let f = Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed };
-                    fill(depth, ids, colour, id, step, |inv_z, (u, v)| {
-                        let z = 1.0 / inv_z;
-                        f.at(u * z, v * z)
-                    })
-                }
-                Shade::Sign { .. } => fill(depth, ids, colour, id, step, |inv_z, (u, v)| {
-                    let z = 1.0 / inv_z;
-                    shade.at(u * z, v * z)
-                }),
-            }
+            let mask = shadows.as_ref().map(|(on_screen, dim)| {
+                on_screen.mask_span(yc, (x0, x1), &mut shadowed);
+                (shadowed.as_slice(), *dim)
+            });
+            fill_shaded((depth, ids, colour), id, step, mask, shade);
         } else {
             for (d, i) in depth.iter_mut().zip(ids) {
                 if inv_z > *d {
