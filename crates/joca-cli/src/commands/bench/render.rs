@@ -101,7 +101,7 @@ pub(super) fn imx172_behind_3_6_mm(w: usize, h: usize) -> PinholeCamera {
 
 /// Milliseconds a frame of `requests` takes a simulator of `config` through `camera` on `pool`,
 /// best of 3 passes after a first.
-pub(super) fn ms_per_frame(
+fn ms_per_frame(
     pool: &rayon::ThreadPool,
     config: SimConfig,
     camera: &PinholeCamera,
