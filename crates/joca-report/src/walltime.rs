@@ -22,12 +22,11 @@ pub const NOTE: &str = "Seconds of wall time by part of each cell's `joca run`, 
     whatever else the machine ran at the time: where the time went, not a benchmark. \
     Follow-up tests (`joca eval`) are not counted.";
 
+/// A part's name in a report: its record's, but the re-test's says which controller.
 fn name(p: RunPhase) -> &'static str {
     match p {
-        RunPhase::Training => "training",
-        RunPhase::Selection => "selection",
-        RunPhase::Test => "test",
         RunPhase::AverageRetest => "AverageAE re-test",
+        p => p.name(),
     }
 }
 

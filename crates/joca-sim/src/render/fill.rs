@@ -71,39 +71,22 @@ pub(super) fn fill_shaded(
     shade: &Shade,
 ) {
     match *shade {
-        Shade::Constant(c) => fill(
-            span,
-            id,
-            step,
-            mask,
-            #[inline(always)]
-            |_, _| c,
-        ),
+        Shade::Constant(c) => fill(span, id, step, mask, |_, _| c),
         Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed } => {
             // Rebuilt here so that, inlined, `at` knows the variant.
             let f = Shade::Facade { wall, glass, glow, inv_pitch_u, inv_pitch_v, seed };
-            fill(
-                span,
-                id,
-                step,
-                mask,
-                #[inline(always)]
-                |inv_z, (u, v)| {
-                    let z = 1.0 / inv_z;
-                    f.at(u * z, v * z)
-                },
-            )
+            fill(span, id, step, mask, patterned(&f));
         }
-        Shade::Sign { .. } => fill(
-            span,
-            id,
-            step,
-            mask,
-            #[inline(always)]
-            |inv_z, (u, v)| {
-                let z = 1.0 / inv_z;
-                shade.at(u * z, v * z)
-            },
-        ),
+        Shade::Sign { .. } => fill(span, id, step, mask, patterned(shade)),
+    }
+}
+
+/// A patterned face's colour at `(1/z, (u/z, v/z))`: its pattern at the texture coordinates.
+#[inline(always)]
+fn patterned(shade: &Shade) -> impl Fn(f32, (f32, f32)) -> Rgb + '_ {
+    #[inline(always)]
+    move |inv_z, (u, v)| {
+        let z = 1.0 / inv_z;
+        shade.at(u * z, v * z)
     }
 }

@@ -137,20 +137,11 @@ pub(super) fn draw_sun(view: &View<'_>, cam: &CameraFrame, target: &mut Target) 
 /// one shutter and the frames along a straight road).
 fn aureole(d: [f32; 3], cam: &CameraFrame, target: &mut Target) {
     thread_local! {
-        static LAST: std::cell::RefCell<Option<Aureole>> = const { std::cell::RefCell::new(None) };
+        static LAST: std::cell::RefCell<Aureole> = std::cell::RefCell::new(Aureole::default());
     }
     let (w, h) = (target.width, target.height);
-    let key = Aureole::key(d, cam, (w, h));
-    LAST.with_borrow_mut(|last| {
-        let aureole = match last {
-            Some(a) if a.key == key => a,
-            _ => last.insert(Aureole {
-                key,
-                to_sun: SunInView::new(d, cam, w),
-                factors: vec![0.0; w * h],
-                rows_made: vec![false; h],
-            }),
-        };
+    LAST.with_borrow_mut(|aureole| {
+        aureole.view(d, cam, (w, h));
         let rows = target.colour.chunks_exact_mut(3 * w).zip(target.inv_depth.chunks_exact(w));
         for (y, (colour, depth)) in rows.enumerate() {
             if depth.iter().all(|&z| z != 0.0) {
@@ -171,20 +162,32 @@ fn aureole(d: [f32; 3], cam: &CameraFrame, target: &mut Target) {
 }
 
 /// One view's aureole factors, made a row at a time as rows with sky need them.
+#[derive(Default)]
 struct Aureole {
     /// What the factors depend on: the sun, the camera's heading and intrinsics (as bits), and
-    /// the frame's size.
-    key: ([u32; 11], (usize, usize)),
+    /// the frame's size; `None` before the first view.
+    key: Option<([u32; 11], (usize, usize))>,
     to_sun: SunInView,
     factors: Vec<f32>,
     rows_made: Vec<bool>,
 }
 
 impl Aureole {
-    fn key(d: [f32; 3], cam: &CameraFrame, size: (usize, usize)) -> ([u32; 11], (usize, usize)) {
+    /// Makes these the factors of the view of the sun `d` through `cam` on a frame of `size`:
+    /// unchanged where they are already, else no row made (the buffers kept, so a view of
+    /// another heading, every sub-frame on a bend, allocates nothing).
+    fn view(&mut self, d: [f32; 3], cam: &CameraFrame, (w, h): (usize, usize)) {
         let (f, r) = (cam.forward, cam.right);
         let values = [d[0], d[1], d[2], f.x, f.y, r.x, r.y, cam.fx, cam.fy, cam.cx, cam.cy];
-        (values.map(f32::to_bits), size)
+        let key = Some((values.map(f32::to_bits), (w, h)));
+        if self.key == key {
+            return;
+        }
+        self.key = key;
+        self.to_sun.view(d, cam, w);
+        self.factors.resize(w * h, 0.0);
+        self.rows_made.clear();
+        self.rows_made.resize(h, false);
     }
 }
 
@@ -192,6 +195,7 @@ impl Aureole {
 /// view ray `forward + a·right − b·up` (`a`, `b`: the pixel's slopes right and down) has the
 /// cosine `(forward·d + a·right·d − b·d_z) / √(1 + a² + b²)` with the sun, since `forward` and
 /// `right` are horizontal, orthogonal and of unit length.
+#[derive(Default)]
 struct SunInView {
     ahead: f32,
     right: f32,
@@ -200,13 +204,13 @@ struct SunInView {
 }
 
 impl SunInView {
-    fn new(d: [f32; 3], cam: &CameraFrame, width: usize) -> Self {
-        Self {
-            ahead: d[0] * cam.forward.x + d[1] * cam.forward.y + d[2] * cam.forward.z,
-            right: d[0] * cam.right.x + d[1] * cam.right.y + d[2] * cam.right.z,
-            up: d[2],
-            slopes: (0..width).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx).collect(),
-        }
+    /// Becomes the view of the sun `d` through `cam` on a frame `width` pixels wide.
+    fn view(&mut self, d: [f32; 3], cam: &CameraFrame, width: usize) {
+        self.ahead = d[0] * cam.forward.x + d[1] * cam.forward.y + d[2] * cam.forward.z;
+        self.right = d[0] * cam.right.x + d[1] * cam.right.y + d[2] * cam.right.z;
+        self.up = d[2];
+        self.slopes.clear();
+        self.slopes.extend((0..width).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx));
     }
 }
 

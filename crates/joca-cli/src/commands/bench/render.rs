@@ -107,13 +107,38 @@ fn ms_per_frame(
     camera: &PinholeCamera,
     requests: &[FrameRequest],
 ) -> f64 {
-    let sim = Simulator::new(config);
-    let render_all = || {
-        for r in requests {
-            black_box(sim.render(camera, r).map(|f| f.boxes.len()).unwrap_or(0));
-        }
+    interleaved_ms(pool, &[config], camera, requests, 3)[0]
+}
+
+/// Milliseconds a frame of `requests` takes a simulator of each of `configs` through `camera`
+/// on `pool`: the best of `rounds` passes each after a first, the worlds' passes taking turns
+/// (one pass of each, then again), so that a slow spell of the machine slows every world alike
+/// and the ratios of one run hold where a world timed after another would not.
+pub(super) fn interleaved_ms(
+    pool: &rayon::ThreadPool,
+    configs: &[SimConfig],
+    camera: &PinholeCamera,
+    requests: &[FrameRequest],
+    rounds: usize,
+) -> Vec<f64> {
+    let sims: Vec<Simulator> = configs.iter().map(|c| Simulator::new(*c)).collect();
+    let pass = |sim: &Simulator| {
+        let t = Instant::now();
+        pool.install(|| {
+            for r in requests {
+                black_box(sim.render(camera, r).map(|f| f.boxes.len()).unwrap_or(0));
+            }
+        });
+        t.elapsed().as_secs_f64()
     };
-    best_of(3, || pool.install(render_all)) / requests.len() as f64 * 1e3
+    sims.iter().for_each(|sim| _ = pass(sim));
+    let mut best = vec![f64::INFINITY; sims.len()];
+    for _ in 0..rounds {
+        for (b, sim) in best.iter_mut().zip(&sims) {
+            *b = b.min(pass(sim));
+        }
+    }
+    best.iter().map(|s| s / requests.len() as f64 * 1e3).collect()
 }
 
 /// Episode 1's frames at `times` with one exposure.

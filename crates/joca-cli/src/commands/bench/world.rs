@@ -2,15 +2,12 @@
 //! in a clear sky's light with its disc, veiling glare, tunnels as places) against the default
 //! world, so what a user pays for turning them all on is one ratio of one run.
 
-use super::render::{frames_at, imx172_behind_3_6_mm};
+use super::render::{frames_at, imx172_behind_3_6_mm, interleaved_ms};
 use anyhow::Result;
 use joca_core::sun::{Daylight, SunElevation};
-use joca_core::{FrameRequest, FrameSource, PinholeCamera};
-use joca_sim::{CityConfig, Glare, Illumination, SimConfig, Simulator, Tunnels};
-use std::hint::black_box;
-use std::time::Instant;
+use joca_sim::{CityConfig, Glare, Illumination, SimConfig, Tunnels};
 
-/// Passes over the frames per world in [`interleaved_ms`], after a first.
+/// Passes over the frames per world, after a first.
 const ROUNDS: usize = 7;
 
 /// The world with every light on: the low-sun headroom panel's (`experiments/headroom/
@@ -27,36 +24,6 @@ fn every_light(light: Illumination) -> SimConfig {
     }
 }
 
-/// Milliseconds a frame of `requests` takes a simulator of each of `configs` through `camera`
-/// on `pool`: the best of [`ROUNDS`] passes each after a first, the worlds' passes taking turns
-/// (one pass of each, then again), so that a slow spell of the machine slows every world alike
-/// and the ratios of one run hold where a world timed after another would not.
-fn interleaved_ms(
-    pool: &rayon::ThreadPool,
-    configs: &[SimConfig],
-    camera: &PinholeCamera,
-    requests: &[FrameRequest],
-) -> Vec<f64> {
-    let sims: Vec<Simulator> = configs.iter().map(|c| Simulator::new(*c)).collect();
-    let pass = |sim: &Simulator| {
-        let t = Instant::now();
-        pool.install(|| {
-            for r in requests {
-                black_box(sim.render(camera, r).map(|f| f.boxes.len()).unwrap_or(0));
-            }
-        });
-        t.elapsed().as_secs_f64()
-    };
-    sims.iter().for_each(|sim| _ = pass(sim));
-    let mut best = vec![f64::INFINITY; sims.len()];
-    for _ in 0..ROUNDS {
-        for (b, sim) in best.iter_mut().zip(&sims) {
-            *b = b.min(pass(sim));
-        }
-    }
-    best.iter().map(|s| s / requests.len() as f64 * 1e3).collect()
-}
-
 /// Every light at once against the default world, 320×240 on 2 threads, timed in turns
 /// ([`interleaved_ms`]). By day and at night
 /// the frames are the same instants of the same drive; under the `tunnel` light the drive goes
@@ -66,7 +33,7 @@ pub(super) fn bench_every_light(times: &[f64], exposure_s: f64) -> Result<()> {
     let camera = imx172_behind_3_6_mm(320, 240);
     let requests = frames_at(times, exposure_s);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
-    let time = |configs: &[SimConfig]| interleaved_ms(&pool, configs, &camera, &requests);
+    let time = |configs: &[SimConfig]| interleaved_ms(&pool, configs, &camera, &requests, ROUNDS);
     println!(
         "\nevery light at once (shadows, a 5-20° clear-sky sun and its disc, glare 2 % at 1°, \
             tunnels as places) against the default world, 320x240, 2 threads, {} frames, best \

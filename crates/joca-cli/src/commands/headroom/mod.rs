@@ -283,11 +283,8 @@ fn unlike(
     a: &joca_report::HeadroomRecord,
     b: &joca_report::HeadroomRecord,
 ) -> Option<&'static str> {
-    match unlike_but_town(a, b) {
-        Some("scenario") => Some("scenario"),
-        _ if a.town != b.town => Some("town"),
-        other => other,
-    }
+    let town = || (a.town != b.town).then_some("town");
+    (a.scenario != b.scenario).then_some("scenario").or_else(town).or_else(|| unlike_but_town(a, b))
 }
 
 /// [`unlike`] without the town: the scenario, the world, the frame count and the ladder.
