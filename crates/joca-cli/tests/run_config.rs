@@ -202,3 +202,23 @@ fn run_refuses_bad_config_values_naming_the_field_and_the_file() {
     );
     assert!(!never.exists(), "a refused config left {}", never.display());
 }
+
+/// `joca bench step` and `bench checkpoint` read a configuration as `joca run` does (a world's
+/// lights priced on the joint step): a bad value is refused naming the field, its range and the
+/// file before anything is timed, and the other benches refuse `--config` naming it.
+#[test]
+fn bench_step_refuses_a_bad_config_naming_the_field_and_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("lights.toml");
+    std::fs::write(&cfg, "[run]\nglare = { fraction = 1.5 }\n").unwrap();
+    for target in ["step", "checkpoint"] {
+        let o = cli!("bench", target, "--repeats 2 --config", cfg);
+        let e = stderr(&o);
+        assert!(!o.status.success() && e.contains("lights.toml"), "{target}: {e}");
+        assert!(e.contains("glare.fraction") && e.contains("below 1"), "{target}: {e}");
+    }
+    let o = cli!("bench render --config", cfg);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("--config") && e.contains("lights.toml"), "{e}");
+    assert!(e.contains("`bench step` and `bench checkpoint`"), "{e}");
+}

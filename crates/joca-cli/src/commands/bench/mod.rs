@@ -72,6 +72,10 @@ pub struct Args {
     /// threads, weights).
     #[arg(long, default_value = "quick")]
     preset: String,
+    /// `bench step` and `bench checkpoint`: a TOML file whose tables override the preset's, as
+    /// `joca run --config` reads it (the world's lights, the detector input, the threads).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
     /// `bench flow`: a pair of frames to measure on (same size) instead of the built-in one.
     #[arg(long, num_args = 2, value_names = ["FIRST", "SECOND"])]
     pair: Option<Vec<PathBuf>>,
@@ -86,6 +90,15 @@ pub struct Args {
 
 /// Runs `joca bench`.
 pub fn run(args: &Args) -> Result<()> {
+    if let (Some(file), false) =
+        (&args.config, matches!(args.target, Target::Step | Target::Checkpoint))
+    {
+        anyhow::bail!(
+            "--config {}: only `bench step` and `bench checkpoint` read a configuration (the \
+             preset's [run] with the file's over it)",
+            file.display()
+        );
+    }
     if matches!(args.target, Target::Detector | Target::Step | Target::Checkpoint) {
         println!(
             "libtorch CPU kernels: {} (JOCA_CPU_KERNELS; the PyTorch reference inherits them); \
@@ -106,9 +119,13 @@ pub fn run(args: &Args) -> Result<()> {
             let device = args.device.unwrap_or_default();
             bench_detector(args.repeats.max(1), (args.threads, device), config, &args.python)
         }
-        Target::Step => bench_step(args.repeats.max(2), &args.preset, args.device),
+        Target::Step => {
+            bench_step(args.repeats.max(2), (&args.preset, args.config.as_deref()), args.device)
+        }
         Target::Flow => flow::bench_flow(args),
-        Target::Checkpoint => step::bench_checkpoint(args.repeats.max(1), &args.preset),
+        Target::Checkpoint => {
+            step::bench_checkpoint(args.repeats.max(1), (&args.preset, args.config.as_deref()))
+        }
     }
 }
 

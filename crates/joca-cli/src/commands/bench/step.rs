@@ -1,21 +1,39 @@
 //! `joca bench step`: one step of the joint loop (method joca) on the FLIR camera, broken down
 //! by part.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
+use joca_train::RunConfig;
+use std::path::Path;
 
-pub(super) fn bench_step(
-    steps: usize,
-    preset: &str,
+/// The `[run]` configuration of `preset` with `file`'s over it, method `joca`, the detector's
+/// weights resolved and every field checked (a bad value is refused naming the file), and a
+/// label of where it came from.
+fn run_config(
+    (preset, file): (&str, Option<&Path>),
     device: Option<joca_nn::device::DeviceChoice>,
-) -> Result<()> {
-    use joca_nn::detector::Precision;
-    use joca_train::{FixedCamera, Method, RunConfig};
-    let mut cfg: RunConfig = crate::config::load(preset, None, "run")?;
-    cfg.method = Method::Joca;
+) -> Result<(RunConfig, String)> {
+    let mut cfg: RunConfig = crate::config::load(preset, file, "run")?;
+    cfg.method = joca_train::Method::Joca;
     if let Some(d) = device {
         cfg.device = d;
     }
     crate::commands::run::resolve_weights(&mut cfg);
+    let source = match file {
+        Some(path) => format!("{} over preset {preset}", path.display()),
+        None => format!("preset {preset}"),
+    };
+    cfg.validate().with_context(|| format!("invalid [run] in {source}"))?;
+    Ok((cfg, source))
+}
+
+pub(super) fn bench_step(
+    steps: usize,
+    config: (&str, Option<&Path>),
+    device: Option<joca_nn::device::DeviceChoice>,
+) -> Result<()> {
+    use joca_nn::detector::Precision;
+    use joca_train::FixedCamera;
+    let (mut cfg, source) = run_config(config, device)?;
     let design = FixedCamera::Flir.design();
     let (w, h) = design.resolution(&cfg.input);
     cfg.scoring_precision = Precision::Fp32;
@@ -23,7 +41,7 @@ pub(super) fn bench_step(
     let total = b.total_ms();
     println!(
         "joint-loop step, method joca, FLIR IMX172 at {w}x{h} (detector input, {} resize), {} \
-            threads, networks on {}, mean of {} steps, perturbed frames scored in fp32",
+            threads, networks on {}, mean of {} steps, perturbed frames scored in fp32; {source}",
         cfg.input.resampler, cfg.threads, cfg.device, b.steps
     );
     if !joca_nn::detector::native_bf16() {
@@ -113,18 +131,15 @@ pub(super) fn bench_step(
 
 /// `joca bench checkpoint`: what proving a checkpoint (SHA-256 of every file, written last and
 /// checked before a resume or an eval) costs beside writing it.
-pub(super) fn bench_checkpoint(repeats: usize, preset: &str) -> Result<()> {
-    use joca_train::{Method, RunConfig};
-    let mut cfg: RunConfig = crate::config::load(preset, None, "run")?;
-    cfg.method = Method::Joca;
-    crate::commands::run::resolve_weights(&mut cfg);
+pub(super) fn bench_checkpoint(repeats: usize, config: (&str, Option<&Path>)) -> Result<()> {
+    let (cfg, source) = run_config(config, None)?;
     let dir = tempfile_dir()?;
     let t = joca_train::bench_checkpoint(&cfg, &dir, repeats);
     let _ = std::fs::remove_dir_all(&dir);
     let t = t?;
     println!(
-        "checkpoint of a `{preset}` run (detector, NeuralAE, both optimisers): {:.1} MB, best of \
-            {repeats}, on {}",
+        "checkpoint of a run of {source} (detector, NeuralAE, both optimisers): {:.1} MB, best \
+            of {repeats}, on {}",
         t.bytes as f64 / 1e6,
         joca_train::cpu_description()
     );
