@@ -102,8 +102,18 @@ pub fn merge_tables(base: &mut toml::Table, over: toml::Table) {
 
 /// Table `section` of preset `name` with `user_file` merged over it, as `T`.
 pub fn load<T: DeserializeOwned>(name: &str, user_file: Option<&Path>, section: &str) -> Result<T> {
+    load_with_source(name, user_file, section).map(|(value, _)| value)
+}
+
+/// [`load`], with the description of the source ([`load_table`]'s) for later errors.
+pub fn load_with_source<T: DeserializeOwned>(
+    name: &str,
+    user_file: Option<&Path>,
+    section: &str,
+) -> Result<(T, String)> {
     let (mut table, source) = load_table(name, user_file)?;
     let value =
         table.remove(section).with_context(|| format!("{source} has no [{section}] table"))?;
-    value.try_into().with_context(|| format!("invalid [{section}] in {source}"))
+    let value = value.try_into().with_context(|| format!("invalid [{section}] in {source}"))?;
+    Ok((value, source))
 }

@@ -46,7 +46,8 @@ pub struct Args {
 
 /// Runs `joca run`.
 pub fn run(args: &Args) -> Result<()> {
-    let mut cfg: RunConfig = config::load(&args.preset, args.config.as_deref(), "run")?;
+    let (mut cfg, source): (RunConfig, String) =
+        config::load_with_source(&args.preset, args.config.as_deref(), "run")?;
     if let Some(m) = &args.method {
         cfg.method = Method::from_name(m).map_err(|e| anyhow!(e))?;
     }
@@ -63,10 +64,6 @@ pub fn run(args: &Args) -> Result<()> {
         cfg.device = d;
     }
     // A bad value is refused here, naming the file, before a run directory exists.
-    let source = match &args.config {
-        Some(path) => format!("{} over preset {}", path.display(), args.preset),
-        None => format!("preset {}", args.preset),
-    };
     cfg.validate().with_context(|| format!("invalid [run] in {source}"))?;
     // Whether this machine has the device, before a run directory exists (and before any other
     // libtorch call: libtorch looks for its CUDA part once).

@@ -12,16 +12,13 @@ fn run_config(
     (preset, file): (&str, Option<&Path>),
     device: Option<joca_nn::device::DeviceChoice>,
 ) -> Result<(RunConfig, String)> {
-    let mut cfg: RunConfig = crate::config::load(preset, file, "run")?;
+    let (mut cfg, source): (RunConfig, String) =
+        crate::config::load_with_source(preset, file, "run")?;
     cfg.method = joca_train::Method::Joca;
     if let Some(d) = device {
         cfg.device = d;
     }
     crate::commands::run::resolve_weights(&mut cfg);
-    let source = match file {
-        Some(path) => format!("{} over preset {preset}", path.display()),
-        None => format!("preset {preset}"),
-    };
     cfg.validate().with_context(|| format!("invalid [run] in {source}"))?;
     Ok((cfg, source))
 }
