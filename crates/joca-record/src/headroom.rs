@@ -2,10 +2,7 @@
 //! headroom`): the same test frames captured at a ladder of settings and under closed-loop
 //! controllers, each scored, and what the best choices in hindsight would score.
 
-use crate::{DesignSummary, Light, Provenance, Scenario, Settings};
-use joca_core::glare::Glare;
-use joca_core::sun::SunElevation;
-use joca_core::tunnels::Tunnels;
+use crate::{DesignSummary, Light, Provenance, Scenario, Settings, World, WorldLayout};
 use joca_metrics::TaskScores;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -30,24 +27,9 @@ pub struct HeadroomRecord {
     pub scenario: Scenario,
     /// The test family's town driven (0: the test town).
     pub town: u64,
-    /// Whether the sun cast shadows (absent: no).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub cast_shadows: bool,
-    /// The sun's elevation range, degrees (absent: 45 to 55).
-    #[serde(default, skip_serializing_if = "SunElevation::is_default")]
-    pub sun_elevation: SunElevation,
-    /// The lens's veiling glare (absent: none).
-    #[serde(default, skip_serializing_if = "Glare::is_default")]
-    pub glare: Glare,
-    /// Whether the sky showed the sun's disc (absent: no).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub sun_disc: bool,
-    /// What the `tunnel` light was (absent: the switch of the whole frame's light).
-    #[serde(default, skip_serializing_if = "Tunnels::is_default")]
-    pub tunnels: Tunnels,
-    /// Whether the street lamps stayed dark at night (absent: no, they lit).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub dark_streets: bool,
+    /// The world's light (each part absent: the default).
+    #[serde(flatten)]
+    pub world: World,
     /// The design.
     pub design: DesignSummary,
     /// The detector: `trained` (a run's own, from its checkpoint) or the weights file.
@@ -127,61 +109,26 @@ pub struct PolicyLight {
 
 impl HeadroomRecord {
     /// The lowest layout version that holds this record: 8 with dark streets, 7 with tunnel
-    /// drives in one direction,
-    /// 6 with a clear sky's daylight, 5 with
-    /// tunnels as places, 4 with a GPU,
-    /// 3 with veiling glare or the sun's disc, 2 where the world's light is not the default one,
-    /// else 1.
+    /// drives in one direction, 6 with a clear sky's daylight, 5 with tunnels as places, 4 with a
+    /// GPU, 3 with veiling glare or the sun's disc, 2 where the world's light is not the default
+    /// one, else 1.
     pub fn layout_version(&self) -> u32 {
-        if self.dark_streets {
-            8
-        } else if !self.tunnels.drives.is_both() {
-            7
-        } else if !self.sun_elevation.daylight.is_constant() {
-            6
-        } else if !self.tunnels.is_default() {
-            5
-        } else if self.device.is_some() {
-            4
-        } else if !self.glare.is_default() || self.sun_disc {
-            3
-        } else if self.cast_shadows || !self.sun_elevation.is_default() {
-            2
-        } else {
-            1
+        match self.world.layout() {
+            WorldLayout::DarkStreets => 8,
+            WorldLayout::TunnelDrives => 7,
+            WorldLayout::Daylight => 6,
+            WorldLayout::TunnelPlaces => 5,
+            _ if self.device.is_some() => 4,
+            WorldLayout::GlareOrDisc => 3,
+            WorldLayout::ShadowsOrSun => 2,
+            WorldLayout::Default => 1,
         }
     }
 
     /// The world the frames were rendered in, for a reader: `default light`, or what differs
     /// (`cast shadows, sun 10–30°`).
     pub fn world(&self) -> String {
-        let mut parts = Vec::new();
-        if self.cast_shadows {
-            parts.push("cast shadows".to_owned());
-        }
-        if !self.sun_elevation.is_default() {
-            let e = self.sun_elevation;
-            parts.push(format!("sun {}–{}°", e.min_deg, e.max_deg));
-            if !e.daylight.is_constant() {
-                parts.push(format!("{} daylight", e.daylight));
-            }
-        }
-        if self.sun_disc {
-            parts.push("sun's disc".to_owned());
-        }
-        if self.tunnels.are_places() {
-            let t = self.tunnels;
-            let drives = if t.drives.is_both() { String::new() } else { format!(", {}", t.drives) };
-            parts.push(format!("{} tunnels (lamps {}{drives})", t.count, t.lamp_level));
-        }
-        if self.dark_streets {
-            parts.push("dark streets".to_owned());
-        }
-        if !self.glare.is_off() {
-            let g = self.glare;
-            parts.push(format!("glare {} % ({}°)", g.fraction * 100.0, g.scale_deg));
-        }
-        if parts.is_empty() { "default light".into() } else { parts.join(", ") }
+        self.world.summary()
     }
 
     /// The policy named `name`.

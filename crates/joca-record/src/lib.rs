@@ -6,6 +6,7 @@
 //!   [`GenerationRecord`]); [`TraceRecord`] — the lines of `test/trace.jsonl`;
 //! - [`Showcase`] — `test/showcase.json`;
 //! - [`HeadroomRecord`] — `headroom.json` (`joca headroom`);
+//! - [`World`] — the world's light both records name alike;
 //! - [`Provenance`] — which joca, commit and configuration made a record;
 //! - [`Method`], [`Scenario`], [`Source`], [`TestController`] — the vocabulary the records use
 //!   (with joca-core's [`compute`](joca_core::compute) names).
@@ -29,6 +30,7 @@ mod retest;
 mod settings;
 mod showcase;
 mod vocabulary;
+mod world;
 
 /// The record types that come from the crates below: boxes, and the task scores.
 pub use joca_core::{Annotation, BBox, Class, Detection};
@@ -47,3 +49,4 @@ pub use retest::Retest;
 pub use settings::Settings;
 pub use showcase::{LightStep, Showcase, ShowcaseFrame};
 pub use vocabulary::{Light, Source, TestController};
+pub use world::{World, WorldLayout};

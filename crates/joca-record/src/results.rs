@@ -1,11 +1,8 @@
 //! `results.json` and `best_design.json`: what a run's test found.
 
-use crate::{ByLight, Method, Provenance, Scenario, Source, TestController};
+use crate::{ByLight, Method, Provenance, Scenario, Source, TestController, World, WorldLayout};
 use joca_camera::{ApertureControl, DetectorInput, LensModel};
 use joca_core::compute::{CpuKernels, Denormals, Precision};
-use joca_core::glare::Glare;
-use joca_core::sun::SunElevation;
-use joca_core::tunnels::Tunnels;
 use joca_core::weather::Weather;
 use joca_metrics::{BandScores, TaskScores};
 use serde::{Deserialize, Serialize};
@@ -108,24 +105,9 @@ pub struct RunResults {
     /// The weather of training and test (absent: clear air).
     #[serde(default, skip_serializing_if = "is_clear")]
     pub weather: Weather,
-    /// Whether the sun cast shadows in training and test (absent: no).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub cast_shadows: bool,
-    /// The sun's elevation range, degrees (absent: 45 to 55).
-    #[serde(default, skip_serializing_if = "SunElevation::is_default")]
-    pub sun_elevation: SunElevation,
-    /// The lenses' veiling glare in training and test (absent: none).
-    #[serde(default, skip_serializing_if = "Glare::is_default")]
-    pub glare: Glare,
-    /// Whether the sky showed the sun's disc (absent: no).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub sun_disc: bool,
-    /// What the `tunnel` light was (absent: the switch of the whole frame's light).
-    #[serde(default, skip_serializing_if = "Tunnels::is_default")]
-    pub tunnels: Tunnels,
-    /// Whether the street lamps stayed dark at night (absent: no, they lit).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub dark_streets: bool,
+    /// The world's light in training and test (each part absent: the default).
+    #[serde(flatten)]
+    pub world: World,
     /// Who set the aperture frame by frame (absent: `fixed`, the design's f-number).
     #[serde(default, skip_serializing_if = "ApertureControl::is_fixed")]
     pub aperture: ApertureControl,
@@ -182,41 +164,28 @@ pub struct Validated {
 
 impl RunResults {
     /// The lowest layout version that holds this record: 10 with dark streets, 9 with tunnel
-    /// drives in one direction,
-    /// 8 with a clear sky's daylight, 7 with
-    /// tunnels as places, 6 with a GPU, 5 with veiling glare or the sun's disc,
-    /// 4 with cast shadows or another sun, 3 where the controller set the aperture, 2 where it
-    /// uses a field of version 2 (a thin lens, weather, a design's f-number), else 1.
+    /// drives in one direction, 8 with a clear sky's daylight, 7 with tunnels as places, 6 with
+    /// a GPU, 5 with veiling glare or the sun's disc, 4 with cast shadows or another sun, 3
+    /// where the controller set the aperture, 2 where it uses a field of version 2 (a thin lens,
+    /// weather, a design's f-number), else 1.
     pub fn layout_version(&self) -> u32 {
-        if self.dark_streets {
-            return 10;
+        match self.world.layout() {
+            WorldLayout::DarkStreets => 10,
+            WorldLayout::TunnelDrives => 9,
+            WorldLayout::Daylight => 8,
+            WorldLayout::TunnelPlaces => 7,
+            _ if self.device.is_some() => 6,
+            WorldLayout::GlareOrDisc => 5,
+            WorldLayout::ShadowsOrSun => 4,
+            WorldLayout::Default if !self.aperture.is_fixed() => 3,
+            WorldLayout::Default => {
+                let v2 = self.lens != LensModel::Pinhole
+                    || self.weather != Weather::Clear
+                    || self.design.f_number.is_some()
+                    || self.validation.iter().any(|v| v.design.f_number.is_some());
+                if v2 { 2 } else { 1 }
+            }
         }
-        if !self.tunnels.drives.is_both() {
-            return 9;
-        }
-        if !self.sun_elevation.daylight.is_constant() {
-            return 8;
-        }
-        if !self.tunnels.is_default() {
-            return 7;
-        }
-        if self.device.is_some() {
-            return 6;
-        }
-        if !self.glare.is_default() || self.sun_disc {
-            return 5;
-        }
-        if self.cast_shadows || !self.sun_elevation.is_default() {
-            return 4;
-        }
-        if !self.aperture.is_fixed() {
-            return 3;
-        }
-        let v2 = self.lens != LensModel::Pinhole
-            || self.weather != Weather::Clear
-            || self.design.f_number.is_some()
-            || self.validation.iter().any(|v| v.design.f_number.is_some());
-        if v2 { 2 } else { 1 }
     }
 
     /// Refuses a layout newer than this joca reads, naming both versions.
@@ -255,39 +224,7 @@ impl RunResults {
         if self.weather != Weather::Clear {
             note.push_str(&format!(", in {}", self.weather));
         }
-        if self.cast_shadows {
-            note.push_str(", the sun casting shadows");
-        }
-        if !self.sun_elevation.is_default() {
-            let e = self.sun_elevation;
-            note.push_str(&format!(", the sun at {}–{}° elevation", e.min_deg, e.max_deg));
-            if !e.daylight.is_constant() {
-                note.push_str(&format!(" ({} daylight)", e.daylight));
-            }
-        }
-        if self.sun_disc {
-            note.push_str(", the sun's disc in the sky");
-        }
-        if self.tunnels.are_places() {
-            let t = self.tunnels;
-            note.push_str(&format!(
-                ", tunnels as places ({} covered blocks a town, lamps at {} of daylight{})",
-                t.count,
-                t.lamp_level,
-                if t.drives.is_both() { String::new() } else { format!(", drives {}", t.drives) }
-            ));
-        }
-        if self.dark_streets {
-            note.push_str(", the street lamps dark at night");
-        }
-        if !self.glare.is_off() {
-            let g = self.glare;
-            note.push_str(&format!(
-                ", veiling glare {} % (scale {}°)",
-                g.fraction * 100.0,
-                g.scale_deg
-            ));
-        }
+        note.push_str(&self.world.note());
         note
     }
 

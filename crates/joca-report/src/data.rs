@@ -194,7 +194,7 @@ mod tests {
         value["cast_shadows"] = true.into();
         std::fs::write(&path, value.to_string()).unwrap();
         let r = RunData::load(dir.path()).unwrap().results;
-        assert_eq!((r.format_version, r.cast_shadows, r.layout_version()), (4, true, 4));
+        assert_eq!((r.format_version, r.world.cast_shadows, r.layout_version()), (4, true, 4));
         // The report's "Test on …" line names the light (a low sun too).
         value["sun_elevation"] = serde_json::json!({ "min_deg": 10.0, "max_deg": 20.0 });
         std::fs::write(&path, value.to_string()).unwrap();

@@ -62,12 +62,7 @@ pub(crate) fn results(map: f64, tp: f64, optimised: bool) -> RunResults {
         test_detector: None,
         lens: Default::default(),
         weather: Default::default(),
-        cast_shadows: false,
-        sun_elevation: Default::default(),
-        glare: Default::default(),
-        sun_disc: false,
-        dark_streets: false,
-        tunnels: joca_core::tunnels::Tunnels::default(),
+        world: Default::default(),
         aperture: Default::default(),
         perturbation_ties: None,
     }

@@ -292,18 +292,8 @@ fn unlike_but_town(
     a: &joca_report::HeadroomRecord,
     b: &joca_report::HeadroomRecord,
 ) -> Option<&'static str> {
-    [
-        ("scenario", a.scenario != b.scenario),
-        ("cast_shadows", a.cast_shadows != b.cast_shadows),
-        ("sun_elevation", a.sun_elevation != b.sun_elevation),
-        ("glare", a.glare != b.glare),
-        ("sun_disc", a.sun_disc != b.sun_disc),
-        ("dark_streets", a.dark_streets != b.dark_streets),
-        ("tunnels", a.tunnels != b.tunnels),
-        ("frames", a.frames != b.frames),
-        ("ladder", a.ladder != b.ladder),
-    ]
-    .into_iter()
-    .find(|(_, differs)| *differs)
-    .map(|(name, _)| name)
+    let scenario = (a.scenario != b.scenario).then_some("scenario");
+    let frames = || (a.frames != b.frames).then_some("frames");
+    let ladder = || (a.ladder != b.ladder).then_some("ladder");
+    scenario.or_else(|| a.world.differs(&b.world)).or_else(frames).or_else(ladder)
 }

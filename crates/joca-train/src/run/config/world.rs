@@ -6,6 +6,18 @@ use crate::TrainError;
 use joca_sim::Weather;
 
 impl RunConfig {
+    /// The world's light of every training and test town, as the records name it.
+    pub fn world(&self) -> joca_record::World {
+        joca_record::World {
+            cast_shadows: self.cast_shadows,
+            sun_elevation: self.sun_elevation,
+            glare: self.glare,
+            sun_disc: self.sun_disc,
+            tunnels: self.tunnels,
+            dark_streets: self.dark_streets,
+        }
+    }
+
     /// The world's part of [`RunConfig::validate`]: the weather, the sun and its shadows, the
     /// lens's glare (the simulator's alone: a recording has its own).
     pub(super) fn validate_world(&self) -> Result<(), TrainError> {
