@@ -91,12 +91,20 @@ pub struct Lighting {
     pub beam: f32,
     /// See [`Lighting::beam`].
     pub diffuse: f32,
+    /// Whether the street lamps stay dark though the lights are on: the night of a town with
+    /// dark streets, never the tunnel switch's dark phase (whose lamps stand in for a tunnel's).
+    pub street_lamps_dark: bool,
 }
 
 impl Lighting {
     /// Whether street lamps and head lights are on.
     pub fn lights_on(&self) -> bool {
         self.ambient < LIGHTS_ON_BELOW
+    }
+
+    /// Whether the street lamps shine: the lights are on and the streets' lamps are not dark.
+    pub fn street_lamps_on(&self) -> bool {
+        self.lights_on() && !self.street_lamps_dark
     }
 
     /// Relative irradiance from sun and sky on a surface with unit normal `n`.
@@ -146,7 +154,13 @@ mod tests {
     #[test]
     fn white_paper_in_daylight_reads_about_215_dn() {
         let s = std::f32::consts::FRAC_1_SQRT_2;
-        let light = Lighting { ambient: 1.0, sun_dir: [s, 0.0, s], beam: 1.0, diffuse: 1.0 };
+        let light = Lighting {
+            ambient: 1.0,
+            sun_dir: [s, 0.0, s],
+            beam: 1.0,
+            diffuse: 1.0,
+            street_lamps_dark: false,
+        };
         let dn = RADIANCE_SCALE_DN * 0.85 * light.sun_sky([0.0, 0.0, 1.0]);
         assert!((200.0..=230.0).contains(&dn), "{dn}");
     }

@@ -215,9 +215,9 @@ impl City {
             street_lamps: config.street_lamps,
         };
         city.place_buildings(rng);
-        let heads = city.place_lamps(rng);
-        // Dark streets keep the posts (and so every draw) but light nothing.
-        let lamps = if config.street_lamps { heads } else { Vec::new() };
+        // Dark streets keep the posts, their light (and so every draw): whether it shines is
+        // the instant's (`Lighting::street_lamps_on`).
+        let lamps = city.place_lamps(rng);
         city.bake_lightmap(&lamps);
         let empty_approaches = city.place_signs(config.sign_probability.min(SIGN_PROBABILITY), rng);
         city.place_vehicles(config, rng);
@@ -236,7 +236,7 @@ impl City {
         city
     }
 
-    /// Whether the street lamps light at night.
+    /// Whether the street lamps light at night (not with dark streets).
     pub fn street_lamps_lit(&self) -> bool {
         self.street_lamps
     }

@@ -23,7 +23,7 @@ pub(super) fn ground_and_sky(
     let up_irradiance = light.sun_sky([0.0, 0.0, 1.0]);
     let up_sun = light.direct_sun([0.0, 0.0, 1.0]);
     let mut shade = RowShadow::new(layers, w);
-    let lights_on = light.lights_on();
+    let (lights_on, lamps_on) = (light.lights_on(), light.street_lamps_on());
     let k = RADIANCE_SCALE_DN;
     // Rightward slope of each column's view ray, once per view rather than once per pixel.
     let slopes: Vec<f32> = (0..w).map(|x| (x as f32 + 0.5 - cam.cx) / cam.fx).collect();
@@ -58,7 +58,7 @@ pub(super) fn ground_and_sky(
                     *out = k * rho * (e + head);
                 }
             } else {
-                let lamps = if lights_on { city.lamp_irradiance(px, py) } else { 0.0 };
+                let lamps = if lamps_on { city.lamp_irradiance(px, py) } else { 0.0 };
                 let sun_sky = if shade.mask[x] { up_irradiance - up_sun } else { up_irradiance };
                 for ((out, rho), tint) in
                     target.colour[i..i + 3].iter_mut().zip(albedo).zip(lighting::LAMP_TINT)

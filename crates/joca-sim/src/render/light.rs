@@ -74,9 +74,9 @@ pub(super) struct BoxLight<'a> {
 }
 
 impl<'a> BoxLight<'a> {
-    /// Whether a street lamp's head glows: at night, where the town's lamps light.
+    /// Whether a street lamp's head glows: where the instant's street lamps shine.
     fn lamps_on(&self) -> bool {
-        self.lights_on && self.city.street_lamps_lit()
+        self.view.lighting.street_lamps_on()
     }
 
     pub(super) fn new(
@@ -88,8 +88,11 @@ impl<'a> BoxLight<'a> {
         layers: [Option<&'a Shadows>; 2],
     ) -> Self {
         let lights_on = view.lighting.lights_on();
-        let lamp_ground =
-            if lights_on { city.lamp_irradiance(b.centre.x, b.centre.y) } else { 0.0 };
+        let lamp_ground = if view.lighting.street_lamps_on() {
+            city.lamp_irradiance(b.centre.x, b.centre.y)
+        } else {
+            0.0
+        };
         Self { view, city, lamp, heading, b, lights_on, lamp_ground, layers }
     }
 

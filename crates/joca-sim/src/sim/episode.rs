@@ -99,6 +99,8 @@ impl Simulator {
             sun_dir: episode.sun_dir,
             beam,
             diffuse,
+            street_lamps_dark: !self.city.street_lamps_lit()
+                && episode.illumination != Illumination::Tunnel,
         }
     }
 }

@@ -1,7 +1,7 @@
-//! Dark streets (`CityConfig::street_lamps = false`): the same town with the street lamps'
-//! light taken away and nothing else — the same objects and ground truth, the same frames by
-//! day to the bit, at night no pixel brighter and the street darker, and no lamp light left on
-//! the ground.
+//! Dark streets (`CityConfig::street_lamps = false`): the same town with the street lamps' light
+//! taken away at night and nothing else — the same objects, lamp posts and ground truth, the same
+//! frames by day and in the tunnel switch's dark phases (whose lamps stand in for a tunnel's) to
+//! the bit, and at night no pixel brighter and the street darker.
 
 use super::*;
 
@@ -26,7 +26,8 @@ fn dark_streets_are_the_same_town_without_the_lamps_light() {
         all.map(|b| format!("{:?}", b.centre)).collect()
     };
     assert_eq!(boxes(&lit), boxes(&dark));
-    // The lamps' light on the ground: a pool under each lamp when lit, none anywhere when dark.
+    // The posts' light is the same town's (whether it shines is the instant's): a pool under
+    // each lamp, in both.
     let extent = lit.city().extent_m;
     let points = (0..200).flat_map(|i| (0..200).map(move |j| (i, j)));
     let samples: Vec<(f32, f32)> =
@@ -34,7 +35,10 @@ fn dark_streets_are_the_same_town_without_the_lamps_light() {
     let lit_max =
         samples.iter().map(|&(x, y)| lit.city().lamp_irradiance(x, y)).fold(0.0, f32::max);
     assert!(lit_max > 0.005, "lit lamps light the ground ({lit_max})");
-    assert!(samples.iter().all(|&(x, y)| dark.city().lamp_irradiance(x, y) == 0.0));
+    let pool = |s: &Simulator| -> Vec<f32> {
+        samples.iter().map(|&(x, y)| s.city().lamp_irradiance(x, y)).collect()
+    };
+    assert_eq!(pool(&lit), pool(&dark));
     // At night: the same ground truth; no pixel brighter; the frame darker.
     let (lit_frames, dark_frames) = (frames(&lit), frames(&dark));
     for (l, d) in lit_frames.iter().zip(&dark_frames) {
@@ -53,5 +57,18 @@ fn dark_streets_change_no_day_frame() {
     for (l, d) in lit.iter().zip(&dark) {
         assert_eq!(l.hdr.data(), d.hdr.data());
         assert_eq!(format!("{:?}", l.boxes), format!("{:?}", d.boxes));
+    }
+}
+
+#[test]
+fn dark_streets_keep_the_tunnel_switchs_lamps() {
+    // Episode 0's light switches every 4 s: 2, 4 and 6 s hold both phases (its own test in
+    // `lighting.rs` fixes the schedule), so the frames include the dark phase's lamp-lit street.
+    let lit = town(Illumination::Tunnel, true);
+    let phases: Vec<f32> = [2.0, 4.0, 6.0].iter().map(|&t| lit.ambient_at(0, t)).collect();
+    assert!(phases.iter().any(|&a| a < 0.01), "a dark phase among {phases:?}");
+    let dark = frames(&town(Illumination::Tunnel, false));
+    for (l, d) in frames(&lit).iter().zip(&dark) {
+        assert_eq!(l.hdr.data(), d.hdr.data());
     }
 }

@@ -188,7 +188,9 @@ pub struct RunConfig {
     /// Streets whose lamps stay dark at night (`true` or `false`, default false): the posts
     /// stand where they would (the same towns and draws), but at night the street has only the
     /// cars' head and tail lights, the lit windows and the night sky, so oncoming head lights
-    /// are the brightest things in a dark frame. Tunnel lamps stay lit. Simulator only.
+    /// are the brightest things in a dark frame. Tunnel lamps stay lit, and so do the `tunnel`
+    /// switch's (its dark phases are lit by the street lamps, standing in for a tunnel's): only
+    /// night and the cycle's dark hours change. Simulator only.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub dark_streets: bool,
     /// Training towns.
