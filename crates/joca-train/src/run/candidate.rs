@@ -39,7 +39,8 @@ pub(super) fn train(
     let c = cx.config.clone();
     let fresh = c.training_scenes == TrainingScenes::Fresh;
     let drawn = if fresh { Scenes::Own(index) } else { Scenes::Common(scenes) };
-    let stretches = Stretches::draw(&c, &cx.streams, &mut cx.scenes, drawn);
+    let stretches =
+        Stretches::draw(&c, &cx.streams, &mut cx.scenes, (drawn, c.steps_per_candidate));
     let rig = cx.rigs.rig(design, stretches.frame_interval_s());
     let (camera, formation, sensor) = (&rig.camera, rig.formation, rig.sensor);
     let mut control = controller(c.method.neural(), sensor, cx.rigs.ranges);

@@ -19,7 +19,8 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 pub use learning::{AccOutput, WarmStart};
 use learning::{
-    is_paper_detector_lr, is_training_min_box_px, is_zero, paper_detector_lr, training_min_box_px,
+    bf16_where_native, is_paper_detector_lr, is_training_min_box_px, is_zero, paper_acc_lr,
+    paper_detector_lr, training_min_box_px,
 };
 pub use search::{
     PERTURBATION_HALF_RANGE, PerturbationMutation, PerturbationScore, PerturbationSteps, TieBreak,
@@ -88,6 +89,10 @@ pub struct RunConfig {
     /// fitness from the generation's common scenes, inference only).
     #[serde(default, skip_serializing_if = "TrainingScenes::is_shared")]
     pub training_scenes: TrainingScenes,
+    /// With `fresh` scenes, the common frames each candidate is judged on (1 to 400; default
+    /// `steps_per_candidate`), split over the four lights as training's are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub judge_frames: Option<usize>,
     /// The gradient of the differentiable formation's clip: `clamp` (none where a pixel
     /// saturates) or `straight-through`.
     #[serde(default)]
@@ -231,16 +236,6 @@ fn is_clear(weather: &Weather) -> bool {
 
 fn is_pinhole(model: &LensModel) -> bool {
     *model == LensModel::Pinhole
-}
-
-/// The default scoring precision: bfloat16 where the CPU has it natively (float32 elsewhere,
-/// by [`Precision::on_this_cpu`]).
-fn bf16_where_native() -> Precision {
-    Precision::Bf16
-}
-
-fn paper_acc_lr() -> f64 {
-    joca_nn::AdamConfig::ACC.lr
 }
 
 impl RunConfig {

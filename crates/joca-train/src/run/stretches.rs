@@ -48,7 +48,7 @@ pub(super) struct Moment<'a> {
 }
 
 impl Stretches {
-    /// The stretches of `scenes`. In the simulator the k steps are split into four stretches,
+    /// The stretches of `scenes`, `k` frames. In the simulator the k steps are split into four stretches,
     /// one per illumination (day, night, tunnel, cycle, starting at `ALL[i mod 4]` for scene
     /// index i), each in its own training town, episode and start time. The controller carries
     /// its settings from one stretch into the next, as through a tunnel portal, so it meets
@@ -58,14 +58,13 @@ impl Stretches {
         config: &RunConfig,
         streams: &SeedStreams,
         towns: &mut SceneSource,
-        scenes: Scenes,
+        (scenes, k): (Scenes, usize),
     ) -> Self {
         let (stream, index) = match scenes {
             Scenes::Common(g) => ("scenes", g),
             Scenes::Own(candidate) => ("candidate-scenes", candidate),
         };
         let mut rng = streams.indexed(stream, index);
-        let k = config.steps_per_candidate;
         let real = towns.real.clone();
         if let Some(r) = &real {
             let episode: u64 = rng.random_range(0..1_000_000);

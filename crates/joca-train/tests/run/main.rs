@@ -48,6 +48,7 @@ fn tiny(method: Method) -> RunConfig {
         detector_lr: 1e-4,
         clip_gradient: Default::default(),
         training_scenes: Default::default(),
+        judge_frames: None,
         ga_every: 2,
         task_weight: 7.0,
         step_weight: 0.0,

@@ -110,14 +110,15 @@ fn the_results_count_the_perturbation_searches_and_their_ties() {
 
 /// `training_scenes = "fresh"`: each candidate learns from its own scenes (candidate c's four
 /// stretches start at light c mod 4, where shared scenes start every candidate of generation g
-/// at light g mod 4), is judged on the generation's common scenes (k frames, inference only),
-/// and the run repeats exactly.
+/// at light g mod 4), is judged on the generation's common scenes (k frames, or `judge_frames`;
+/// inference only), and the run repeats exactly.
 #[test]
 fn fresh_scenes_give_each_candidate_its_own_training_frames() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let cfg = RunConfig {
         steps_per_candidate: 8,
         training_scenes: joca_train::TrainingScenes::Fresh,
+        judge_frames: None,
         ..tiny(Method::Joca)
     };
     let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
@@ -138,6 +139,17 @@ fn fresh_scenes_give_each_candidate_its_own_training_frames() {
     let again = run(&cfg, b.path(), false, &mut go).unwrap();
     assert_eq!(r.test, again.test);
     assert_eq!(r.design, again.design);
+    // `judge_frames` sets how many common frames judge a candidate, training's k unchanged.
+    let c = tempfile::tempdir().unwrap();
+    let fewer = RunConfig { judge_frames: Some(5), ..cfg };
+    run(&fewer, c.path(), false, &mut go).unwrap();
+    let judged: Vec<u64> = events(c.path())
+        .into_iter()
+        .filter_map(|v| v.get("scores").map(|s| s["frames"].as_u64().unwrap()))
+        .collect();
+    assert!(!judged.is_empty() && judged.iter().all(|&f| f == 5), "{judged:?}");
+    let trained = events(c.path()).into_iter().filter(|v| v.get("step").is_some()).count();
+    assert_eq!(trained, steps.len());
 }
 
 /// NeuralAE's warm start runs once, before the first generation: its record is logged, the

@@ -91,6 +91,16 @@ impl WarmStart {
     }
 }
 
+/// The default scoring precision: bfloat16 where the CPU has it natively (float32 elsewhere,
+/// by [`joca_nn::detector::Precision::on_this_cpu`]).
+pub(super) fn bf16_where_native() -> joca_nn::detector::Precision {
+    joca_nn::detector::Precision::Bf16
+}
+
+pub(super) fn paper_acc_lr() -> f64 {
+    joca_nn::AdamConfig::ACC.lr
+}
+
 /// The paper's detector learning rate in joint training (AdamW 1e-4).
 pub(super) fn paper_detector_lr() -> f64 {
     joca_nn::AdamConfig::DETECTOR.lr

@@ -71,9 +71,30 @@ impl super::RunConfig {
                            a window pools \"ap50\" or \"map\"";
             return super::checks::refuse("perturbation_window", w.to_string(), allowed);
         }
-        Ok(())
+        match (self.judge_frames, self.training_scenes) {
+            (Some(n), TrainingScenes::Fresh) if !(1..=MAX_JUDGE_FRAMES).contains(&n) => {
+                let allowed = format!("1 to {MAX_JUDGE_FRAMES}");
+                super::checks::refuse("judge_frames", n.to_string(), &allowed)
+            }
+            (Some(n), TrainingScenes::Shared) => super::checks::refuse(
+                "judge_frames",
+                n.to_string(),
+                "unset with training_scenes = \"shared\" (a candidate is judged on the frames it \
+                 trained on); set training_scenes = \"fresh\" to judge on common frames",
+            ),
+            _ => Ok(()),
+        }
+    }
+
+    /// The common frames a candidate is judged on with `fresh` scenes: `judge_frames`, or as
+    /// many as it trains on.
+    pub fn judge_frames(&self) -> usize {
+        self.judge_frames.unwrap_or(self.steps_per_candidate)
     }
 }
+
+/// The most frames `judge_frames` asks for.
+pub const MAX_JUDGE_FRAMES: usize = 400;
 
 /// Whether `perturbation_window` is 1 (the field is then left out of saved configurations).
 pub(super) fn is_one_frame(w: &usize) -> bool {

@@ -146,3 +146,34 @@ fn the_perturbation_window_pools_ranked_scores_within_its_range() {
     };
     assert_eq!(average.as_read().perturbation_window, 1);
 }
+
+/// `judge_frames` (with fresh scenes) takes 1 to 400 common frames and defaults to the steps a
+/// candidate trains; zero, too many, or any with shared scenes (where a candidate is judged on
+/// its training frames) are refused naming the field and what is allowed. An absent field is
+/// left out of a saved configuration, so earlier cells keep their identity.
+#[test]
+fn judge_frames_counts_a_fresh_candidates_common_frames_within_its_range() {
+    use super::TrainingScenes;
+    let quick: RunConfig = run_table("presets/quick.toml").try_into().unwrap();
+    let judged =
+        |n, scenes| RunConfig { judge_frames: n, training_scenes: scenes, ..quick.clone() };
+    let unset = judged(None, TrainingScenes::Fresh);
+    assert!(unset.validate().is_ok());
+    assert_eq!(unset.judge_frames(), unset.steps_per_candidate);
+    assert!(!toml::to_string(&unset).unwrap().contains("judge_frames"));
+    for n in [1, 12, 400] {
+        let c = judged(Some(n), TrainingScenes::Fresh);
+        assert!(c.validate().is_ok());
+        assert_eq!(c.judge_frames(), n);
+        assert!(toml::to_string(&c).unwrap().contains(&format!("judge_frames = {n}")));
+    }
+    for (n, scenes, allowed) in [
+        (0, TrainingScenes::Fresh, "1 to 400"),
+        (401, TrainingScenes::Fresh, "1 to 400"),
+        (12, TrainingScenes::Shared, "unset with training_scenes = \"shared\""),
+    ] {
+        let e = judged(Some(n), scenes).validate().unwrap_err().to_string();
+        assert!(e.contains("run.judge_frames") && e.contains(allowed), "{e}");
+        assert!(e.contains(&n.to_string()), "{e}");
+    }
+}
