@@ -10,7 +10,7 @@ use crate::ReportError;
 use crate::data::RunData;
 use crate::experiment::{CellSpec, Manifest};
 use crate::paired::Comparison;
-use crate::seeds::cell;
+use crate::seeds::difference_cell;
 use crate::table::Row;
 use joca_record::{Method, Retest};
 use std::path::Path;
@@ -22,7 +22,8 @@ pub(crate) const NOTE: &str = "Each cell that trained its detector, tested again
     (`[follow_up] starting_detector`). Trained − starting detector: the detector's part of the \
     variant's result. Starting detector − frozen detector: the same starting detector driven by \
     the variant's controller against the controller trained beside the frozen detector (same \
-    design and seed): the controller's part. Paired and aggregated as the tables above.";
+    design and seed): the controller's part. Paired and aggregated as the tables above; ✱ marks an \
+    interval that excludes 0, read at full precision.";
 
 /// The rows of one town: each cell's test with its trained detector, with its starting
 /// detector, and the frozen-detector cells' tests.
@@ -140,11 +141,11 @@ fn town_table(rows: &TownRows) -> Vec<Vec<String>> {
             label.to_owned(),
             town,
             detector.describe(),
-            cell(detector.difference(map)),
+            difference_cell(detector.difference(map)),
             if controller.pairs.is_empty() {
                 "–".to_owned()
             } else {
-                cell(controller.difference(map))
+                difference_cell(controller.difference(map))
             },
         ]);
     }

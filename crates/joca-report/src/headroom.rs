@@ -2,7 +2,7 @@
 //! designs measured alike, each policy's difference to AverageAE at mid-grey paired by design
 //! ([`headroom_summary_markdown`]), overall and per light, with a 95 % Student t interval.
 
-use crate::seeds::{interval_text, mean_interval};
+use crate::seeds::{difference_text, interval_text, mean_interval};
 use joca_record::{HeadroomRecord, Light, PolicyScores};
 use std::fmt::Write as _;
 
@@ -168,7 +168,8 @@ pub fn headroom_summary_markdown(records: &[HeadroomRecord]) -> String {
         s,
         "Each policy's mAP@[.5:.95] minus AverageAE at mid-grey on the same design, detector and \
          frames; mean ± 95 % Student t over {} records (paired; {}, town {}, {}); ahead: \
-         records where the difference is above 0. † chosen in hindsight.\n",
+         records where the difference is above 0; ✱ the interval excludes 0, read at full \
+         precision. † chosen in hindsight.\n",
         records.len(),
         first.scenario.name(),
         first.town,
@@ -213,11 +214,11 @@ pub fn headroom_summary_markdown(records: &[HeadroomRecord]) -> String {
         let hindsight = records.iter().filter_map(|r| r.policy(name)).any(|p| p.hindsight);
         let label = format!("{name}{}", if hindsight { " †" } else { "" });
         let per: Vec<String> =
-            lights.iter().map(|l| interval_text(mean_interval(&diffs(Some(*l))), 3)).collect();
+            lights.iter().map(|l| difference_text(mean_interval(&diffs(Some(*l))), 3)).collect();
         let _ = writeln!(
             s,
             "| {label} | {} | {ahead}/{} | {} |",
-            interval_text(mean_interval(&overall), 3),
+            difference_text(mean_interval(&overall), 3),
             overall.len(),
             per.join(" | ")
         );

@@ -47,6 +47,21 @@ pub(crate) fn cell(interval: (f64, f64)) -> String {
     interval_text(interval, 3)
 }
 
+/// What marks a difference whose 95 % interval excludes 0.
+pub(crate) const RESOLVED: &str = "✱";
+
+/// A paired difference and its interval as [`cell`] writes them, marked [`RESOLVED`] where the
+/// interval excludes 0 at full precision, which the rounded figures cannot always show.
+pub(crate) fn difference_cell(interval: (f64, f64)) -> String {
+    difference_text(interval, 3)
+}
+
+/// [`difference_cell`] at `digits` decimals.
+pub(crate) fn difference_text((mean, half): (f64, f64), digits: usize) -> String {
+    let text = interval_text((mean, half), digits);
+    if half.is_finite() && mean.abs() > half { format!("{text} {RESOLVED}") } else { text }
+}
+
 /// A mean and its interval half-width as text at `digits` decimals: "–" without a mean, the mean
 /// alone without an interval.
 pub(crate) fn interval_text((mean, half): (f64, f64), digits: usize) -> String {
@@ -91,8 +106,8 @@ fn tables(rows: &[Row]) -> (Vec<Vec<String>>, Vec<Vec<String>>) {
             c.group.clone(),
             format!("{} − {}", c.ours, c.other),
             c.describe(),
-            cell(c.difference(|r| Some(r.results.test.map))),
-            cell(c.difference(|r| Some(r.results.test.ap50))),
+            difference_cell(c.difference(|r| Some(r.results.test.map))),
+            difference_cell(c.difference(|r| Some(r.results.test.ap50))),
             format!("{ahead} of {of} {}", c.unit_name()),
         ]);
     }
@@ -109,7 +124,7 @@ fn light_table(rows: &[Row]) -> Vec<Vec<String>> {
             continue;
         }
         let mut row = vec![c.group.clone(), format!("{} − {}", c.ours, c.other)];
-        row.extend(LIGHTS.iter().map(|l| cell(c.difference(|r| light_map(r, *l)))));
+        row.extend(LIGHTS.iter().map(|l| difference_cell(c.difference(|r| light_map(r, *l)))));
         table.push(row);
     }
     if table.len() == 1 { Vec::new() } else { table }
@@ -183,7 +198,8 @@ const EXPLAIN: &str = "Mean ± 95 % interval, Student's t (statrs' quantile) ove
     a variant (test scenes fixed, so the interval holds the run-to-run variation and, in a panel, \
     the spread between designs). Paired: ours − baseline on the same seed and, in a panel, the \
     same design; over seeds, or in a panel per design the mean over its seeds and the t interval \
-    over designs. An interval that excludes 0 is a difference these cells resolve.";
+    over designs. An interval that excludes 0 is a difference these cells resolve; in the \
+    paired tables ✱ marks one, read at full precision.";
 
 /// A titled table in Markdown and HTML, a level-3 heading after a blank line.
 fn section(md: &mut String, html: &mut String, title: &str, note: &str, table: &[Vec<String>]) {

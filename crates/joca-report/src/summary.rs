@@ -12,7 +12,8 @@ use std::path::Path;
 /// The note of the table pooled over towns.
 const POOLED_TOWNS: &str = "Ours − baseline per seed (in a panel, per design) averaged over the \
     test town and every follow-up town, then the 95 % t interval over the seeds (designs) tested \
-    on all of them: a cell's towns share its training, so each cell counts once.";
+    on all of them: a cell's towns share its training, so each cell counts once. ✱ marks an \
+    interval that excludes 0, read at full precision.";
 
 /// The controls section's title and note.
 const CONTROLS: &str = "How the controllers set the camera";

@@ -8,7 +8,7 @@
 
 use crate::data::RunData;
 use crate::paired::LIGHTS;
-use crate::seeds::{interval_text, mean_interval};
+use crate::seeds::{difference_text, interval_text, mean_interval};
 use joca_record::{Light, RunResults};
 
 /// One NeuralAE cell and its AverageAE re-test.
@@ -65,6 +65,11 @@ fn tunnel_fall(run: &RunData) -> Option<f64> {
     run.showcases.iter().find_map(|s| s.light_step(10.0, 1.0)).map(|s| s.fall)
 }
 
+/// Mean ± interval of differences `values` at 3 decimals, marked where it excludes 0.
+fn difference(values: &[f64]) -> String {
+    difference_text(mean_interval(values), 3)
+}
+
 /// Mean ± interval of `values` at `digits` ("–" for none).
 fn text(values: &[f64], digits: usize) -> String {
     interval_text(mean_interval(values), digits)
@@ -110,13 +115,12 @@ pub fn swap_table(cells: &[SwapCell<'_>]) -> Vec<Vec<String>> {
             town_name(town),
             overall.len().to_string(),
             format!("{ahead} of {}", overall.len()),
-            text(&overall, 3),
+            difference(&overall),
         ];
         for l in LIGHTS {
-            row.push(text(
-                &units(&members, |r| light_of(r, l, |x| x.scores.as_ref().map(|s| s.map))),
-                3,
-            ));
+            row.push(difference(&units(&members, |r| {
+                light_of(r, l, |x| x.scores.as_ref().map(|s| s.map))
+            })));
         }
         table.push(row);
     }
@@ -176,7 +180,8 @@ pub const SWAP: &str = "The learned controller against AverageAE on its own dete
 pub const SWAP_NOTE: &str = "Each NeuralAE cell re-tested with AverageAE (mid-grey) on the same \
     design, detector and test scenes: NeuralAE − AverageAE in mAP@[.5:.95], per design the mean \
     over its seeds, then mean ± 95 % t interval over the designs (outside a panel, over the \
-    cells). The detector is held fixed, so this is the controller's effect alone.";
+    cells); ✱ marks an interval that excludes 0, read at full precision. The detector is held \
+    fixed, so this is the controller's effect alone.";
 /// The behaviour table's note.
 pub const BEHAVIOUR_NOTE: &str = "What each controller did in the same test, mean ± 95 % t \
     interval over the cells: how far exposure × linear gain fell within 1 s of the tunnel exit \

@@ -4,7 +4,7 @@
 //! whose interval counts each seed (or design) once.
 
 use crate::paired::{Comparison, comparisons};
-use crate::seeds::{cell, mean_interval};
+use crate::seeds::{difference_cell, mean_interval};
 use crate::table::Row;
 
 /// The pooled table (header first); empty when no pair of variants meets in two scenarios.
@@ -37,8 +37,8 @@ pub fn pooled_table(rows: &[Row]) -> Vec<Vec<String>> {
             format!("{ours} − {other}"),
             of.len().to_string(),
             format!("{} {unit}", map.len()),
-            cell(mean_interval(&map)),
-            cell(mean_interval(&ap50)),
+            difference_cell(mean_interval(&map)),
+            difference_cell(mean_interval(&ap50)),
             format!("{} of {} {unit}", map.iter().filter(|d| **d > 0.0).count(), map.len()),
         ]);
     }
@@ -115,8 +115,8 @@ pub fn pooled_towns_table(test: &[Row], towns: &[(u64, Vec<Row>)]) -> Vec<Vec<St
             format!("{} − {}", c.ours, c.other),
             of.len().to_string(),
             format!("{} {unit}", map.len()),
-            cell(mean_interval(&map)),
-            cell(mean_interval(&ap50)),
+            difference_cell(mean_interval(&map)),
+            difference_cell(mean_interval(&ap50)),
             format!("{} of {} {unit}", map.iter().filter(|d| **d > 0.0).count(), map.len()),
             correlation(of[0], of[1], |r| r.results.test.map)
                 .map_or_else(|| "–".to_owned(), |r| format!("{r:.2}")),

@@ -5,7 +5,7 @@
 
 use super::rests_on::machine;
 use crate::paired::{Comparison, comparisons};
-use crate::seeds::cell;
+use crate::seeds::difference_cell;
 use crate::table::Row;
 
 /// The distance bands of the rows' tests (from the first row that has any), as (from, to) m.
@@ -33,7 +33,7 @@ pub(super) fn band_table(rows: &[Row]) -> Vec<Vec<String>> {
     let mut table = vec![header];
     for c in comparisons(rows) {
         let mut row = vec![c.group.clone(), format!("{} − {}", c.ours, c.other), c.describe()];
-        row.extend(bands.iter().map(|b| cell(c.difference(|r| band_map(r, *b)))));
+        row.extend(bands.iter().map(|b| difference_cell(c.difference(|r| band_map(r, *b)))));
         table.push(row);
     }
     if table.len() < 2 { Vec::new() } else { table }
@@ -90,8 +90,8 @@ pub(super) fn machine_tables(rows: &[Row]) -> (Vec<Vec<String>>, Vec<Vec<String>
                 format!("{} − {}", c.ours, c.other),
                 t.clone(),
                 of.describe(),
-                cell(of.difference(|r| Some(r.results.test.map))),
-                cell(of.difference(|r| Some(r.results.test.ap50))),
+                difference_cell(of.difference(|r| Some(r.results.test.map))),
+                difference_cell(of.difference(|r| Some(r.results.test.ap50))),
             ]);
         }
     }

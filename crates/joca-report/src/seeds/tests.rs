@@ -18,6 +18,23 @@ fn the_t_interval_matches_a_hand_computation() {
     assert!(t_975(0).is_nan());
 }
 
+/// Two differences that both print as −0.001 ± 0.001: only the one whose interval excludes 0
+/// at full precision is marked; an interval from the closed form above that straddles 0, one
+/// without a half-width and a missing mean are not.
+#[test]
+fn a_difference_is_marked_resolved_exactly_where_its_interval_excludes_zero() {
+    assert_eq!(difference_text((-0.0010, 0.0009), 3), "-0.001 ± 0.001 ✱");
+    assert_eq!(difference_text((-0.0010, 0.0011), 3), "-0.001 ± 0.001");
+    assert_eq!(difference_cell((0.0123, 0.0122)), "0.012 ± 0.012 ✱");
+    // 0.1, 0.2, 0.3: mean 0.2 ± 0.248 (the hand computation above) straddles 0.
+    assert_eq!(difference_cell(mean_interval(&[0.1, 0.2, 0.3])), "0.200 ± 0.248");
+    // [-0.1, -0.2, -0.3] mirrors it; [0.2, 0.21, 0.22]: mean 0.21 ± 4.303 · 0.01/√3 = 0.025.
+    assert_eq!(difference_cell(mean_interval(&[-0.1, -0.2, -0.3])), "-0.200 ± 0.248");
+    assert_eq!(difference_cell(mean_interval(&[0.2, 0.21, 0.22])), "0.210 ± 0.025 ✱");
+    assert_eq!(difference_cell(mean_interval(&[0.02])), "0.020");
+    assert_eq!(difference_cell(mean_interval(&[])), "–");
+}
+
 #[test]
 fn variants_are_summarised_over_seeds_and_ours_is_paired_by_seed() {
     let row = |label: &str, method: Method, seed: u64, map: f64| {
