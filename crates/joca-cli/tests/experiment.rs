@@ -280,6 +280,32 @@ fn a_cell_that_is_a_symbolic_link_is_refused_and_its_target_untouched() {
     assert_eq!(std::fs::read_to_string(mine.join("report.md")).unwrap(), "my notes");
 }
 
+/// `joca report DIR --with OTHER`: OTHER's finished cells join DIR's report read from their own
+/// directory, labelled ` (OTHER's name)`, with the numbers they have in OTHER's own report; a
+/// `--with` that is not an experiment directory, or a run directory's report with `--with`, is
+/// refused naming it.
+fn another_experiments_cells_join_a_report(dir: &Path, other: &Path) {
+    let path = |p: &Path| p.to_str().unwrap().to_owned();
+    let o = joca(&["report", &path(dir), "--with", &path(other), "--no-figures"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(md.contains("8 of 8 cells finished") && md.contains("labelled `(exp)`"), "{md}");
+    let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let theirs: Vec<&Vec<&str>> = rows.iter().filter(|r| r[1].ends_with(" (exp)")).collect();
+    assert_eq!((rows.len(), theirs.len()), (8, 4), "{csv}");
+    for t in theirs {
+        let label = t[1].trim_end_matches(" (exp)");
+        let mine = rows.iter().find(|r| r[0] == t[0] && r[1] == label).unwrap();
+        assert_eq!(mine[14..], t[14..], "{label}: the same cells, the same numbers");
+    }
+    let run = other.join("cells/joca-calibrated");
+    let e = stderr(&joca(&["report", &path(dir), "--with", &path(&run)]));
+    assert!(e.contains("--with") && e.contains("not an experiment directory"), "{e}");
+    let e = stderr(&joca(&["report", &path(&run), "--with", &path(other)]));
+    assert!(e.contains("apply to an experiment directory"), "{e}");
+}
+
 /// `joca export` keeps what the reports read (the export's report has the grid's table), and
 /// `--reuse` fills another grid's cells from the export when the record names this commit and
 /// the cell's configuration, names a cell computed by another commit, and leaves a cell of
@@ -330,6 +356,7 @@ fn an_export_rebuilds_the_report_and_serves_another_grid_as_a_cache() {
     let o = joca(&["report", export.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(export.join("results.csv")).unwrap(), csv);
+    another_experiments_cells_join_a_report(&export, &exp);
     // Exporting again replaces the export whole, but not over a file the export did not write;
     // into the grid itself, or into a run, refused.
     std::fs::write(export.join("notes.txt"), "mine").unwrap();

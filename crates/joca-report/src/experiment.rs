@@ -174,10 +174,11 @@ pub fn write_experiment_report_with(
     options: &ReportOptions,
 ) -> Result<String, ReportError> {
     let manifest = Manifest::load(exp_dir)?;
+    let cells = cells_with(&manifest, &options.with)?;
     let mut rows = Vec::new();
     let mut runs = Vec::new();
     let mut pending = Vec::new();
-    for cell in &manifest.cells {
+    for cell in &cells {
         // A finished run is reported even where its follow-up tests are still to come.
         if !Manifest::cell_dir(exp_dir, cell).join("results.json").is_file() {
             pending.push(cell.id.clone());
@@ -214,7 +215,7 @@ pub fn write_experiment_report_with(
     }
     let table = Table { label_header: manifest.label_header.clone(), rows };
     let done = runs.len();
-    let total = manifest.cells.len();
+    let total = cells.len();
     let mut meta = format!(
         "Preset `{}`; {done} of {total} cells finished. Each cell is a full `joca run` directory \
             under `{}`; \
@@ -228,6 +229,15 @@ pub fn write_experiment_report_with(
     }
     if let Some(tag) = &options.results {
         let _ = write!(meta, " Every row read from the cell's `results-{tag}.json`.");
+    }
+    for other in &options.with {
+        let name = other_name(other);
+        let _ = write!(
+            meta,
+            " With the cells of `{}`, labelled `({name})`, paired with these on the same \
+             scenario, design and seed.",
+            other.display()
+        );
     }
     if let [machine] = crate::seeds::machines(&table.rows).as_slice()
         && !table.rows[0].results.cpu.is_empty()
@@ -277,6 +287,31 @@ pub fn write_experiment_report_with(
     let page = html::page(&manifest.title, &html_body, exp_dir, &figures)?;
     write_text(&exp_dir.join("report.html"), &page)?;
     Ok(md)
+}
+
+/// The name that labels another experiment's cells: its directory's last component.
+fn other_name(dir: &Path) -> String {
+    dir.file_name().map_or_else(|| dir.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// `manifest`'s cells, then each of `with`'s: labelled and named ` (<directory name>)` and read
+/// from their own directory (an absolute path, which [`Manifest::cell_dir`] keeps as it is).
+fn cells_with(manifest: &Manifest, with: &[PathBuf]) -> Result<Vec<CellSpec>, ReportError> {
+    let mut cells = manifest.cells.clone();
+    for other in with {
+        let name = other_name(other);
+        let absolute = std::path::absolute(other)
+            .map_err(|source| ReportError::Io { path: other.display().to_string(), source })?;
+        for c in Manifest::load(other)?.cells {
+            cells.push(CellSpec {
+                id: format!("{} ({name})", c.id),
+                label: format!("{} ({name})", c.label),
+                dir: absolute.join(&c.dir).display().to_string(),
+                ..c
+            });
+        }
+    }
+    Ok(cells)
 }
 
 /// A file-name-safe form of a label.

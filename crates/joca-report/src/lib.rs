@@ -147,6 +147,11 @@ pub struct ReportOptions {
     /// `town2`, a swap's `average-127.5`, …) instead of its `results.json`; a finished cell
     /// without it is refused, named.
     pub results: Option<String>,
+    /// Other experiment directories whose finished cells join the report: each keeps its own
+    /// run directory, and its labels end in ` (<directory name>)`, so a variant that two
+    /// experiments ran (on another machine type, at another commit) pairs with this one's on the
+    /// same scenario, design and seed.
+    pub with: Vec<std::path::PathBuf>,
 }
 
 /// Writes `report.md`, `report.html` and `figures/` into the run directory `run_dir` and

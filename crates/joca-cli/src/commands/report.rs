@@ -22,6 +22,12 @@ pub struct Args {
     /// finished cell without the file is refused, named.
     #[arg(long, value_name = "TAG")]
     results: Option<String>,
+    /// Another experiment directory whose finished cells join this experiment's report
+    /// (repeatable): its labels end in ` (<its directory name>)` and its variants pair with
+    /// this experiment's on the same scenario, design and seed — the same variant run on
+    /// another machine type, say. The report is written into DIR only.
+    #[arg(long, value_name = "EXPERIMENT_DIR")]
+    with: Vec<PathBuf>,
 }
 
 /// Runs `joca report`.
@@ -31,15 +37,26 @@ pub fn run(args: &Args) -> Result<()> {
         mixed_commits: args.mixed_commits,
         no_figures: args.no_figures,
         results: args.results.clone(),
+        with: args.with.clone(),
     };
+    for other in &args.with {
+        if output::marked_kind(other) != Some(OutputKind::Experiment) {
+            bail!(
+                "--with {}: not an experiment directory of joca's (no {} marker naming one); \
+                 --with takes the directory `joca experiment --out` wrote or `joca export` made",
+                other.display(),
+                output::MARKER
+            );
+        }
+    }
     // Reports are written only into folders joca marked as its own (joca_core::output).
     match output::marked_kind(dir) {
         Some(OutputKind::Experiment) => {
             joca_report::write_experiment_report_with(dir, &options)
                 .with_context(|| format!("cannot write the report of {}", dir.display()))?;
         }
-        Some(OutputKind::Run) if args.results.is_some() => bail!(
-            "--results applies to an experiment directory; {} is a run directory",
+        Some(OutputKind::Run) if args.results.is_some() || !args.with.is_empty() => bail!(
+            "--results and --with apply to an experiment directory; {} is a run directory",
             dir.display()
         ),
         Some(OutputKind::Run) if dir.join("results.json").is_file() => {
