@@ -22,8 +22,8 @@ pub(crate) const NOTE: &str = "Each cell that trained its detector, tested again
     (`[follow_up] starting_detector`). Trained − starting detector: the detector's part of the \
     variant's result. Starting detector − frozen detector: the same starting detector driven by \
     the variant's controller against the controller trained beside the frozen detector (same \
-    design and seed): the controller's part. Paired and aggregated as the tables above; ✱ marks an \
-    interval that excludes 0, read at full precision.";
+    design and seed): the controller's part. Paired and aggregated as the tables above; ✱ \
+    marks an interval that excludes 0, read at full precision.";
 
 /// The rows of one town: each cell's test with its trained detector, with its starting
 /// detector, and the frozen-detector cells' tests.

@@ -1,7 +1,7 @@
 //! Who judges a candidate when it learned from scenes of its own (`training_scenes = "fresh"`):
-//! the generation's common scenes (`judge_frames` of them), driven in closed loop by the controller and detector as they
-//! are after its training, without any update, so every candidate of a generation is scored on
-//! the same stretches and noise.
+//! the generation's common scenes (`judge_frames` of them), driven in closed loop by the
+//! controller and detector as they are after its training, without any update, so every
+//! candidate of a generation is scored on the same stretches and noise.
 
 use super::context::Context;
 use super::stretches::{Scenes, Stretches};

@@ -48,12 +48,12 @@ pub(super) struct Moment<'a> {
 }
 
 impl Stretches {
-    /// The stretches of `scenes`, `k` frames. In the simulator the k steps are split into four stretches,
-    /// one per illumination (day, night, tunnel, cycle, starting at `ALL[i mod 4]` for scene
-    /// index i), each in its own training town, episode and start time. The controller carries
-    /// its settings from one stretch into the next, as through a tunnel portal, so it meets
-    /// 100–1000× changes of light within every candidate, and every candidate's fitness covers
-    /// all four lights. A recording is one stretch.
+    /// The stretches of `scenes`, `k` frames. In the simulator the k frames are split into four
+    /// stretches, one per illumination (day, night, tunnel, cycle, starting at `ALL[i mod 4]`
+    /// for scene index i), each in its own training town, episode and start time. The
+    /// controller carries its settings from one stretch into the next, as through a tunnel
+    /// portal, so it meets 100–1000× changes of light within every candidate, and every
+    /// candidate's fitness covers all four lights. A recording is one stretch.
     pub(super) fn draw(
         config: &RunConfig,
         streams: &SeedStreams,
