@@ -60,6 +60,7 @@ fn every_run_and_pretrain_field_is_in_the_guide_and_no_other() {
     run.f_number = joca_train::FNumberRange { min: 1.4, max: 16.0 };
     run.aperture = joca_camera::ApertureControl::Dynamic;
     run.training_scenes = joca_train::TrainingScenes::Fresh;
+    run.judge_frames = Some(12);
     run.acc_output = joca_train::AccOutput::parse("relative:3").expect("a valid form");
     run.warm_start = joca_train::WarmStart { frames: 600, lr: 1e-4 };
     run.detector_lr = 1e-5;
