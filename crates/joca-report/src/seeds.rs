@@ -333,6 +333,11 @@ pub fn town_sections(town: u64, rows: &[Row]) -> (String, String) {
     if !lights.is_empty() {
         section(&mut md, &mut html, &format!("Town {town}: paired, by illumination"), "", &lights);
     }
+    let designs = design_table(rows);
+    if !designs.is_empty() {
+        let title = format!("Town {town}: per design");
+        section(&mut md, &mut html, &title, "Each variant's mean over its seeds.", &designs);
+    }
     md.push('\n');
     (md, html)
 }

@@ -288,4 +288,9 @@ fn pooled_over_towns_averages_each_design_over_the_towns_then_takes_the_interval
     assert_eq!(table[1][6], "1 of 2 designs");
     assert_eq!(table[1][7], "–", "r needs three designs");
     assert!(pooled_towns_table(&test, &[]).is_empty());
+    // A follow-up town's sections list each design's variants there, as the test town's do.
+    let (md, _) = town_sections(2, &towns[0].1);
+    assert!(md.contains("### Town 2: per design"), "{md}");
+    assert!(md.contains("| Calibrated | a |") && md.contains("| Ours | 1 | 0.400 |"), "{md}");
+    assert!(md.contains("| AverageAE | 1 | 0.310 |"), "{md}");
 }
