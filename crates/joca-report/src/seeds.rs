@@ -57,9 +57,15 @@ pub(crate) fn difference_cell(interval: (f64, f64)) -> String {
 }
 
 /// [`difference_cell`] at `digits` decimals.
-pub(crate) fn difference_text((mean, half): (f64, f64), digits: usize) -> String {
-    let text = interval_text((mean, half), digits);
-    if half.is_finite() && mean.abs() > half { format!("{text} {RESOLVED}") } else { text }
+pub(crate) fn difference_text(interval: (f64, f64), digits: usize) -> String {
+    let text = interval_text(interval, digits);
+    if resolved(interval) { format!("{text} {RESOLVED}") } else { text }
+}
+
+/// Whether a difference's 95 % interval (mean, half-width) excludes 0, at full precision; never
+/// without a half-width.
+pub(crate) fn resolved((mean, half): (f64, f64)) -> bool {
+    half.is_finite() && mean.abs() > half
 }
 
 /// A mean and its interval half-width as text at `digits` decimals: "–" without a mean, the mean

@@ -57,7 +57,7 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
             String::new()
         };
         let what = format!("{} − {} ({}, {m:+.3}{spread}{mixed})", c.ours, c.other, c.group);
-        if h.is_finite() && (m - h > 0.0 || m + h < 0.0) {
+        if crate::seeds::resolved((m, h)) {
             resolved.push(what);
         } else {
             open.push(what);
