@@ -74,8 +74,9 @@ pub struct RunResults {
     /// which kept them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub denormals: Option<Denormals>,
-    /// The CPU the run's results were computed on (model name and widest vector units): training
-    /// repeats bit for bit on the same machine type, not across types. Empty in older runs.
+    /// The CPU the run's results were computed on (model name, family and model numbers where
+    /// the CPU reports them, widest vector units): training repeats bit for bit on the same
+    /// machine type, not across types. Empty in older runs; without the numbers before 2026-12-07.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub cpu: String,
     /// The GPU the networks ran on (index, name, memory, driver, libtorch's CUDA runtime);

@@ -5,7 +5,7 @@ use super::closed_loop::{self, Plan};
 use super::config::ConfigFile;
 use super::context::{Context, setup};
 use super::results::summary;
-use super::{RunResults, RunState, Scenario};
+use super::{RunResults, RunState, Scenario, cpu_description};
 use crate::TrainError;
 use crate::checkpoint::{CheckpointDir, read_json, write_atomic};
 use crate::control::TestController;
@@ -295,18 +295,4 @@ pub(super) fn test_design(
     };
     results.format_version = results.layout_version();
     Ok(results)
-}
-
-/// The CPU's model name (Linux: `/proc/cpuinfo`) and widest vector units, for `results.json`.
-pub fn cpu_description() -> String {
-    let model = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|info| {
-            info.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, name)| name.trim().to_owned())
-        })
-        .unwrap_or_else(|| std::env::consts::ARCH.to_owned());
-    format!("{model} ({})", joca_nn::kernels::vector_units())
 }
