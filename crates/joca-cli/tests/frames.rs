@@ -290,13 +290,22 @@ fn import_writes_the_folder_format_or_nothing() {
     assert!(stderr(&o).contains("is not a regular file"), "{}", stderr(&o));
 }
 
-/// `joca bench render` prints every table, the last pricing every light at once: a row per light
-/// and one per light left out by day, each with a positive, finite ratio.
+/// `joca bench render` names the machine, then prints every table, the last pricing every light
+/// at once: a row per light and one per light left out by day, each with a positive, finite
+/// ratio.
 #[test]
 fn bench_render_prices_every_light_at_once() {
     let o = joca(&["bench", "render", "--repeats", "1"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let table = stdout(&o);
+    // The machine first: the CPU as `results.json` names it, with its family and model where
+    // the CPU reports them.
+    let machine = table.lines().next().unwrap_or_default();
+    assert!(machine.starts_with("machine: ") && machine.contains("logical CPUs"), "{machine}");
+    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    if cpuinfo.lines().any(|l| l.starts_with("cpu family")) {
+        assert!(machine.contains(" model ") && machine.contains("(family "), "{machine}");
+    }
     let every = table.split("every light at once").nth(1).unwrap_or_else(|| panic!("{table}"));
     let ratio = |row: &str| -> f64 {
         let r = row.split_whitespace().last().and_then(|s| s.strip_suffix('x'));

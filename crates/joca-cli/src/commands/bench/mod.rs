@@ -99,6 +99,12 @@ pub fn run(args: &Args) -> Result<()> {
             file.display()
         );
     }
+    // Every figure a bench prints holds for its machine type only: name it first.
+    println!(
+        "machine: {}, {} logical CPUs",
+        joca_train::cpu_description(),
+        std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+    );
     if matches!(args.target, Target::Detector | Target::Step | Target::Checkpoint) {
         println!(
             "libtorch CPU kernels: {} (JOCA_CPU_KERNELS; the PyTorch reference inherits them); \

@@ -136,9 +136,8 @@ pub(super) fn bench_checkpoint(repeats: usize, config: (&str, Option<&Path>)) ->
     let t = t?;
     println!(
         "checkpoint of a run of {source} (detector, NeuralAE, both optimisers): {:.1} MB, best \
-            of {repeats}, on {}",
-        t.bytes as f64 / 1e6,
-        joca_train::cpu_description()
+            of {repeats}",
+        t.bytes as f64 / 1e6
     );
     println!("{:<44} {:>9}", "part", "ms");
     println!("{:<44} {:>9.1}", "write the files", t.write_ms);
