@@ -76,9 +76,10 @@ pub(super) fn rests_on(rows: &[Row]) -> String {
 }
 
 /// The machine type a cell's numbers came from: everything the run report's machine line
-/// ([`crate::sections::machine_line`]) names — CPU (model name, family and model numbers, widest vector units), libtorch's kernels and
-/// subnormal handling, each named only where it is not joca's default — and the precision its
-/// perturbed frames were scored in. Training repeats bit for bit only within one.
+/// ([`crate::sections::machine_line`]) names — CPU (model name, family and model numbers,
+/// widest vector units), libtorch's kernels and subnormal handling, each named only where it
+/// is not joca's default — and the precision its perturbed frames were scored in. Training
+/// repeats bit for bit only within one.
 pub(super) fn machine(r: &Row) -> String {
     let r = &r.results;
     let mut m = if r.cpu.is_empty() { "CPU not recorded".to_owned() } else { r.cpu.clone() };
